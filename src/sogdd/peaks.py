@@ -1,0 +1,136 @@
+"""From a response map to points: thresholds, non-maximum suppression, top-k,
+mask, border exclusion and sub-pixel refinement.
+
+Functions take a float response map and return arrays; validation of user
+parameters happens in :mod:`sogdd.detector`.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+__all__ = ["local_maxima", "resolve_threshold", "select_peaks", "refine_quadratic"]
+
+
+def local_maxima(response: np.ndarray, radius: int = 1) -> np.ndarray:
+    """Boolean map of pixels equal to the maximum of their ``(2r+1)^2`` square.
+
+    Plateaus keep every pixel that attains the maximum (as a 3x3 maximum filter
+    with equality does); ``max_corners`` and thresholds then decide.
+    """
+    size = 2 * int(radius) + 1
+    resp = np.ascontiguousarray(response, dtype=np.float64)
+    # dilate's default border (-inf-like) never raises a maximum
+    dil = cv2.dilate(resp, np.ones((size, size), np.uint8))
+    return resp >= dil
+
+
+def valid_area(shape: tuple[int, int], border: int = 0, mask: np.ndarray | None = None) -> np.ndarray:
+    """Pixels allowed to hold a corner: inside ``mask`` and ``border`` px from the edge."""
+    h, w = shape
+    valid = np.zeros((h, w), dtype=bool)
+    if 2 * border < h and 2 * border < w:
+        valid[border : h - border, border : w - border] = True
+    if mask is not None:
+        valid &= mask
+    return valid
+
+
+def resolve_threshold(
+    response: np.ndarray,
+    valid: np.ndarray,
+    *,
+    threshold: float | None = None,
+    threshold_rel: float | None = None,
+    quantile: float | None = None,
+) -> float:
+    """The effective threshold: the largest of the absolute, relative and quantile ones.
+
+    ``threshold_rel`` is a fraction of the largest response in the valid area;
+    ``quantile`` is taken over the *positive* responses in the valid area (the
+    authors' rule). With none given, every local maximum above 0 passes.
+    """
+    levels = [] if threshold is None else [float(threshold)]
+    vals = response[valid]
+    vals = vals[np.isfinite(vals)]
+    if threshold_rel is not None and vals.size:
+        levels.append(float(threshold_rel) * float(vals.max()))
+    if quantile is not None:
+        pos = vals[vals > 0]
+        if pos.size:
+            levels.append(float(np.quantile(pos, quantile)))
+    return max(levels) if levels else 0.0
+
+
+def select_peaks(
+    response: np.ndarray,
+    *,
+    threshold: float | None = None,
+    threshold_rel: float | None = None,
+    quantile: float | None = None,
+    nms_radius: int = 1,
+    border: int = 0,
+    mask: np.ndarray | None = None,
+    max_corners: int | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Rows and columns of the selected peaks, strongest first.
+
+    A peak is a local maximum (``nms_radius``) strictly above the effective
+    threshold, inside the valid area. Ties in strength keep raster order.
+    """
+    valid = valid_area(response.shape, border, mask)
+    thr = resolve_threshold(
+        response, valid, threshold=threshold, threshold_rel=threshold_rel, quantile=quantile
+    )
+    cand = valid & (response > thr) & local_maxima(response, nms_radius)
+    rows, cols = np.nonzero(cand)
+    order = np.argsort(-response[rows, cols], kind="stable")
+    if max_corners is not None:
+        order = order[: int(max_corners)]
+    return rows[order], cols[order]
+
+
+def refine_quadratic(
+    response: np.ndarray, rows: np.ndarray, cols: np.ndarray, *, log: bool = True
+) -> np.ndarray:
+    """Sub-pixel offsets ``(dx, dy)`` of peaks from a 2-D quadratic fit on the 3x3 patch.
+
+    With ``log`` the fit is made to ``log(response)``: the measure is a product of
+    K eigenvalues, so its peaks are close to Gaussian, whose logarithm is
+    exactly quadratic. The offset is the stationary point of the fitted
+    quadratic, ``-H^{-1} g``; where the fit is not a maximum or would leave the
+    pixel, each axis falls back to its own 1-D parabola, clipped to +-0.5.
+    """
+    n = len(rows)
+    out = np.zeros((n, 2))
+    if n == 0:
+        return out
+    h, w = response.shape
+    r = np.clip(rows, 1, h - 2)
+    c = np.clip(cols, 1, w - 2)
+    dy, dx = np.mgrid[-1:2, -1:2]
+    patch = response[r[:, None, None] + dy, c[:, None, None] + dx].astype(np.float64)
+    if log:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            lp = np.log(patch)
+        ok = np.isfinite(lp).all(axis=(1, 2))
+        patch = np.where(ok[:, None, None], lp, patch)
+    gx = (patch[:, 1, 2] - patch[:, 1, 0]) / 2
+    gy = (patch[:, 2, 1] - patch[:, 0, 1]) / 2
+    fxx = patch[:, 1, 2] - 2 * patch[:, 1, 1] + patch[:, 1, 0]
+    fyy = patch[:, 2, 1] - 2 * patch[:, 1, 1] + patch[:, 0, 1]
+    fxy = (patch[:, 2, 2] - patch[:, 2, 0] - patch[:, 0, 2] + patch[:, 0, 0]) / 4
+    det = fxx * fyy - fxy * fxy
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ox = -(fyy * gx - fxy * gy) / det
+        oy = -(fxx * gy - fxy * gx) / det
+        good = (fxx < 0) & (det > 0) & (np.abs(ox) <= 1) & (np.abs(oy) <= 1)
+        ox1 = np.where(fxx < 0, -gx / fxx, 0.0)
+        oy1 = np.where(fyy < 0, -gy / fyy, 0.0)
+    out[:, 0] = np.where(good, ox, np.clip(np.nan_to_num(ox1), -0.5, 0.5))
+    out[:, 1] = np.where(good, oy, np.clip(np.nan_to_num(oy1), -0.5, 0.5))
+    # peaks on the outermost pixel row/column keep their integer position
+    edge = (rows != r) | (cols != c)
+    out[edge] = 0.0
+    return out

@@ -1,0 +1,54 @@
+"""Direct, slow implementation of eqs. 22-25: the oracle for the fast path.
+
+Nothing here is clever: 2-D convolutions with the literally sampled kernels
+(eq. 22), absolute values, window sums of every product, and a batched
+``numpy.linalg.det``. Tests and ``benchmarks/bench_speed.py`` compare the tiled,
+compiled measure of :mod:`sogdd.response` against it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import ndimage
+
+from .filters import kernel_radius, orientations, sogdd_kernel
+from .response import VARSIGMA, MeasureSpec, window_offsets
+
+__all__ = ["reference_measure"]
+
+
+def reference_measure(image: np.ndarray, spec: MeasureSpec, *, chunk: int = 65536) -> np.ndarray:
+    """Upsilon by the definition, float64, H x W."""
+    img = np.asarray(image, dtype=np.float64)
+    H, W = img.shape
+    rk = kernel_radius(spec.sigma2, spec.radius_rule)
+    offsets = window_offsets(spec.halfwidths)
+    R = int(np.abs(offsets[:, 0]).max())
+    kernels = [
+        sogdd_kernel(spec.sigma2, t, rk, zero_mean=spec.zero_mean)
+        for t in orientations(spec.n_orientations)
+    ]
+    if spec.padding == "image":
+        pad = rk + R
+        src = np.pad(img, pad, mode="symmetric")
+        resp = np.stack([ndimage.convolve(src, k, mode="constant") for k in kernels])
+        resp = resp[:, rk:-rk, rk:-rk]  # responses on the image plus R pixels of margin
+    else:
+        resp = np.stack([ndimage.convolve(img, k, mode="reflect") for k in kernels])
+        resp = np.pad(resp, ((0, 0), (R, R), (R, R)), mode="symmetric")
+    absl = np.abs(resp)
+    K = len(kernels)
+    lam = np.zeros((H, W, K, K))
+    for dy, dx in offsets:
+        v = absl[:, R + dy : R + dy + H, R + dx : R + dx + W]
+        lam += np.einsum("ihw,jhw->hwij", v, v)
+    lam = lam.reshape(-1, K, K)
+    det = np.concatenate([np.linalg.det(lam[i : i + chunk]) for i in range(0, len(lam), chunk)])
+    tr = np.trace(lam, axis1=1, axis2=2)
+    det = det.reshape(H, W)
+    tr = tr.reshape(H, W)
+    if spec.authors_measure:
+        from .response import _authors_measure
+
+        return _authors_measure(det, tr)
+    return det / (tr + VARSIGMA)
