@@ -81,21 +81,98 @@ def _reflect(idx: np.ndarray, n: int) -> np.ndarray:
     return np.where(m < n, m, 2 * n - 1 - m)
 
 
-@numba.njit(cache=True, nogil=True, fastmath=False)
-def _soddc_tile(a, b, c, coef, halfw, want_parts, out, det_out, tr_out):  # pragma: no cover - jit
+_JIT = dict(cache=True, nogil=True, error_model="numpy", fastmath={"contract"})
+
+
+@numba.njit(**_JIT)
+def _steer(a, b, c, coef, absl, n):  # pragma: no cover - jit
+    """|l_k| = |c_k0 g_xx + c_k1 g_xy + c_k2 g_yy| on one row (eq. 23 and the |.| of eq. 24)."""
+    for k in range(coef.shape[0]):
+        c0 = coef[k, 0]
+        c1 = coef[k, 1]
+        c2 = coef[k, 2]
+        row = absl[k]
+        for x in range(n):
+            row[x] = abs(c0 * a[x] + c1 * b[x] + c2 * c[x])
+
+
+@numba.njit(**_JIT)
+def _row_sum(src, width, pairs, dst, n):  # pragma: no cover - jit
+    """dst[x] = sum(src[x : x + width]) for x < n, adding pairs first (width//2 + width%2 adds)."""
+    m = n + width - 1
+    for x in range(m - 1):
+        pairs[x] = src[x] + src[x + 1]
+    if width == 1:
+        for x in range(n):
+            dst[x] = src[x]
+        return
+    for x in range(n):
+        dst[x] = pairs[x]
+    for t in range(2, width - 1, 2):
+        for x in range(n):
+            dst[x] += pairs[x + t]
+    if width % 2 == 1:
+        for x in range(n):
+            dst[x] += src[x + width - 1]
+
+
+@numba.njit(**_JIT)
+def _det_trace(acc, diag, det, tr, f, n):  # pragma: no cover - jit
+    """det and trace of packed symmetric K x K matrices, one per column of ``acc``.
+
+    Symmetric Gaussian elimination (LDL^T without pivoting) vectorised across
+    pixels; det is the product of the pivots. A zero pivot of a PSD matrix means a
+    zero row, hence det = 0, which the zero inverse pivot carries through.
+    ``acc`` is overwritten.
+    """
+    K = diag.shape[0]
+    for x in range(n):
+        tr[x] = 0.0
+        det[x] = 1.0
+    for k in range(K):
+        d = acc[diag[k]]
+        for x in range(n):
+            tr[x] += d[x]
+    for j in range(K):
+        dj = diag[j]
+        pv = acc[dj]
+        for x in range(n):
+            d = pv[x]
+            det[x] *= d
+            pv[x] = 1.0 / d if d != 0.0 else 0.0
+        for i in range(j + 1, K):
+            rji = acc[dj + (i - j)]
+            for x in range(n):
+                f[x] = rji[x] * pv[x]
+            qi0 = diag[i]
+            for kk in range(i, K):
+                dst = acc[qi0 + (kk - i)]
+                src = acc[dj + (kk - j)]
+                for x in range(n):
+                    dst[x] -= f[x] * src[x]
+
+
+@numba.njit(**_JIT)
+def _soddc_tile(a, b, c, coef, halfw, want_parts, out, det_out, tr_out, block):  # pragma: no cover
     """Fill ``out`` (Ht, W) with det/(tr + varsigma) from steerable responses.
 
     ``a, b, c`` are the g_xx, g_xy, g_yy responses on the tile plus a margin of
-    ``R`` rows and columns on each side (R = window half-height, equal to the
-    largest half-width). With ``want_parts`` the raw det and trace are written too.
+    ``R`` rows and columns on each side (``R`` = window half-height). Work goes
+    in column blocks of ``block`` pixels so the rows of products stay in cache.
+    A square window takes running sums down the columns (exact re-start at each
+    block) then pair-wise sums along the rows; any other window sums each row
+    with its own half-width, then the rows. With ``want_parts`` the raw det and
+    trace are written too.
     """
     K = coef.shape[0]
     P = K * (K + 1) // 2
     nr = halfw.shape[0]
     R = (nr - 1) // 2
     Ht, W = out.shape
-    Wp = W + 2 * R
-    # distinct half-widths and, per row offset, which one it uses
+    square = True
+    for i in range(nr):
+        if halfw[i] != R:
+            square = False
     uniq = np.unique(halfw)
     nu = uniq.shape[0]
     which = np.empty(nr, np.int64)
@@ -103,95 +180,86 @@ def _soddc_tile(a, b, c, coef, halfw, want_parts, out, det_out, tr_out):  # prag
         for j in range(nu):
             if uniq[j] == halfw[i]:
                 which[i] = j
-    # packed upper-triangle index pairs
     pi = np.empty(P, np.int64)
     pj = np.empty(P, np.int64)
     diag = np.empty(K, np.int64)
-    p = 0
+    q = 0
     for i in range(K):
         for j in range(i, K):
-            pi[p] = i
-            pj[p] = j
+            pi[q] = i
+            pj[q] = j
             if i == j:
-                diag[i] = p
-            p += 1
-    absl = np.empty((K, Wp))
-    prod = np.empty((P, Wp))
-    ring = np.empty((nr, nu, P, W))  # horizontal sums of the last nr rows
-    acc = np.empty((P, W))
-    det = np.empty(W)
-    f = np.empty(W)
-    zero = np.empty(W, np.bool_)
-    for y in range(Ht + 2 * R):
-        # steer and take absolute values (eq. 23 and the |.| of eq. 24)
-        for k in range(K):
-            c0 = coef[k, 0]
-            c1 = coef[k, 1]
-            c2 = coef[k, 2]
-            for x in range(Wp):
-                absl[k, x] = abs(c0 * a[y, x] + c1 * b[y, x] + c2 * c[y, x])
-        for q in range(P):
-            i = pi[q]
-            j = pj[q]
-            for x in range(Wp):
-                prod[q, x] = absl[i, x] * absl[j, x]
-        slot = y % nr
-        for u in range(nu):
-            h = uniq[u]
+                diag[i] = q
+            q += 1
+    WBP = block + 2 * R
+    absl = np.empty((K, WBP))
+    pairs = np.empty(WBP)
+    prod = np.empty(WBP)
+    if square:
+        pring = np.empty((nr, P, WBP))  # products of the last nr rows
+        vsum = np.empty((P, WBP))  # their column sums
+        ring = np.empty((1, 1, 1, 1))
+    else:
+        pring = np.empty((1, 1, 1))
+        vsum = np.empty((1, 1))
+        ring = np.empty((nr, nu, P, block))  # row sums of the last nr rows
+    acc = np.empty((P, block))
+    det = np.empty(block)
+    f = np.empty(block)
+    tr = np.empty(block)
+    for x0 in range(0, W, block):
+        n = min(block, W - x0)
+        m = n + 2 * R
+        for y in range(Ht + 2 * R):
+            slot = y % nr
+            _steer(a[y, x0:], b[y, x0:], c[y, x0:], coef, absl, m)
             for q in range(P):
-                for x in range(W):
-                    ring[slot, u, q, x] = prod[q, x + R - h]
-                for dx in range(-h + 1, h + 1):
-                    for x in range(W):
-                        ring[slot, u, q, x] += prod[q, x + R + dx]
-        if y < 2 * R:
-            continue
-        yo = y - 2 * R
-        # vertical sum over the nr rows yo..yo+2R (ring slots), each with its half-width
-        for q in range(P):
-            for x in range(W):
-                acc[q, x] = 0.0
-        for dy in range(nr):
-            s = (yo + dy) % nr
-            u = which[dy]
+                ai = absl[pi[q]]
+                aj = absl[pj[q]]
+                if square:
+                    new = pring[slot, q]
+                    vs = vsum[q]
+                    if y < nr:
+                        for x in range(m):
+                            new[x] = ai[x] * aj[x]
+                        if y == 0:
+                            for x in range(m):
+                                vs[x] = new[x]
+                        else:
+                            for x in range(m):
+                                vs[x] += new[x]
+                    else:
+                        for x in range(m):
+                            p = ai[x] * aj[x]
+                            vs[x] += p - new[x]
+                            new[x] = p
+                else:
+                    for x in range(m):
+                        prod[x] = ai[x] * aj[x]
+                    for u in range(nu):
+                        h = uniq[u]
+                        _row_sum(prod[R - h :], 2 * h + 1, pairs, ring[slot, u, q], n)
+            if y < 2 * R:
+                continue
+            yo = y - 2 * R
             for q in range(P):
-                for x in range(W):
-                    acc[q, x] += ring[s, u, q, x]
-        # trace, then det by symmetric Gaussian elimination (LDL^T without pivoting),
-        # vectorised over the row of pixels
-        for x in range(W):
-            t = 0.0
-            for k in range(K):
-                t += acc[diag[k], x]
-            if want_parts:
-                tr_out[yo, x] = t
-            out[yo, x] = t
-            det[x] = 1.0
-            zero[x] = False
-        for j in range(K):
-            dj = diag[j]
-            for x in range(W):
-                d = acc[dj, x]
-                if d == 0.0:
-                    zero[x] = True
-                    d = 1.0
-                det[x] *= d
-                acc[dj, x] = 1.0 / d  # keep the inverse pivot in place
-            for i in range(j + 1, K):
-                qji = dj + (i - j)
-                qi0 = diag[i]
-                for x in range(W):
-                    f[x] = acc[qji, x] * acc[dj, x]
-                for kk in range(i, K):
-                    qik = qi0 + (kk - i)
-                    qjk = dj + (kk - j)
-                    for x in range(W):
-                        acc[qik, x] -= f[x] * acc[qjk, x]
-        for x in range(W):
-            dt = 0.0 if zero[x] else det[x]
-            if want_parts:
-                det_out[yo, x] = dt
-            out[yo, x] = dt / (out[yo, x] + 2.22e-16)
+                if square:
+                    _row_sum(vsum[q], nr, pairs, acc[q], n)
+                else:
+                    dst = acc[q]
+                    src = ring[yo % nr, which[0], q]
+                    for x in range(n):
+                        dst[x] = src[x]
+                    for dy in range(1, nr):
+                        src = ring[(yo + dy) % nr, which[dy], q]
+                        for x in range(n):
+                            dst[x] += src[x]
+            _det_trace(acc, diag, det, tr, f, n)
+            for x in range(n):
+                out[yo, x0 + x] = det[x] / (tr[x] + 2.22e-16)
+                if want_parts:
+                    det_out[yo, x0 + x] = det[x]
+                    tr_out[yo, x0 + x] = tr[x]
 
 
 def _tile_domain(spec: MeasureSpec, img: np.ndarray, r0: int, r1: int, rk: int, R: int):
@@ -243,7 +311,7 @@ def soddc_measure(
         dom = _tile_domain(spec, img, r0, r1, rk, R)
         _soddc_tile(
             dom[0], dom[1], dom[2], coef, halfw, parts, out[r0:r1],
-            det[r0:r1] if parts else det, tr[r0:r1] if parts else tr,
+            det[r0:r1] if parts else det, tr[r0:r1] if parts else tr, 128,
         )
 
     n = threads or _n_threads()
