@@ -11,7 +11,7 @@ import numpy as np
 from .corners import Corners
 from .filters import kernel_radius
 from .io import BT601, MATLAB_RGB2GRAY, to_gray255, validate_image
-from .peaks import refine_quadratic, select_peaks
+from .peaks import refine_gradient, refine_quadratic, select_peaks
 from .response import MeasureSpec, soddc_measure, window_halfwidths
 
 __all__ = ["PRESETS", "Params", "SOGDD", "corner_response", "detect_corners", "resolve_params"]
@@ -126,8 +126,8 @@ def resolve_params(preset: str = "paper", **params) -> Params:
            f"nms_radius must be an integer in [1, 100], got {p.nms_radius!r}")
     _check(p.max_corners is None or (_is_int(p.max_corners) and p.max_corners >= 1),
            f"max_corners must be a positive integer or None, got {p.max_corners!r}")
-    _check(isinstance(p.subpixel, bool) or p.subpixel in ("quadratic", "none"),
-           f"subpixel must be True, False, 'quadratic' or 'none', got {p.subpixel!r}")
+    _check(isinstance(p.subpixel, bool) or p.subpixel in ("gradient", "quadratic", "none"),
+           f"subpixel must be True, False, 'gradient', 'quadratic' or 'none', got {p.subpixel!r}")
     _check(_is_int(p.border) and p.border >= 0, f"border must be an integer >= 0, got {p.border!r}")
     _check(_is_int(p.levels) and 1 <= p.levels <= 16,
            f"levels must be an integer in [1, 16], got {p.levels!r}")
@@ -184,8 +184,10 @@ def _detect_level(grey: np.ndarray, p: Params, mask: np.ndarray | None) -> Corne
         max_corners=p.max_corners,
     )
     xy = np.stack([cols, rows], axis=1).astype(np.float64)
-    if p.subpixel not in (False, "none") and len(rows):
+    if p.subpixel is not False and p.subpixel != "none" and len(rows):
         xy += refine_quadratic(resp, rows, cols)
+        if p.subpixel is True or p.subpixel == "gradient":
+            xy = refine_gradient(grey, xy)
     return Corners(xy, resp[rows, cols], np.full(len(rows), p.keypoint_size()))
 
 

@@ -10,7 +10,14 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-__all__ = ["local_maxima", "resolve_threshold", "select_peaks", "refine_quadratic"]
+__all__ = [
+    "local_maxima",
+    "refine_gradient",
+    "refine_quadratic",
+    "resolve_threshold",
+    "select_peaks",
+    "valid_area",
+]
 
 
 def local_maxima(response: np.ndarray, radius: int = 1) -> np.ndarray:
@@ -133,4 +140,42 @@ def refine_quadratic(
     # peaks on the outermost pixel row/column keep their integer position
     edge = (rows != r) | (cols != c)
     out[edge] = 0.0
+    return out
+
+
+def refine_gradient(
+    grey: np.ndarray,
+    xy: np.ndarray,
+    *,
+    half_window: int = 3,
+    max_shift: float = 3.0,
+    iterations: int = 30,
+    eps: float = 1e-3,
+) -> np.ndarray:
+    """Move corners to the point orthogonal to the image gradients around them.
+
+    A second-derivative measure peaks *inside* a corner, not on its vertex (about
+    1.5 px on the wedges of ``sogdd.synthetic.test_pattern`` with sigma^2 = 1.2).
+    The vertex of an ideal corner is the one point ``q`` with
+    ``grad I(p) . (p - q) = 0`` for every ``p`` on its two edges, so the least
+    squares solution of that system (Foerstner 1987; ``cv2.cornerSubPix``) removes
+    the bias. Points that would move more than ``max_shift`` pixels keep their
+    input position, so a refinement that wanders to another structure is refused.
+    """
+    pts = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    if len(pts) == 0:
+        return pts.copy()
+    h, w = grey.shape
+    win = int(half_window)
+    if h < 2 * win + 3 or w < 2 * win + 3:
+        return pts.copy()
+    start = pts.astype(np.float32).reshape(-1, 1, 2).copy()
+    crit = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_COUNT, int(iterations), float(eps))
+    out = cv2.cornerSubPix(
+        np.ascontiguousarray(grey, dtype=np.float32), start, (win, win), (-1, -1), crit
+    )
+    out = out.reshape(-1, 2).astype(np.float64)
+    moved = np.linalg.norm(out - pts, axis=1)
+    keep = ~np.isfinite(out).all(axis=1) | (moved > max_shift)
+    out[keep] = pts[keep]
     return out
