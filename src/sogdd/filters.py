@@ -138,8 +138,10 @@ def basis_responses(padded: np.ndarray, basis: SteerableBasis) -> np.ndarray:
         out[i] = full[r : r + out_shape[0], r : r + out_shape[1]]
     if basis.zero_mean:
         # A constant c subtracted from a kernel subtracts c times the box sum of the image.
-        n = 2 * r + 1
-        box = cv2.boxFilter(src, cv2.CV_64F, (n, n), normalize=False, borderType=cv2.BORDER_REFLECT)
+        # a separable filter, not cv2.boxFilter, whose running sums would make the
+        # result depend on where a tile starts
+        ones = np.ones(2 * r + 1)
+        box = cv2.sepFilter2D(src, cv2.CV_64F, ones, ones, borderType=cv2.BORDER_REFLECT)
         box = box[r : r + out_shape[0], r : r + out_shape[1]]
         out -= basis.means[:, None, None] * box[None]
     return out

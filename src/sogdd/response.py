@@ -159,9 +159,8 @@ def _soddc_tile(a, b, c, coef, halfw, want_parts, out, det_out, tr_out, block): 
     ``a, b, c`` are the g_xx, g_xy, g_yy responses on the tile plus a margin of
     ``R`` rows and columns on each side (``R`` = window half-height). Work goes
     in column blocks of ``block`` pixels so the rows of products stay in cache.
-    A square window takes running sums down the columns (exact re-start at each
-    block) then pair-wise sums along the rows; any other window sums each row
-    with its own half-width, then the rows. With ``want_parts`` the raw det and
+    A square window sums the columns of products, then pair-wise along the rows;
+    any other window sums each row with its own half-width, then the rows. With ``want_parts`` the raw det and
     trace are written too.
     """
     K = coef.shape[0]
@@ -197,7 +196,7 @@ def _soddc_tile(a, b, c, coef, halfw, want_parts, out, det_out, tr_out, block): 
     prod = np.empty(WBP)
     if square:
         pring = np.empty((nr, P, WBP))  # products of the last nr rows
-        vsum = np.empty((P, WBP))  # their column sums
+        vsum = np.empty((P, WBP))  # column sums of one output row
         ring = np.empty((1, 1, 1, 1))
     else:
         pring = np.empty((1, 1, 1))
@@ -218,21 +217,8 @@ def _soddc_tile(a, b, c, coef, halfw, want_parts, out, det_out, tr_out, block): 
                 aj = absl[pj[q]]
                 if square:
                     new = pring[slot, q]
-                    vs = vsum[q]
-                    if y < nr:
-                        for x in range(m):
-                            new[x] = ai[x] * aj[x]
-                        if y == 0:
-                            for x in range(m):
-                                vs[x] = new[x]
-                        else:
-                            for x in range(m):
-                                vs[x] += new[x]
-                    else:
-                        for x in range(m):
-                            p = ai[x] * aj[x]
-                            vs[x] += p - new[x]
-                            new[x] = p
+                    for x in range(m):
+                        new[x] = ai[x] * aj[x]
                 else:
                     for x in range(m):
                         prod[x] = ai[x] * aj[x]
@@ -244,7 +230,17 @@ def _soddc_tile(a, b, c, coef, halfw, want_parts, out, det_out, tr_out, block): 
             yo = y - 2 * R
             for q in range(P):
                 if square:
-                    _row_sum(vsum[q], nr, pairs, acc[q], n)
+                    # direct column sums (no running sums: their cancellation costs
+                    # accuracy where Lambda is nearly singular), then row sums
+                    vs = vsum[q]
+                    src = pring[yo % nr, q]
+                    for x in range(m):
+                        vs[x] = src[x]
+                    for dy in range(1, nr):
+                        src = pring[(yo + dy) % nr, q]
+                        for x in range(m):
+                            vs[x] += src[x]
+                    _row_sum(vs, nr, pairs, acc[q], n)
                 else:
                     dst = acc[q]
                     src = ring[yo % nr, which[0], q]

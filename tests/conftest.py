@@ -1,0 +1,37 @@
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sogdd.synthetic import test_pattern as _pattern
+
+
+def shared_data() -> Path | None:
+    """The shared benchmark data folder, from SOGDD_DATA or ../shared/data."""
+    env = os.environ.get("SOGDD_DATA")
+    cands = [Path(env)] if env else []
+    here = Path(__file__).resolve().parents[1]
+    cands += [here.parent / "shared" / "data", Path.cwd().parent / "shared" / "data"]
+    for c in cands:
+        if c.is_dir():
+            return c
+    return None
+
+
+@pytest.fixture(scope="session")
+def data_dir() -> Path:
+    d = shared_data()
+    if d is None:
+        pytest.skip("shared benchmark data not available (set SOGDD_DATA)")
+    return d
+
+
+@pytest.fixture(scope="session")
+def pattern():
+    return _pattern((240, 320), seed=1)
+
+
+@pytest.fixture
+def rng():
+    return np.random.default_rng(12345)

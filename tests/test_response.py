@@ -1,0 +1,105 @@
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import sogdd
+from sogdd.filters import kernel_radius, orientations, sogdd_kernel
+from sogdd.reference import reference_measure
+from sogdd.response import VARSIGMA, soddc_measure, window_halfwidths, window_offsets
+
+
+def _assert_exact(fast, ref, floor=1e6):
+    m = np.abs(ref) >= floor
+    assert m.any()
+    rel = np.abs(fast[m] - ref[m]) / np.abs(ref[m])
+    assert rel.max() <= 1e-6, rel.max()
+
+
+def _structured(h, w, rng):
+    img = rng.uniform(0, 60, (h, w))
+    img[h // 4 : 3 * h // 4, w // 5 : w // 2] += 150
+    yy, xx = np.mgrid[:h, :w]
+    img[(xx - yy) > w // 2] += 80
+    return np.clip(img, 0, 255)
+
+
+@pytest.mark.parametrize("preset", ["paper", "authors"])
+@pytest.mark.parametrize("shape", [(37, 300), (64, 61)])
+def test_fast_measure_equals_definition(preset, shape, rng):
+    img = _structured(*shape, rng)
+    spec = sogdd.resolve_params(preset).measure_spec()
+    ref = reference_measure(img, spec)
+    # small tiles and a width over the column block exercise every seam
+    fast = soddc_measure(img, spec, tile_rows=9, threads=2)
+    _assert_exact(fast, ref)
+    # column sums are direct, so the result does not depend on tiling or threads
+    np.testing.assert_array_equal(fast, soddc_measure(img, spec, tile_rows=64, threads=1))
+
+
+def test_public_response_is_float64_map(pattern):
+    img, _ = pattern
+    r = sogdd.corner_response(img)
+    assert r.dtype == np.float64 and r.shape == img.shape
+    assert r.max() > 1e9  # strong rendered corners pass the paper threshold
+
+
+@settings(max_examples=15, deadline=None)
+@given(
+    h=st.integers(3, 24),
+    w=st.integers(3, 24),
+    k=st.integers(1, 8),
+    sigma2=st.floats(0.5, 3.0),
+    window=st.sampled_from([1, 3, 5, 7]),
+    shape=st.sampled_from(["square", "disk"]),
+    seed=st.integers(0, 2**31 - 1),
+)
+def test_fast_equals_definition_random(h, w, k, sigma2, window, shape, seed):
+    img = np.random.default_rng(seed).uniform(0, 255, (h, w))
+    spec = sogdd.resolve_params(
+        "paper", n_orientations=k, sigma2=sigma2, window=window, window_shape=shape
+    ).measure_spec()
+    ref = reference_measure(img, spec)
+    fast = soddc_measure(img, spec, tile_rows=5)
+    m = np.abs(ref) >= 1e6  # the exactness contract: relative 1e-6 wherever Upsilon >= 1e6
+    rel = np.abs(fast[m] - ref[m]) / np.abs(ref[m])
+    assert rel.size == 0 or rel.max() <= 1e-6
+
+
+def test_absolute_value_is_what_makes_the_measure_nonzero(pattern):
+    """Without |.| the K responses span 3 dimensions, so Lambda is singular for K > 3."""
+    img8 = pattern[0]
+    img = img8.astype(np.float64)
+    sigma2, K, r = 1.2, 8, kernel_radius(1.2)
+    from scipy import ndimage
+
+    resp = np.stack(
+        [ndimage.convolve(img, sogdd_kernel(sigma2, t, r), mode="reflect") for t in orientations(K)]
+    )
+    y, x = np.unravel_index(np.argmax(sogdd.corner_response(img8)), img.shape)
+    win = resp[:, y - 3 : y + 4, x - 3 : x + 4].reshape(K, -1)
+    signed = np.linalg.eigvalsh(win @ win.T)
+    absolute = np.linalg.eigvalsh(np.abs(win) @ np.abs(win).T)
+    assert signed[:5].max() <= 1e-9 * signed.max()  # rank 3
+    assert absolute.min() > 1e-6 * absolute.max()  # full rank
+    lam = np.abs(win) @ np.abs(win).T
+    ups = np.linalg.det(lam) / (np.trace(lam) + VARSIGMA)
+    assert ups == pytest.approx(sogdd.corner_response(img8)[y, x], rel=1e-9)
+
+
+def test_windows():
+    assert len(window_offsets(window_halfwidths("disk", 5))) == 21
+    assert all(dy * dy + dx * dx <= 5 for dy, dx in window_offsets(window_halfwidths("disk", 5)))
+    assert len(window_offsets(window_halfwidths("square", 7))) == 49
+
+
+def test_flat_image_has_zero_response():
+    r = sogdd.corner_response(np.full((20, 20), 128, np.uint8))
+    assert np.abs(r).max() < 1e-6
+
+
+def test_authors_measure_rules(rng):
+    img = _structured(40, 40, rng)
+    r = sogdd.corner_response(img / 255.0, preset="authors")
+    assert np.isfinite(r[r > -np.inf]).all()
+    assert (r >= 0).mean() > 0.99  # tiny negative dets clamped to 0
