@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
+from scipy.spatial import cKDTree
 
 __all__ = [
     "local_maxima",
@@ -93,9 +94,38 @@ def select_peaks(
     cand = valid & (response > thr) & local_maxima(response, nms_radius)
     rows, cols = np.nonzero(cand)
     order = np.argsort(-response[rows, cols], kind="stable")
+    rows, cols = rows[order], cols[order]
+    keep = _break_ties(rows, cols, nms_radius)
+    rows, cols = rows[keep], cols[keep]
+    order = np.arange(len(rows))
     if max_corners is not None:
         order = order[: int(max_corners)]
     return rows[order], cols[order]
+
+
+def _break_ties(rows: np.ndarray, cols: np.ndarray, radius: int) -> np.ndarray:
+    """Keep one point per plateau: of candidates within ``radius`` (Chebyshev), the first.
+
+    Two local maxima closer than the NMS radius must have equal values, so this
+    only decides ties, and it keeps the guarantee that no two corners lie
+    within ``radius`` of each other.
+    """
+    keep = np.ones(len(rows), dtype=bool)
+    if len(rows) < 2:
+        return keep
+    pts = np.stack([cols, rows], axis=1).astype(np.float64)
+    pairs = cKDTree(pts).query_pairs(r=float(radius), p=np.inf, output_type="ndarray")
+    if len(pairs) == 0:
+        return keep
+    pairs.sort(axis=1)
+    later = {}
+    for i, j in pairs:
+        later.setdefault(int(i), []).append(int(j))
+    for i in range(len(rows)):  # strongest first, raster order among equals
+        if keep[i]:
+            for j in later.get(i, ()):
+                keep[j] = False
+    return keep
 
 
 def refine_quadratic(

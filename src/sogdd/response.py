@@ -27,7 +27,13 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from .filters import basis_responses, kernel_radius, orientations, steerable_basis, steering_coefficients
+from .filters import (
+    basis_responses,
+    kernel_radius,
+    orientations,
+    steerable_basis,
+    steering_coefficients,
+)
 
 __all__ = ["VARSIGMA", "MeasureSpec", "window_offsets", "window_halfwidths", "soddc_measure"]
 

@@ -1,0 +1,109 @@
+import numpy as np
+import pytest
+
+import sogdd
+from sogdd.cli.main import main
+
+GOOD = np.zeros((16, 16), np.uint8)
+
+
+@pytest.mark.parametrize(
+    "image, msg",
+    [
+        (np.zeros((0, 5), np.uint8), "empty"),
+        (np.zeros((1, 1), np.uint8), "too small"),
+        (np.full((8, 8), np.nan), "NaN"),
+        (np.full((8, 8), np.inf), "NaN or inf"),
+        (np.zeros((8, 8, 5), np.uint8), "colour"),
+        (np.zeros((4, 8, 8, 3), np.uint8), "shape"),
+        (np.zeros((8, 8), np.int32), "dtype"),
+        (np.zeros((8, 8), np.complex64), "dtype"),
+        (np.full((8, 8), 3.0), "[0, 1]"),
+        ("image.png", "read_image"),
+    ],
+)
+def test_bad_images(image, msg):
+    with pytest.raises(ValueError, match=None) as exc:
+        sogdd.detect_corners(image)
+    assert msg in str(exc.value) and "\n" not in str(exc.value)
+    with pytest.raises(ValueError):
+        sogdd.corner_response(image)
+
+
+@pytest.mark.parametrize(
+    "params",
+    [
+        {"n_orientations": 0},
+        {"n_orientations": 2.5},
+        {"sigma2": 0.0},
+        {"sigma2": -1.0},
+        {"sigma2": float("nan")},
+        {"window": 4},
+        {"window": 0},
+        {"threshold": float("inf")},
+        {"quantile": 1.5},
+        {"nms_radius": 0},
+        {"max_corners": 0},
+        {"border": -1},
+        {"levels": 0},
+        {"scale_factor": 1.0},
+        {"subpixel": "cubic"},
+        {"bogus": 1},
+    ],
+)
+def test_bad_parameters(params):
+    with pytest.raises(ValueError) as exc:
+        sogdd.detect_corners(GOOD, **params)
+    assert "\n" not in str(exc.value)
+
+
+def test_bad_preset_and_mask():
+    with pytest.raises(ValueError, match="preset"):
+        sogdd.detect_corners(GOOD, preset="nope")
+    with pytest.raises(ValueError, match="mask shape"):
+        sogdd.detect_corners(GOOD, mask=np.ones((3, 3), np.uint8))
+    with pytest.raises(ValueError, match="mask must be"):
+        sogdd.detect_corners(GOOD, mask=np.ones((16, 16), np.float32))
+
+
+def test_files(tmp_path):
+    with pytest.raises(ValueError, match="no such file"):
+        sogdd.read_image(tmp_path / "missing.png")
+    bad = tmp_path / "corrupt.png"
+    bad.write_bytes(b"\x89PNG\r\n\x1a\nthis is not a png")
+    with pytest.raises(ValueError, match="corrupt"):
+        sogdd.read_image(bad)
+    empty = tmp_path / "empty.jpg"
+    empty.write_bytes(b"")
+    with pytest.raises(ValueError):
+        sogdd.read_image(empty)
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["detect", "MISSING.png"],
+        ["detect", "CORRUPT"],
+        ["detect", "GOOD", "--window", "4"],
+        ["detect", "GOOD", "--sigma2", "0"],
+        ["detect", "GOOD", "--n-orientations", "0"],
+        ["response", "GOOD", "--output", "r.txt"],
+        ["detect", "TINY"],
+    ],
+)
+def test_cli_bad_input_exit_2_one_line(argv, tmp_path, capsys):
+    import cv2
+
+    good = tmp_path / "good.png"
+    cv2.imwrite(str(good), np.random.default_rng(0).integers(0, 255, (32, 32), dtype=np.uint8))
+    corrupt = tmp_path / "corrupt.png"
+    corrupt.write_bytes(b"garbage")
+    tiny = tmp_path / "tiny.png"
+    cv2.imwrite(str(tiny), np.zeros((1, 1), np.uint8))
+    subst = {"MISSING.png": str(tmp_path / "missing.png"), "CORRUPT": str(corrupt),
+             "GOOD": str(good), "TINY": str(tiny)}
+    code = main([subst.get(a, a) for a in argv])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert "Traceback" not in err
+    assert len([ln for ln in err.splitlines() if ln.startswith("sogdd: error")]) == 1
