@@ -14,11 +14,11 @@ from scipy import ndimage
 from .filters import kernel_radius, orientations, sogdd_kernel
 from .response import VARSIGMA, MeasureSpec, window_offsets
 
-__all__ = ["reference_measure"]
+__all__ = ["reference_lambda", "reference_measure"]
 
 
-def reference_measure(image: np.ndarray, spec: MeasureSpec, *, chunk: int = 65536) -> np.ndarray:
-    """Upsilon by the definition, float64, H x W."""
+def reference_lambda(image: np.ndarray, spec: MeasureSpec) -> np.ndarray:
+    """The SODDC matrices by the definition (eq. 24): (H, W, K, K) float64."""
     img = np.asarray(image, dtype=np.float64)
     H, W = img.shape
     rk = kernel_radius(spec.sigma2, spec.radius_rule)
@@ -42,6 +42,13 @@ def reference_measure(image: np.ndarray, spec: MeasureSpec, *, chunk: int = 6553
     for dy, dx in offsets:
         v = absl[:, R + dy : R + dy + H, R + dx : R + dx + W]
         lam += np.einsum("ihw,jhw->hwij", v, v)
+    return lam
+
+
+def reference_measure(image: np.ndarray, spec: MeasureSpec, *, chunk: int = 65536) -> np.ndarray:
+    """Upsilon by the definition (eq. 25), float64, H x W."""
+    lam = reference_lambda(image, spec)
+    H, W, K, _ = lam.shape
     lam = lam.reshape(-1, K, K)
     det = np.concatenate([np.linalg.det(lam[i : i + chunk]) for i in range(0, len(lam), chunk)])
     tr = np.trace(lam, axis1=1, axis2=2)

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-__all__ = ["Polygon", "render_polygons", "test_pattern", "regular_polygon"]
+__all__ = ["Polygon", "pattern_polygons", "regular_polygon", "render_polygons", "test_pattern"]
 
 _SHIFT = 8  # fixed-point fraction bits for cv2.fillPoly
 
@@ -52,14 +52,11 @@ def regular_polygon(centre: tuple[float, float], radius: float, n: int, angle: f
     return np.stack([centre[0] + radius * np.cos(t), centre[1] + radius * np.sin(t)], axis=1)
 
 
-def test_pattern(
-    shape: tuple[int, int] = (240, 320), *, seed: int = 0, noise: float = 0.0
-) -> tuple[np.ndarray, np.ndarray]:
-    """A built-in scene of polygons with sub-pixel vertices, and its GT corners.
+def pattern_polygons(shape: tuple[int, int] = (240, 320), *, seed: int = 0) -> list[Polygon]:
+    """The polygons of :func:`test_pattern`: one per 80-px cell, 3 to 5 vertices each.
 
-    Returns ``(image_uint8, corners_xy)``. Shapes are separated enough that every
-    vertex is an isolated corner; their positions carry random sub-pixel offsets
-    and rotations. ``noise`` adds seeded Gaussian noise (0-255 scale).
+    Shapes are separated enough that every vertex is an isolated corner; their
+    positions carry random sub-pixel offsets and rotations.
     """
     rng = np.random.default_rng(seed)
     h, w = shape
@@ -74,9 +71,22 @@ def test_pattern(
             # perturb vertices so angles are not all regular
             verts = verts + rng.uniform(-3, 3, size=verts.shape)
             polys.append(Polygon(verts, float(rng.choice([170.0, 200.0, 230.0]))))
+    return polys
+
+
+def test_pattern(
+    shape: tuple[int, int] = (240, 320), *, seed: int = 0, noise: float = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
+    """A built-in scene of polygons with sub-pixel vertices, and its GT corners.
+
+    Returns ``(image_uint8, corners_xy)`` for the polygons of
+    :func:`pattern_polygons` on a dark background. ``noise`` adds seeded
+    Gaussian noise (0-255 scale) before rounding to uint8.
+    """
+    polys = pattern_polygons(shape, seed=seed)
     img = render_polygons(shape, polys, background=40.0)
     if noise > 0:
-        img = img + rng.normal(0, noise, size=img.shape)
+        img = img + np.random.default_rng([seed, 1]).normal(0, noise, size=img.shape)
     img = np.clip(np.round(img), 0, 255).astype(np.uint8)
     gt = np.concatenate([p.vertices for p in polys])
     return img, gt

@@ -1,0 +1,154 @@
+"""Speed and memory of sogdd against OpenCV, on the same images in the same process.
+
+Images are crops and mosaics of real photos (Strecha fountain-P11 from the
+shared data, ``--data`` or ``SOGDD_DATA``) at 1, 4 and 16 megapixels; without
+the data, rendered test patterns with noise are used and the output says so.
+
+Every figure is the median wall time of ``--repeat`` runs, in milliseconds per
+megapixel; ratios are against ``cv2.SIFT_create().detect`` on the same image.
+The direct implementation of eqs. 22-25 (``sogdd.reference``) needs an
+H x W x K x K array, so it runs at 1 MP only. Peak memory is measured in a
+child process detecting on a 24 MP image.
+
+Run: ``python benchmarks/bench_speed.py [--data ../shared/data] [--sizes 1,4,16]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+import sogdd
+from sogdd.reference import reference_measure
+
+
+def _data_root(arg: str | None) -> Path | None:
+    for c in [arg, os.environ.get("SOGDD_DATA"), "../shared/data"]:
+        if c and Path(c).is_dir():
+            return Path(c)
+    return None
+
+
+def make_image(mp: int, root: Path | None) -> tuple[np.ndarray, str]:
+    """A grey uint8 image of about ``mp`` megapixels, square, from real photos if possible."""
+    side = int(round(np.sqrt(mp * 1e6) / 512)) * 512
+    if root is not None:
+        photos = sorted((root / "multiview" / "fountain-P11" / "images").glob("*.jpg"))
+        if photos:
+            tiles = []
+            t = min(side, 2048)
+            n = side // t
+            for i in range(n * n):
+                img = cv2.imread(str(photos[i % len(photos)]), cv2.IMREAD_GRAYSCALE)
+                y0, x0 = (img.shape[0] - t) // 2, (img.shape[1] - t) // 2
+                tiles.append(img[y0 : y0 + t, x0 : x0 + t])
+            rows = [np.hstack(tiles[r * n : (r + 1) * n]) for r in range(n)]
+            return np.vstack(rows), "fountain-P11 crops"
+    from sogdd.synthetic import test_pattern
+
+    img, _ = test_pattern((side, side), seed=0, noise=3.0)
+    return img, "rendered test pattern (no shared data found)"
+
+
+def timed(fn, repeat: int) -> float:
+    fn()  # warm-up (JIT compilation, allocations)
+    ts = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        ts.append(time.perf_counter() - t0)
+    return float(np.median(ts))
+
+
+def peak_rss_mb(mp: int, root: Path | None) -> float:
+    """Peak resident memory of a child process that detects on an ``mp``-MP image."""
+    # VmHWM (not ru_maxrss, which Linux carries over from the parent across exec)
+    code = f"""
+import sys
+sys.path.insert(0, {str(Path(__file__).parent)!r})
+import numpy as np, cv2, sogdd
+from bench_speed import make_image, _data_root
+def hwm():
+    for line in open("/proc/self/status"):
+        if line.startswith("VmHWM"):
+            return float(line.split()[1]) / 1024
+img, _ = make_image(4, _data_root({str(root) if root else None!r}))
+w = int(np.sqrt({mp} * 1e6 * 1.5)); h = int({mp} * 1e6 / w)
+big = cv2.resize(img, (w, h), interpolation=cv2.INTER_LINEAR)
+sogdd.detect_corners(big[:64, :64])
+base = hwm()
+c = sogdd.detect_corners(big)
+print(hwm(), base, len(c))
+"""
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    peak, base, _ = out.stdout.split()
+    return float(peak), float(base)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", default=None)
+    ap.add_argument("--sizes", default="1,4,16")
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--memory-mp", type=int, default=24)
+    ap.add_argument("--baselines", action="store_true", help="add a row per registry baseline (1 MP)")
+    args = ap.parse_args()
+    root = _data_root(args.data)
+    print(f"sogdd {sogdd.__version__}, OpenCV {cv2.__version__}, numpy {np.__version__}, "
+          f"{os.cpu_count()} CPUs, SOGDD_NUM_THREADS={os.environ.get('SOGDD_NUM_THREADS', 'auto')}")
+    sift = cv2.SIFT_create()
+    fast = cv2.FastFeatureDetector_create()
+    rows = []
+    for mp in [int(s) for s in args.sizes.split(",")]:
+        img, src = make_image(mp, root)
+        real_mp = img.size / 1e6
+        f32 = img.astype(np.float32)
+        cases = {
+            "sogdd paper: corner_response": lambda: sogdd.corner_response(img),
+            "sogdd paper: detect_corners": lambda: sogdd.detect_corners(img),
+            "sogdd paper: detect, subpixel off": lambda: sogdd.detect_corners(img, subpixel=False),
+            "sogdd authors: detect_corners": lambda: sogdd.detect_corners(img, preset="authors"),
+            "cv2.SIFT detect": lambda: sift.detect(img, None),
+            "cv2.cornerHarris": lambda: cv2.cornerHarris(f32, 3, 3, 0.04),
+            "cv2.goodFeaturesToTrack": lambda: cv2.goodFeaturesToTrack(img, 5000, 0.01, 3),
+            "cv2.FAST": lambda: fast.detect(img, None),
+        }
+        if mp == 1:
+            spec = sogdd.resolve_params("paper").measure_spec()
+            cases["direct eqs. 22-25 (oracle), K=8"] = lambda: reference_measure(img.astype(float), spec)
+        if args.baselines and mp == 1:
+            try:
+                from sogdd import baselines
+
+                for name in baselines.available():
+                    if name.startswith("sogdd"):
+                        continue
+                    det = baselines.get(name)
+                    cases[f"baseline {name}"] = lambda det=det: det.detect_corners(img)
+            except Exception as exc:  # noqa: BLE001 - the registry is optional here
+                print(f"(baselines skipped: {exc})")
+        times = {}
+        for name, fn in cases.items():
+            rep = 1 if "oracle" in name or name.startswith("baseline") else args.repeat
+            times[name] = timed(fn, rep)
+        print(f"\n{real_mp:.1f} MP ({img.shape[1]}x{img.shape[0]}, {src})")
+        print(f"{'implementation':40s} {'ms/MP':>9s} {'x SIFT':>8s}")
+        for name, t in times.items():
+            ratio = t / times["cv2.SIFT detect"]
+            print(f"{name:40s} {t / real_mp * 1000:9.1f} {ratio:8.2f}")
+            rows.append((mp, name, t / real_mp * 1000, ratio))
+    if args.memory_mp:
+        peak, base = peak_rss_mb(args.memory_mp, root)
+        print(f"\npeak RSS detecting on a {args.memory_mp} MP image: {peak:.0f} MB "
+              f"(before detection: {base:.0f} MB, imports, the image and a 4 MP helper image)")
+
+
+if __name__ == "__main__":
+    main()
