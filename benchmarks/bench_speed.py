@@ -92,6 +92,38 @@ print(hwm(), base, len(c))
     return float(peak), float(base)
 
 
+def build_cases(img: np.ndarray, mp: int, with_baselines: bool) -> dict:
+    """The timed callables for one image."""
+    sift = cv2.SIFT_create()
+    fast = cv2.FastFeatureDetector_create()
+    f32 = img.astype(np.float32)
+    cases = {
+        "sogdd paper: corner_response": lambda: sogdd.corner_response(img),
+        "sogdd paper: detect_corners": lambda: sogdd.detect_corners(img),
+        "sogdd paper: detect, subpixel off": lambda: sogdd.detect_corners(img, subpixel=False),
+        "sogdd authors: detect_corners": lambda: sogdd.detect_corners(img, preset="authors"),
+        "cv2.SIFT detect": lambda: sift.detect(img, None),
+        "cv2.cornerHarris": lambda: cv2.cornerHarris(f32, 3, 3, 0.04),
+        "cv2.goodFeaturesToTrack": lambda: cv2.goodFeaturesToTrack(img, 5000, 0.01, 3),
+        "cv2.FAST": lambda: fast.detect(img, None),
+    }
+    if mp == 1:
+        spec = sogdd.resolve_params("paper").measure_spec()
+        cases["direct eqs. 22-25 (oracle), K=8"] = lambda: reference_measure(img.astype(float), spec)
+    if with_baselines and mp == 1:
+        try:
+            from sogdd import baselines
+
+            for name in baselines.available():
+                if name.startswith("sogdd"):
+                    continue
+                det = baselines.get(name)
+                cases[f"baseline {name}"] = lambda det=det: det.detect_corners(img)
+        except Exception as exc:  # noqa: BLE001 - the registry is optional here
+            print(f"(baselines skipped: {exc})")
+    return cases
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", default=None)
@@ -103,37 +135,11 @@ def main() -> None:
     root = _data_root(args.data)
     print(f"sogdd {sogdd.__version__}, OpenCV {cv2.__version__}, numpy {np.__version__}, "
           f"{os.cpu_count()} CPUs, SOGDD_NUM_THREADS={os.environ.get('SOGDD_NUM_THREADS', 'auto')}")
-    sift = cv2.SIFT_create()
-    fast = cv2.FastFeatureDetector_create()
     rows = []
     for mp in [int(s) for s in args.sizes.split(",")]:
         img, src = make_image(mp, root)
         real_mp = img.size / 1e6
-        f32 = img.astype(np.float32)
-        cases = {
-            "sogdd paper: corner_response": lambda: sogdd.corner_response(img),
-            "sogdd paper: detect_corners": lambda: sogdd.detect_corners(img),
-            "sogdd paper: detect, subpixel off": lambda: sogdd.detect_corners(img, subpixel=False),
-            "sogdd authors: detect_corners": lambda: sogdd.detect_corners(img, preset="authors"),
-            "cv2.SIFT detect": lambda: sift.detect(img, None),
-            "cv2.cornerHarris": lambda: cv2.cornerHarris(f32, 3, 3, 0.04),
-            "cv2.goodFeaturesToTrack": lambda: cv2.goodFeaturesToTrack(img, 5000, 0.01, 3),
-            "cv2.FAST": lambda: fast.detect(img, None),
-        }
-        if mp == 1:
-            spec = sogdd.resolve_params("paper").measure_spec()
-            cases["direct eqs. 22-25 (oracle), K=8"] = lambda: reference_measure(img.astype(float), spec)
-        if args.baselines and mp == 1:
-            try:
-                from sogdd import baselines
-
-                for name in baselines.available():
-                    if name.startswith("sogdd"):
-                        continue
-                    det = baselines.get(name)
-                    cases[f"baseline {name}"] = lambda det=det: det.detect_corners(img)
-            except Exception as exc:  # noqa: BLE001 - the registry is optional here
-                print(f"(baselines skipped: {exc})")
+        cases = build_cases(img, mp, args.baselines)
         times = {}
         for name, fn in cases.items():
             rep = 1 if "oracle" in name or name.startswith("baseline") else args.repeat
