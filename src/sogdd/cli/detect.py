@@ -1,4 +1,8 @@
-"""``sogdd detect``: corners of one or many images, as CSV, JSON or NPZ."""
+"""``sogdd detect``: corners of one or many images, as CSV, JSON or NPZ.
+
+Without ``--out`` all results go to one output (stdout by default). With
+``--out DIR`` each image gets its own feature file (see :mod:`sogdd.collection`).
+"""
 
 from __future__ import annotations
 
@@ -11,25 +15,12 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
+from ..collection import expand_inputs, run_batch
 from ..corners import Corners
 from ..detector import detect_corners, resolve_params
 from ..io import read_image
 from .overlay import save_overlay
 from .params import add_detector_arguments, detector_overrides
-
-IMAGE_SUFFIXES = {".png", ".jpg", ".jpeg", ".bmp", ".ppm", ".pgm", ".pbm", ".tif", ".tiff", ".webp"}
-
-
-def expand_inputs(items: list[str]) -> list[Path]:
-    """Files as given; folders expand to their image files (sorted)."""
-    out: list[Path] = []
-    for item in items:
-        p = Path(item)
-        if p.is_dir():
-            out.extend(sorted(q for q in p.iterdir() if q.suffix.lower() in IMAGE_SUFFIXES))
-        else:
-            out.append(p)
-    return out
 
 
 def corners_table(c: Corners) -> np.ndarray:
@@ -84,6 +75,11 @@ def run(args: argparse.Namespace) -> int:
     paths = expand_inputs(args.images)
     if not paths:
         raise ValueError("no input images")
+    if args.out:
+        return _run_folder(args, paths, params)
+    if args.resume or args.jobs != 1 or args.scheduler:
+        raise ValueError("--resume, --jobs and --scheduler need --out DIR")
+    fmt = args.format or "csv"
     many = len(paths) > 1 or Path(args.images[0]).is_dir()
     results: list[tuple[str, Corners]] = []
     failures = 0
@@ -100,17 +96,51 @@ def run(args: argparse.Namespace) -> int:
         if args.overlay and not many:
             save_overlay(img, c, args.overlay)
     if results or not failures:
-        write_results(results, args.format, args.output, many)
+        write_results(results, fmt, args.output, many)
     if many:
         print(f"sogdd: {len(results)} image(s) done, {failures} failed", file=sys.stderr)
     return 2 if failures else 0
 
 
+def _run_folder(args: argparse.Namespace, paths: list[Path], params: dict) -> int:
+    """One feature file per image in ``--out``; resumable; processes or Dask."""
+    bar = tqdm(total=len(paths), desc="detect", unit="img", file=sys.stderr)
+
+    def progress(item) -> None:
+        bar.update(1)
+        if item.status == "failed":
+            tqdm.write(f"sogdd: error: {item.message}", file=sys.stderr)
+
+    try:
+        items = run_batch(
+            paths, args.out, fmt=args.format or "npz", preset=args.preset, params=params,
+            resume=args.resume, jobs=args.jobs, scheduler=args.scheduler, progress=progress,
+        )
+    finally:
+        bar.close()
+    counts = {s: sum(i.status == s for i in items) for s in ("done", "skipped", "failed")}
+    print(
+        f"sogdd: {counts['done']} done, {counts['skipped']} skipped (already there), "
+        f"{counts['failed']} failed; features in {args.out}",
+        file=sys.stderr,
+    )
+    for item in items:
+        if item.status == "failed":
+            print(f"  failed: {item.message}", file=sys.stderr)
+    return 2 if counts["failed"] else 0
+
+
 def register(sub) -> None:
     p = sub.add_parser("detect", help="detect corners in images", description=__doc__)
-    p.add_argument("images", nargs="+", help="image files or folders")
+    p.add_argument("images", nargs="+", help="image files, folders or glob patterns")
     add_detector_arguments(p)
-    p.add_argument("--output", "-o", default="-", help="output file, or - for stdout (default)")
-    p.add_argument("--format", choices=["csv", "json", "npz"], default="csv")
+    p.add_argument("--output", "-o", default="-", help="one output file for all images, or - for stdout")
+    p.add_argument("--format", choices=["csv", "json", "npz"], default=None,
+                   help="csv (default), json or npz; npz is the default with --out")
     p.add_argument("--overlay", metavar="PNG", help="write an overlay image (single image only)")
+    g = p.add_argument_group("image collections")
+    g.add_argument("--out", metavar="DIR", help="write one feature file per image into DIR")
+    g.add_argument("--resume", action="store_true", help="skip images whose feature file exists")
+    g.add_argument("--jobs", type=int, default=1, help="local worker processes (default 1)")
+    g.add_argument("--scheduler", metavar="ADDRESS", help="run on a Dask distributed scheduler")
     p.set_defaults(func=run)
