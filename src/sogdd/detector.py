@@ -14,7 +14,7 @@ from .io import BT601, MATLAB_RGB2GRAY, to_gray255, validate_image
 from .peaks import refine_gradient, refine_quadratic, select_peaks
 from .response import MeasureSpec, soddc_measure, window_halfwidths
 
-__all__ = ["PRESETS", "Params", "SOGDD", "corner_response", "detect_corners", "resolve_params"]
+__all__ = ["PRESETS", "Params", "SOGDD", "check_mask", "corner_response", "detect_corners", "resolve_params"]
 
 
 @dataclass(frozen=True)
@@ -145,7 +145,8 @@ def _prepare(image, p: Params) -> np.ndarray:
     )
 
 
-def _check_mask(mask, shape: tuple[int, int]) -> np.ndarray | None:
+def check_mask(mask, shape: tuple[int, int]) -> np.ndarray | None:
+    """Validate an OpenCV-style mask (uint8 or bool, image-sized); return it as bool."""
     if mask is None:
         return None
     m = np.asarray(mask)
@@ -213,7 +214,7 @@ def detect_corners(image, *, preset: str = "paper", mask=None, **params) -> Corn
     """
     p = resolve_params(preset, **params)
     grey = _prepare(image, p)
-    m = _check_mask(mask, grey.shape)
+    m = check_mask(mask, grey.shape)
     parts = []
     h, w = grey.shape
     for level in range(p.levels):

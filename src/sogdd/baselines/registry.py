@@ -22,7 +22,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ..corners import Corners
-from ..detector import _check_mask
+from ..detector import check_mask
 from ..io import to_gray255, validate_image
 
 __all__ = ["BaselineDetector", "available", "get", "register", "registered"]
@@ -115,7 +115,7 @@ class BaselineDetector:
             Strongest first where the detector reports a strength.
         """
         grey = self.prepare(image)
-        m = _check_mask(mask, grey.shape)
+        m = check_mask(mask, grey.shape)
         out = self._detect(grey, m)
         return apply_mask(out, m)
 
