@@ -293,21 +293,32 @@ def _soddc_tile(a, b, c, coef, halfw, want_parts, out, det_out, tr_out, block): 
                     tr_out[yo, x0 + x] = tr[x]
 
 
+def _take(arr: np.ndarray, axis: int, start: int, stop: int) -> np.ndarray:
+    """Indices start..stop-1 of ``arr`` along ``axis`` with half-sample reflection.
+
+    A view when the range lies inside; otherwise the reflected copy (image edges).
+    """
+    n = arr.shape[axis]
+    if 0 <= start and stop <= n:
+        return arr[(slice(None),) * axis + (slice(start, stop),)]
+    return np.take(arr, _reflect(np.arange(start, stop), n), axis=axis)
+
+
 def _tile_domain(spec: MeasureSpec, img: np.ndarray, r0: int, r1: int, rk: int, R: int):
     """Steerable basis responses on rows r0-R..r1+R-1 and columns -R..W+R-1 of the tile."""
     H, W = img.shape
     basis = steerable_basis(spec.sigma2, rk, zero_mean=spec.zero_mean)
     if spec.padding == "image":
-        rows = _reflect(np.arange(r0 - R - rk, r1 + R + rk), H)
-        cols = _reflect(np.arange(-R - rk, W + R + rk), W)
-        return basis_responses(img[rows][:, cols], basis)
+        src = _take(_take(img, 0, r0 - R - rk, r1 + R + rk), 1, -R - rk, W + R + rk)
+        return basis_responses(src, basis)
     # "response": compute the responses on the image rows the tile needs, then reflect them
-    need = _reflect(np.arange(r0 - R, r1 + R), H)
-    lo, hi = int(need.min()), int(need.max()) + 1
-    rows = _reflect(np.arange(lo - rk, hi + rk), H)
-    cols = _reflect(np.arange(-rk, W + rk), W)
-    resp = basis_responses(img[rows][:, cols], basis)
-    return resp[:, need - lo][:, :, _reflect(np.arange(-R, W + R), W)]
+    lo, hi = max(0, r0 - R), min(H, r1 + R)
+    if r0 - R < 0 or r1 + R > H:  # rows reflected at the top or bottom edge
+        need = _reflect(np.arange(r0 - R, r1 + R), H)
+        lo, hi = int(need.min()), int(need.max()) + 1
+    src = _take(_take(img, 0, lo - rk, hi + rk), 1, -rk, W + rk)
+    resp = basis_responses(src, basis)
+    return _take(_take(resp, 1, r0 - R - lo, r1 + R - lo), 2, -R, W + R)
 
 
 def _n_threads() -> int:
