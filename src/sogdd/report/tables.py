@@ -1,0 +1,116 @@
+"""Markdown and CSV tables of the evaluations."""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import os
+from pathlib import Path
+
+from ..evaluation.gt_accuracy import GTReport
+from ..evaluation.repeatability import RepeatabilityReport
+from ..evaluation.resolution import ResolutionReport
+
+__all__ = ["markdown_table", "gt_table", "gt_summary_table", "gt_csv", "paper_table1", "repeatability_table",
+           "resolution_table", "fmt"]
+
+
+def fmt(v, digits: int = 3) -> str:
+    """Numbers for tables: integers as is, floats rounded, NaN/None as an en dash."""
+    if v is None:
+        return "–"
+    if isinstance(v, bool):
+        return str(v)
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        if not math.isfinite(v):
+            return "–"
+        if v != 0 and (abs(v) >= 1e5 or abs(v) < 1e-3):
+            return f"{v:.3g}"
+        return f"{v:.{digits}f}"
+    return str(v)
+
+
+def markdown_table(header: list[str], rows: list[list], align: str | None = None) -> str:
+    """A GitHub Markdown table; ``align`` is one of 'l', 'r', 'c' per column."""
+    al = align or ("l" + "r" * (len(header) - 1))
+    sep = {"l": ":---", "r": "---:", "c": ":---:"}
+    lines = ["| " + " | ".join(header) + " |", "|" + "|".join(sep[a] for a in al) + "|"]
+    for r in rows:
+        lines.append("| " + " | ".join(fmt(v) for v in r) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def gt_table(rep: GTReport, setting: str = "tuned", images: list[str] | None = None) -> str:
+    """Table 1 layout: missed, false and Le per image (columns) for every detector (rows).
+
+    ``setting``: ``default``, ``tuned`` (per image) or ``joint`` (one threshold).
+    The last columns pool all images of ``images`` (all by default).
+    """
+    imgs = images or rep.images
+    header = ["detector"] + [f"missed {i}" for i in imgs] + [f"false {i}" for i in imgs] \
+        + [f"Le {i}" for i in imgs] + ["F1 (all)"]
+    rows = []
+    for d in rep.detectors():
+        es = {e.image: getattr(e, setting) for e in rep.entries if e.detector == d}
+        pooled = rep.pooled(d, setting)
+        rows.append([d] + [es[i].missed for i in imgs] + [es[i].false for i in imgs]
+                    + [es[i].le for i in imgs] + [pooled.f1])
+    return markdown_table(header, rows)
+
+
+def gt_summary_table(rep: GTReport) -> str:
+    """All images pooled: missed + false, Le and F1 at the three operating points."""
+    header = ["detector", "GT", "default M+F", "default Le", "default F1", "tuned M+F",
+              "tuned Le", "tuned F1", "joint M+F", "joint Le", "joint F1", "joint threshold",
+              "sweep consistency"]
+    rows = []
+    for d in rep.detectors():
+        r = [d, sum(rep.n_gt.values())]
+        for which in ("default", "tuned", "joint"):
+            m = rep.pooled(d, which)
+            r += [m.missed + m.false, m.le, m.f1]
+        cons = [e.consistency for e in rep.entries if e.detector == d]
+        rows.append(r + [rep.joint_threshold.get(d), float(sum(cons) / len(cons))])
+    return markdown_table(header, rows)
+
+
+def gt_csv(rep: GTReport) -> str:
+    """Every record of :meth:`GTReport.rows` as CSV."""
+    rows = rep.rows()
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=list(rows[0]) if rows else ["detector"])
+    w.writeheader()
+    for r in rows:
+        w.writerow({k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in r.items()})
+    return buf.getvalue()
+
+
+def paper_table1(path: str | os.PathLike) -> list[dict]:
+    """Read the paper's Table 1 (``shared/reference/paper_table1.csv``)."""
+    lines = [ln for ln in Path(path).read_text().splitlines() if ln and not ln.startswith("#")]
+    return list(csv.DictReader(lines))
+
+
+def repeatability_table(rep: RepeatabilityReport) -> str:
+    """Family averages of R_avg (rows: detectors, best overall first)."""
+    summ = rep.summary()
+    order = sorted(rep.detectors, key=lambda d: -summ[d]["overall"])
+    header = ["rank", "detector"] + list(rep.families) + ["overall"]
+    rows = [[i + 1, d] + [summ[d][f] for f in rep.families] + [summ[d]["overall"]]
+            for i, d in enumerate(order)]
+    return markdown_table(header, rows, "rl" + "r" * (len(rep.families) + 1))
+
+
+def resolution_table(rep: ResolutionReport) -> str:
+    """Resolution rate per corner distance d, mean rate, Le and d50."""
+    ds = rep.ds()
+    header = ["detector"] + [f"d={d:g}" for d in ds] + ["mean", "Le (px)", "d50"]
+    rows = []
+    for det in rep.detectors:
+        r = rep.rate(det)
+        rows.append([det] + [r.get(d) for d in ds] + [rep.mean_rate(det), rep.le(det),
+                                                       rep.min_resolved_d(det)])
+    return markdown_table(header, rows)

@@ -1,0 +1,120 @@
+"""End-to-end runs of the ``sogdd eval`` commands and the GT data format."""
+
+import json
+
+import numpy as np
+import pytest
+
+from sogdd.cli.main import main
+from sogdd.evaluation.detectors import DetectorSpec, parse_spec, permissive_detections
+from sogdd.evaluation.gt_data import find_gt_sets, read_corners_csv, write_corners_csv
+from sogdd.evaluation.resolution import Config, render_configuration, score_configuration
+from sogdd.synthetic import test_pattern as make_pattern
+
+
+@pytest.fixture
+def gt_root(tmp_path):
+    import cv2
+
+    for i, seed in enumerate((1, 2)):
+        img, corners = make_pattern((160, 240), seed=seed)
+        d = tmp_path / f"set{i}"
+        d.mkdir()
+        cv2.imwrite(str(d / "image.png"), img)
+        write_corners_csv(d / "corners.csv", corners, "synthetic\nx,y 0-based")
+    return tmp_path
+
+
+def test_corners_csv_roundtrip(tmp_path, rng):
+    xy = rng.uniform(0, 100, (7, 2))
+    write_corners_csv(tmp_path / "c.csv", xy, "a comment")
+    assert np.allclose(read_corners_csv(tmp_path / "c.csv"), xy, atol=1e-4)
+    (tmp_path / "bad.csv").write_text("a,b\n1,2\n")
+    with pytest.raises(ValueError):
+        read_corners_csv(tmp_path / "bad.csv")
+
+
+def test_parse_spec():
+    s = parse_spec("sogdd:subpixel=false:sigma2=2")
+    assert s.name == "sogdd" and s.params == {"subpixel": False, "sigma2": 2}
+    assert s.label == "sogdd:subpixel=false:sigma2=2"
+    with pytest.raises(ValueError):
+        parse_spec("sogdd:subpixel")
+
+
+def test_permissive_run_contains_default(pattern):
+    img, _ = pattern
+    default, perm, over = permissive_detections(DetectorSpec("sogdd"), img)
+    assert over is not None and len(perm) > len(default)
+    # the paper preset thresholds after NMS: its output is the top of the permissive run
+    top = perm.xy[: len(default)]
+    assert np.allclose(np.sort(top, axis=0), np.sort(default.xy, axis=0))
+
+
+def test_eval_gt_json(gt_root, capsys):
+    assert len(find_gt_sets(gt_root)) == 2
+    rc = main(["eval", "gt", "--data", str(gt_root), "--detectors", "sogdd,sogdd:subpixel=false",
+               "--json", "--no-progress", "--out", str(gt_root / "out")])
+    assert rc == 0
+    obj = json.loads(capsys.readouterr().out)
+    for d in ("sogdd", "sogdd:subpixel=false"):
+        m = obj["detectors"][d]
+        for k in ("missed", "false", "le", "precision", "recall", "f1", "threshold"):
+            assert k in m
+        # rendered polygons with exact vertices: SOGDD finds nearly all of them
+        assert m["recall"] > 0.8
+        assert m["tuned"]["missed"] + m["tuned"]["false"] <= m["missed"] + m["false"]
+    assert (gt_root / "out" / "gt.csv").exists() and (gt_root / "out" / "overlays").is_dir()
+
+
+def test_eval_gt_errors(tmp_path, capsys):
+    assert main(["eval", "gt", "--data", str(tmp_path)]) == 2
+    assert main(["eval", "gt", "--data", str(tmp_path), "--detectors", "nope"]) == 2
+
+
+def test_eval_repeatability_quick(tmp_path, capsys):
+    import cv2
+
+    for seed in (1, 2):
+        img, _ = make_pattern((120, 160), seed=seed, noise=2.0)
+        cv2.imwrite(str(tmp_path / f"im{seed}.png"), img)
+    rc = main(["eval", "repeatability", "--images", str(tmp_path), "--quick", "--jobs", "1",
+               "--families", "rotation,noise", "--detectors", "sogdd", "--json",
+               "--no-progress", "--out", str(tmp_path / "out")])
+    assert rc == 0
+    obj = json.loads(capsys.readouterr().out)
+    fam = obj["detectors"]["sogdd"]
+    assert set(fam) == {"rotation", "noise", "overall"}
+    assert 0.3 < fam["rotation"] <= 1 and 0.3 < fam["noise"] <= 1
+    assert (tmp_path / "out" / "repeatability.csv").exists()
+
+
+def test_eval_resolution_quick(tmp_path, capsys):
+    rc = main(["eval", "resolution", "--quick", "--detectors", "sogdd", "--json",
+               "--no-progress", "--out", str(tmp_path)])
+    assert rc == 0
+    obj = json.loads(capsys.readouterr().out)
+    rate = obj["detectors"]["sogdd"]["rate"]
+    assert set(rate) == {"2", "3", "4", "6", "8", "12"}
+    assert all(0 <= v <= 1 for v in rate.values())
+
+
+def test_resolution_scoring():
+    cfg = Config("END", 8.0, 0.3, 0.5, 0.0, 0.7, (0.1, -0.2), 0)
+    img, corners = render_configuration(cfg)
+    assert img.dtype == np.uint8 and np.hypot(*(corners[1] - corners[0])) == pytest.approx(8)
+    assert score_configuration(corners, corners + 0.5, 1.5)[0]
+    mid = corners.mean(axis=0, keepdims=True)
+    assert not score_configuration(corners, np.concatenate([corners, mid]), 1.5)[0]
+    assert not score_configuration(corners, corners[:1], 1.5)[0]
+    assert not score_configuration(corners, corners + 2.0, 1.5)[0]
+
+
+def test_gt_on_shared_data(data_dir, capsys):
+    d = data_dir / "corners_gt" / "shape_a"
+    if not d.is_dir():
+        pytest.skip("corners_gt/shape_a not in the shared data")
+    assert main(["eval", "gt", "--data", str(d), "--detectors", "sogdd", "--json",
+                 "--no-progress"]) == 0
+    obj = json.loads(capsys.readouterr().out)
+    assert obj["n_gt"]["shape_a"] == len(read_corners_csv(d / "corners.csv"))
