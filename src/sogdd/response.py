@@ -35,7 +35,14 @@ from .filters import (
     steering_coefficients,
 )
 
-__all__ = ["VARSIGMA", "MeasureSpec", "window_offsets", "window_halfwidths", "soddc_measure"]
+__all__ = [
+    "VARSIGMA",
+    "MeasureSpec",
+    "soddc_from_responses",
+    "soddc_measure",
+    "window_halfwidths",
+    "window_offsets",
+]
 
 VARSIGMA = 2.22e-16
 _EPS = float(np.finfo(np.float64).eps)
@@ -91,15 +98,31 @@ _JIT = dict(cache=True, nogil=True, error_model="numpy", fastmath={"contract"})
 
 
 @numba.njit(**_JIT)
-def _steer(a, b, c, coef, absl, n):  # pragma: no cover - jit
-    """|l_k| = |c_k0 g_xx + c_k1 g_xy + c_k2 g_yy| on one row (eq. 23 and the |.| of eq. 24)."""
+def _steer(planes, y, x0, coef, absl, n):  # pragma: no cover - jit
+    """|l_k| = |sum_p coef[k, p] planes[p]| on one row (eq. 23 and the |.| of eq. 24)."""
+    npl = planes.shape[0]
     for k in range(coef.shape[0]):
-        c0 = coef[k, 0]
-        c1 = coef[k, 1]
-        c2 = coef[k, 2]
         row = absl[k]
-        for x in range(n):
-            row[x] = abs(c0 * a[x] + c1 * b[x] + c2 * c[x])
+        if npl == 3:  # the steerable basis g_xx, g_xy, g_yy
+            c0 = coef[k, 0]
+            c1 = coef[k, 1]
+            c2 = coef[k, 2]
+            a = planes[0, y, x0:]
+            b = planes[1, y, x0:]
+            c = planes[2, y, x0:]
+            for x in range(n):
+                row[x] = abs(c0 * a[x] + c1 * b[x] + c2 * c[x])
+        else:
+            for x in range(n):
+                row[x] = 0.0
+            for p in range(npl):
+                w = coef[k, p]
+                if w != 0.0:
+                    src = planes[p, y, x0:]
+                    for x in range(n):
+                        row[x] += w * src[x]
+            for x in range(n):
+                row[x] = abs(row[x])
 
 
 @numba.njit(**_JIT)
@@ -196,11 +219,13 @@ def _det_trace(acc, diag, det, tr, f, n):  # pragma: no cover - jit
 
 
 @numba.njit(**_JIT)
-def _soddc_tile(a, b, c, coef, halfw, want_parts, out, det_out, tr_out, block):  # pragma: no cover
+def _soddc_tile(planes, coef, halfw, want_parts, out, det_out, tr_out, block):  # pragma: no cover
     """Fill ``out`` (Ht, W) with det/(tr + varsigma) from steerable responses.
 
-    ``a, b, c`` are the g_xx, g_xy, g_yy responses on the tile plus a margin of
-    ``R`` rows and columns on each side (``R`` = window half-height). Work goes
+    ``planes`` (n, Ht + 2R, W + 2R) are filter responses on the tile plus a margin
+    of ``R`` rows and columns on each side (``R`` = window half-height); the K
+    responses are ``|coef @ planes|`` (the three steerable basis responses for
+    SOGDD, or K responses with the identity). Work goes
     in column blocks of ``block`` pixels so the rows of products stay in cache.
     A square window sums the columns of products, then pair-wise along the rows;
     any other window sums each row with its own half-width, then the rows. With ``want_parts`` the raw det and
@@ -253,7 +278,7 @@ def _soddc_tile(a, b, c, coef, halfw, want_parts, out, det_out, tr_out, block): 
         m = n + 2 * R
         for y in range(Ht + 2 * R):
             slot = y % nr
-            _steer(a[y, x0:], b[y, x0:], c[y, x0:], coef, absl, m)
+            _steer(planes, y, x0, coef, absl, m)
             for q in range(P):
                 ai = absl[pi[q]]
                 aj = absl[pj[q]]
@@ -328,6 +353,46 @@ def _n_threads() -> int:
     return max(1, min(os.cpu_count() or 1, 8))
 
 
+def _tiled(
+    H: int,
+    W: int,
+    domain,
+    coef: np.ndarray,
+    halfwidths: np.ndarray,
+    *,
+    parts: bool = False,
+    tile_rows: int = 128,
+    threads: int | None = None,
+) -> np.ndarray | tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Run the compiled tile kernel over row tiles, in threads.
+
+    ``domain(r0, r1)`` returns the filter-response planes of one tile with its
+    margin. With ``parts`` the raw det and trace maps are returned too.
+    """
+    halfw = np.ascontiguousarray(halfwidths, dtype=np.int64)
+    coef = np.ascontiguousarray(coef, dtype=np.float64)
+    out = np.empty((H, W), dtype=np.float64)
+    det = np.empty((H, W)) if parts else np.empty((1, 1))
+    tr = np.empty((H, W)) if parts else np.empty((1, 1))
+    starts = list(range(0, H, tile_rows))
+
+    def run(r0: int) -> None:
+        r1 = min(H, r0 + tile_rows)
+        _soddc_tile(
+            domain(r0, r1), coef, halfw, parts, out[r0:r1],
+            det[r0:r1] if parts else det, tr[r0:r1] if parts else tr, 256,
+        )
+
+    n = threads or _n_threads()
+    if n == 1 or len(starts) == 1:
+        for r0 in starts:
+            run(r0)
+    else:
+        with ThreadPoolExecutor(n) as pool:
+            list(pool.map(run, starts))
+    return (out, det, tr) if parts else out
+
+
 def soddc_measure(
     image: np.ndarray, spec: MeasureSpec, *, tile_rows: int = 128, threads: int | None = None
 ) -> np.ndarray:
@@ -339,33 +404,35 @@ def soddc_measure(
     img = np.ascontiguousarray(image, dtype=np.float64)
     H, W = img.shape
     rk = kernel_radius(spec.sigma2, spec.radius_rule)
-    halfw = np.ascontiguousarray(spec.halfwidths, dtype=np.int64)
-    R = (len(halfw) - 1) // 2
+    R = (len(spec.halfwidths) - 1) // 2
     coef = steering_coefficients(orientations(spec.n_orientations))
-    out = np.empty((H, W), dtype=np.float64)
-    parts = spec.authors_measure
-    det = np.empty((H, W)) if parts else np.empty((1, 1))
-    tr = np.empty((H, W)) if parts else np.empty((1, 1))
-    starts = list(range(0, H, tile_rows))
+    res = _tiled(
+        H, W, lambda r0, r1: _tile_domain(spec, img, r0, r1, rk, R), coef, spec.halfwidths,
+        parts=spec.authors_measure, tile_rows=tile_rows, threads=threads,
+    )
+    return _authors_measure(res[1], res[2]) if spec.authors_measure else res
 
-    def run(r0: int) -> None:
-        r1 = min(H, r0 + tile_rows)
-        dom = _tile_domain(spec, img, r0, r1, rk, R)
-        _soddc_tile(
-            dom[0], dom[1], dom[2], coef, halfw, parts, out[r0:r1],
-            det[r0:r1] if parts else det, tr[r0:r1] if parts else tr, 256,
-        )
 
-    n = threads or _n_threads()
-    if n == 1 or len(starts) == 1:
-        for r0 in starts:
-            run(r0)
-    else:
-        with ThreadPoolExecutor(n) as pool:
-            list(pool.map(run, starts))
-    if parts:
-        out = _authors_measure(det, tr)
-    return out
+def soddc_from_responses(
+    responses: np.ndarray, halfwidths: np.ndarray, *, tile_rows: int = 128, threads: int | None = None
+) -> np.ndarray:
+    """det / (tr + varsigma) of the window sums of ``|l| |l|^T`` for any K responses.
+
+    For filter banks that are not steerable (the anisotropic kernels of the
+    Zhang & Sun baselines). ``responses`` is (K, H, W), signed or absolute;
+    they are reflected (half-sample) at the image border for the window sums.
+    """
+    resp = np.ascontiguousarray(responses, dtype=np.float64)
+    K, H, W = resp.shape
+    halfw = np.asarray(halfwidths, dtype=np.int64)
+    if halfw.ndim != 1 or len(halfw) % 2 != 1 or (halfw < 0).any():
+        raise ValueError("halfwidths must be an odd-length array of non-negative half-widths")
+    R = (len(halfw) - 1) // 2
+
+    def domain(r0: int, r1: int) -> np.ndarray:
+        return np.ascontiguousarray(_take(_take(resp, 1, r0 - R, r1 + R), 2, -R, W + R))
+
+    return _tiled(H, W, domain, np.eye(K), halfw, tile_rows=tile_rows, threads=threads)
 
 
 def _authors_measure(det: np.ndarray, tr: np.ndarray) -> np.ndarray:

@@ -5,8 +5,10 @@ SOGDD filters being steerable from three separable basis kernels. The
 anisotropic kernels of Zhang & Sun (2020, 2021) are not, so here the K
 directional responses are computed one kernel at a time (``cv2.filter2D``,
 which switches to a DFT for large kernels) and a small numba kernel forms, for
-every pixel, the window sum of ``|l| |l|^T`` over an arbitrary set of offsets
-and the measure ``det / (trace + varsigma)``.
+every pixel, the window sum of ``|l| |l|^T`` and the measure
+``det / (trace + varsigma)`` with the core's tiled kernel
+(:func:`sogdd.response.soddc_from_responses`); :func:`soddc_at` evaluates it at
+a few pixels only.
 """
 
 from __future__ import annotations
@@ -14,6 +16,8 @@ from __future__ import annotations
 import cv2
 import numba
 import numpy as np
+
+from ..response import soddc_from_responses
 
 __all__ = [
     "VARSIGMA",
@@ -129,114 +133,6 @@ def _measure_one(pad, y, x, dys, dxs, K, m, v):  # pragma: no cover - jit
 
 
 @numba.njit(**_JIT)
-def _rows_chunk(A, halfw, r0, r1, out):  # pragma: no cover - jit
-    """Output rows r0..r1-1 of the measure from padded (K, Hp, Wp) responses.
-
-    Row sums of the products ``|l_i||l_j|`` are formed once per padded row, for
-    every half-width the window uses, and kept in a ring of the last ``nr``
-    rows; each output row adds the ring's rows with their own half-widths.
-    Direct sums, vectorised along x; then a symmetric elimination per row.
-    """
-    K = A.shape[0]
-    W = out.shape[1]
-    nr = halfw.shape[0]
-    R = (nr - 1) // 2
-    P = K * (K + 1) // 2
-    uniq = np.unique(halfw)
-    nu = uniq.shape[0]
-    which = np.empty(nr, np.int64)
-    for i in range(nr):
-        for u in range(nu):
-            if uniq[u] == halfw[i]:
-                which[i] = u
-    pi = np.empty(P, np.int64)
-    pj = np.empty(P, np.int64)
-    q = 0
-    for i in range(K):
-        for j in range(i, K):
-            pi[q] = i
-            pj[q] = j
-            q += 1
-    Wp = W + 2 * R
-    prod = np.empty(Wp)
-    ring = np.empty((nr, nu, P, W))
-    acc = np.empty((P, W))
-    det = np.empty(W)
-    tr = np.empty(W)
-    f = np.empty(W)
-    for yp in range(r0, r1 + 2 * R):  # padded rows
-        slot = (yp - r0) % nr
-        for q in range(P):
-            ai = A[pi[q], yp]
-            aj = A[pj[q], yp]
-            for x in range(Wp):
-                prod[x] = ai[x] * aj[x]
-            for u in range(nu):
-                h = uniq[u]
-                dst = ring[slot, u, q]
-                for x in range(W):
-                    dst[x] = 0.0
-                if h < 0:
-                    continue
-                for dx in range(-h, h + 1):
-                    o = R + dx
-                    for x in range(W):
-                        dst[x] += prod[x + o]
-        if yp - r0 < 2 * R:
-            continue
-        yo = yp - 2 * R  # output row; its window covers padded rows yo .. yo + 2R
-        for q in range(P):
-            a = acc[q]
-            for x in range(W):
-                a[x] = 0.0
-            for dy in range(nr):
-                src = ring[(yo + dy - r0) % nr, which[dy], q]
-                for x in range(W):
-                    a[x] += src[x]
-        # det and trace, symmetric Gaussian elimination vectorised across x
-        for x in range(W):
-            det[x] = 1.0
-            tr[x] = 0.0
-        d0 = 0
-        for j in range(K):
-            pv = acc[d0]
-            for x in range(W):
-                tr[x] += pv[x]
-            d0 += K - j
-        d0 = 0
-        for j in range(K):
-            pv = acc[d0]
-            for x in range(W):
-                d = pv[x]
-                det[x] *= d
-                pv[x] = 1.0 / d if d != 0.0 else 0.0
-            di = d0 + (K - j)
-            for i in range(j + 1, K):
-                rji = acc[d0 + (i - j)]
-                for x in range(W):
-                    f[x] = rji[x] * pv[x]
-                for kk in range(i, K):
-                    dst = acc[di + (kk - i)]
-                    src = acc[d0 + (kk - j)]
-                    for x in range(W):
-                        dst[x] -= f[x] * src[x]
-                di += K - i
-            d0 += K - j
-        for x in range(W):
-            out[yo, x] = det[x] / (tr[x] + 2.22e-16)
-
-
-@numba.njit(parallel=True, **_JIT)
-def _measure_map(A, halfw, out, chunk):  # pragma: no cover - jit
-    H = out.shape[0]
-    n = (H + chunk - 1) // chunk
-    for c in numba.prange(n):
-        r0 = c * chunk
-        r1 = min(H, r0 + chunk)
-        _rows_chunk(A, halfw, r0, r1, out)
-
-
-@numba.njit(**_JIT)
 def _measure_points(pad, dys, dxs, R, rows, cols, out):  # pragma: no cover - jit
     K = pad.shape[2]
     m = np.empty(K * (K + 1) // 2)
@@ -265,11 +161,10 @@ def soddc_map(absl: np.ndarray, offsets: np.ndarray) -> np.ndarray:
             if int(dxs.min()) != -h or len(dxs) != 2 * h + 1:
                 raise ValueError("window offsets must be symmetric runs along each row")
             halfw[dy + R] = h
-    pad = _pad_reflect(np.asarray(absl, dtype=np.float64), R)
-    A = np.ascontiguousarray(pad.transpose(2, 0, 1))
-    out = np.empty(absl.shape[:2], dtype=np.float64)
-    _measure_map(A, halfw, out, 64)
-    return out
+    if (halfw < 0).any():
+        raise ValueError("window offsets must cover every row between the first and the last")
+    # the core's tiled kernel, with the K responses as its planes
+    return soddc_from_responses(np.moveaxis(np.asarray(absl, dtype=np.float64), 2, 0), halfw)
 
 
 def soddc_at(absl: np.ndarray, offsets: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
