@@ -286,25 +286,14 @@ class KAZE(_KeypointDetector):
 
 
 @register
-class AKAZE(_KeypointDetector):
+class AKAZE(KAZE):
+    """AKAZE: KAZE's parameters and checks, OpenCV's accelerated detector."""
+
     name: ClassVar[str] = "akaze"
-    family: ClassVar[str] = "blob"
-    dedupe: ClassVar[bool] = True
-    defaults: ClassVar[dict[str, Any]] = dict(threshold=0.001, n_octaves=4, n_octave_layers=4,
-                                              diffusivity="pm_g2")
-    strength_doc: ClassVar[str] = "(detector response threshold, on intensities scaled to [0, 1])"
     source: ClassVar[str] = (
         "Alcantarilla et al. 2013 via cv2.xfeatures2d.AKAZE_create with OpenCV's defaults: threshold "
         "0.001, 4 octaves x 4 layers, Perona-Malik g2 diffusivity"
     )
-
-    def _validate(self) -> None:
-        p = self.params
-        check_number("threshold", p["threshold"], 0.0, 1e6)
-        check_int("n_octaves", p["n_octaves"], 1, 16)
-        check_int("n_octave_layers", p["n_octave_layers"], 1, 16)
-        check_choice("diffusivity", p["diffusivity"], tuple(_DIFFUSIVITY))
-        super()._validate()
 
     def _create(self) -> Any:
         p = self.params
