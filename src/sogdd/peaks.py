@@ -60,14 +60,16 @@ def resolve_threshold(
     authors' rule). With none given, every local maximum above 0 passes.
     """
     levels = [] if threshold is None else [float(threshold)]
-    vals = response[valid]
-    vals = vals[np.isfinite(vals)]
-    if threshold_rel is not None and vals.size:
-        levels.append(float(threshold_rel) * float(vals.max()))
-    if quantile is not None:
-        pos = vals[vals > 0]
-        if pos.size:
-            levels.append(float(np.quantile(pos, quantile)))
+    if threshold_rel is not None or quantile is not None:
+        # only these need the values themselves: a full copy is costly on large images
+        vals = response[valid]
+        vals = vals[np.isfinite(vals)]
+        if threshold_rel is not None and vals.size:
+            levels.append(float(threshold_rel) * float(vals.max()))
+        if quantile is not None:
+            pos = vals[vals > 0]
+            if pos.size:
+                levels.append(float(np.quantile(pos, quantile)))
     return max(levels) if levels else 0.0
 
 
