@@ -158,3 +158,17 @@ def test_paper_preset_block_image(data_dir):
     k8 = sogdd.detect_corners(img, subpixel=False)
     k4 = sogdd.detect_corners(img, n_orientations=4, subpixel=False)
     assert len(k4) < 10 < 59 <= len(k8)  # Block has 59 GT corners
+
+
+def test_opencv_style_compute_and_detect_and_compute():
+    img, _ = make_pattern((160, 240), seed=7)
+    det = sogdd.SOGDD()
+    kps, desc = det.detectAndCompute(img, None)
+    assert len(kps) == desc.shape[0] > 5 and desc.shape[1] == 128 and desc.dtype == np.float32
+    assert all(0 <= k.angle < 360 for k in kps)
+    kps2, desc2 = det.compute(img, det.detect(img))
+    assert len(kps2) == len(kps) and desc2.shape == desc.shape
+    # a rotated copy gives descriptors that still match their own points
+    matcher = cv2.BFMatcher(cv2.NORM_L2, crossCheck=True)
+    kr, dr = det.detectAndCompute(np.rot90(img).copy(), None)
+    assert len(matcher.match(desc, dr)) > 0.5 * len(kps)

@@ -7,6 +7,7 @@ orientations (eq. 23), the SODDC matrix of their absolute values over a window
 """
 
 from .corners import Corners
+from .describe import describe
 from .detector import PRESETS, SOGDD, corner_response, detect_corners, resolve_params
 from .io import read_image
 
@@ -15,6 +16,7 @@ __all__ = [
     "SOGDD",
     "Corners",
     "corner_response",
+    "describe",
     "detect_corners",
     "read_image",
     "resolve_params",

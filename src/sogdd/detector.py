@@ -262,6 +262,24 @@ class SOGDD:
         """Detect keypoints (``cv2.Feature2D.detect`` signature)."""
         return self.detect_corners(image, mask).to_keypoints()
 
+    def compute(self, image, keypoints, descriptors=None):
+        """SIFT descriptors at given keypoints (``cv2.Feature2D.compute`` signature).
+
+        Returns ``(keypoints, descriptors)``: keypoints with SIFT-style orientations,
+        descriptors (N, 128) float32 (an empty (0, 128) array where OpenCV gives None).
+        """
+        from .describe import compute_keypoints  # descriptors are a client of the detector
+
+        return compute_keypoints(image, keypoints, "sift", channel_order=self.params.channel_order)
+
+    def detectAndCompute(self, image, mask=None, descriptors=None, useProvidedKeypoints=False):  # noqa: N802,N803
+        """Detect, then describe (``cv2.Feature2D.detectAndCompute`` signature)."""
+        from .describe import compute_keypoints
+
+        kps = self.detect(image, mask)
+        return compute_keypoints(image, kps, "sift", channel_order=self.params.channel_order,
+                                 size=8.0, scale_factor=self.params.scale_factor)
+
     def getDefaultName(self) -> str:  # noqa: N802 - OpenCV's name
         return "SOGDD"
 
