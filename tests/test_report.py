@@ -40,3 +40,20 @@ def test_gt_tables(tmp_path):
     t = gt_table(rep, "tuned")
     assert f"| sogdd | {e.tuned.missed} | {e.tuned.false} |" in t
     assert np.isfinite(rep.joint_threshold["sogdd"])
+
+
+def test_report_includes_downstream_runs(tmp_path):
+    from sogdd.report.results_page import _downstream_sections
+
+    folder = tmp_path / "figures" / "downstream"
+    assert _downstream_sections(folder, tmp_path) == []
+    (folder / "sfm_chair").mkdir(parents=True)
+    (folder / "sfm_chair" / "sfm.md").write_text("# SfM\n| method | points |\n|---|---|\n| sogdd | 573 |\n")
+    (folder / "matching_oxford").mkdir(parents=True)
+    (folder / "matching_oxford" / "matching.md").write_text("# MMA\n| d | MMA@1 |\n")
+    (folder / "matching_oxford" / "mma.png").write_bytes(b"png")
+    text = "\n".join(_downstream_sections(folder, tmp_path))
+    assert "| sogdd | 573 |" in text and "MMA@1" in text
+    assert text.index("matching oxford") < text.index("sfm chair")
+    assert "figures/downstream/matching_oxford/mma.png" in text
+    assert "# SfM" not in text

@@ -109,6 +109,28 @@ def _paper_vs_ours(rep: GTReport, paper_csv: Path | None) -> str:
     return markdown_table(header, rows, "ll" + "r" * 6)
 
 
+def _downstream_sections(folder: Path, page_dir: Path) -> list[str]:
+    """The matching and SfM results already written by ``sogdd eval matching|sfm --out``.
+
+    Those runs take minutes to an hour, so the report includes what was run
+    (``<folder>/matching_*/matching.md``, ``<folder>/sfm_*/sfm.md``) rather than
+    re-running it.
+    """
+    parts = sorted(folder.glob("matching_*/matching.md")) + sorted(folder.glob("sfm_*/sfm.md"))
+    if not parts:
+        return []
+    md = ["\n## 4. Image matching (Fig. 10) and 3D reconstruction (Table 2)\n",
+          "Included from the runs in `" + os.path.relpath(folder, page_dir) + "` "
+          "(commands in docs/matching.md and docs/sfm.md).\n"]
+    for f in parts:
+        body = [ln for ln in f.read_text().splitlines() if not ln.startswith("# ")]
+        md += [f"\n### {f.parent.name.replace('_', ' ')}\n", "\n".join(body) + "\n"]
+        png = f.parent / "mma.png"
+        if png.is_file():
+            md.append(f"\n![{f.parent.name}]({os.path.relpath(png, page_dir)})\n")
+    return md
+
+
 def build_report(
     out_md: str | os.PathLike,
     data: str | os.PathLike,
@@ -254,6 +276,8 @@ def build_report(
         f"scale that separates END-type corners at d = 3. Best mean rate here: `{best_s2}`.\n",
         resolution_table(sweep), f"\n![sigma2]({rel}/sigma2_sweep.png)\n",
     ]
+
+    md += _downstream_sections(out_md.parent / "figures" / "downstream", out_md.parent)
 
     head = [
         "# Results\n",
