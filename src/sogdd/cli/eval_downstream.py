@@ -17,9 +17,10 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 import sys
 from pathlib import Path
+
+from .eval import data_root
 
 __all__ = ["register_eval", "DEFAULT_MATCHING", "DEFAULT_SFM"]
 
@@ -35,16 +36,8 @@ DEFAULT_MATCHING = [
 DEFAULT_SFM = ["sogdd:threshold=none:top_k=8000", "sift"]
 
 
-def _data_root() -> Path | None:
-    env = os.environ.get("SOGDD_DATA")
-    if env:
-        return Path(env)
-    p = Path("..") / "shared" / "data"
-    return p if p.is_dir() else None
-
-
 def _reference(name: str) -> Path | None:
-    root = _data_root()
+    root = data_root()
     if root is None:
         return None
     p = root.parent / "reference" / name
@@ -130,7 +123,7 @@ def run_matching(args) -> int:
 
     root = Path(args.root) if args.root else None
     if root is None:
-        d = _data_root()
+        d = data_root()
         root = d / "homography" / "hpatches" if d is not None else None
     if root is None or not root.is_dir():
         raise ValueError("no homography data: pass --root DIR or set SOGDD_DATA")
@@ -222,7 +215,7 @@ def run_sfm_cmd(args) -> int:
     require_pycolmap()
     images = Path(args.images) if args.images else None
     if images is None:
-        d = _data_root()
+        d = data_root()
         images = d / "multiview" / "chair" if d is not None else None
     if images is None or not images.is_dir():
         raise ValueError("no images: pass --images DIR or set SOGDD_DATA")

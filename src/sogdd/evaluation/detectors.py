@@ -65,7 +65,8 @@ _PERMISSIVE_GENERIC: list[dict] = [
 ]
 
 
-def _parse_value(text: str):
+def parse_value(text: str):
+    """A detector setting from text: bool, None, int, finite float, or the text itself."""
     low = text.strip().lower()
     if low in ("true", "yes", "on"):
         return True
@@ -115,7 +116,7 @@ def parse_spec(text: str) -> DetectorSpec:
         if "=" not in p:
             raise ValueError(f"detector option {p!r} in {text!r} is not key=value")
         k, v = p.split("=", 1)
-        params[k.strip()] = _parse_value(v)
+        params[k.strip()] = parse_value(v)
     return DetectorSpec(name, params, text.strip())
 
 

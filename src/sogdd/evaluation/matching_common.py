@@ -28,6 +28,7 @@ import numpy as np
 
 from ..corners import Corners
 from ..describe import METHODS, describe
+from .detectors import parse_value
 
 __all__ = [
     "PAPER_PIPELINE",
@@ -50,24 +51,6 @@ _PIPELINE_KEYS = {"remove_border", "top_k", "desc", "upright", "desc_size"}
 #: Oxford sequences for sogdd (4, 6, 8, 12 px tried; 8 best at 5-10 px); it is
 #: the same for every corner detector.
 CORNER_DESC_SIZE = 8.0
-
-
-def _parse_value(text: str):
-    low = text.strip().lower()
-    if low in ("true", "yes", "on"):
-        return True
-    if low in ("false", "no", "off"):
-        return False
-    if low in ("none", "null"):
-        return None
-    for conv in (int, float):
-        try:
-            v = conv(low)
-        except ValueError:
-            continue
-        if not (isinstance(v, float) and not math.isfinite(v)):
-            return v
-    return text.strip()
 
 
 @dataclass(frozen=True)
@@ -121,7 +104,7 @@ def parse_feature_spec(text: str) -> FeatureSpec:
         if "=" not in p:
             raise ValueError(f"detector option {p!r} in {text!r} is not key=value")
         k, v = (s.strip() for s in p.split("=", 1))
-        (pipe if k in _PIPELINE_KEYS else det)[k] = _parse_value(v)
+        (pipe if k in _PIPELINE_KEYS else det)[k] = parse_value(v)
     rb = pipe.get("remove_border", 0)
     tk = pipe.get("top_k")
     if not isinstance(rb, int) or isinstance(rb, bool):
