@@ -32,18 +32,21 @@ def _default_sub(sub: str) -> Path | None:
     return root / sub if root is not None and (root / sub).is_dir() else None
 
 
-def _jsonable(obj):
+def jsonable(obj):
+    """``obj`` with non-finite floats as None and numpy scalars as Python numbers."""
     if isinstance(obj, float):
         return obj if math.isfinite(obj) else None
     if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
+        return {str(k): jsonable(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
+        return [jsonable(v) for v in obj]
+    if hasattr(obj, "item") and callable(obj.item):  # numpy scalars
+        return jsonable(obj.item())
     return obj
 
 
 def print_json(obj) -> None:
-    sys.stdout.write(json.dumps(_jsonable(obj)) + "\n")
+    sys.stdout.write(json.dumps(jsonable(obj)) + "\n")
 
 
 def _progress(args) -> bool:

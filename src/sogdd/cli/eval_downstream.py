@@ -16,11 +16,10 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 from pathlib import Path
 
-from .eval import data_root
+from .eval import data_root, jsonable
 
 __all__ = ["register_eval", "DEFAULT_MATCHING", "DEFAULT_SFM"]
 
@@ -42,18 +41,6 @@ def _reference(name: str) -> Path | None:
         return None
     p = root.parent / "reference" / name
     return p if p.is_file() else None
-
-
-def _jsonable(obj):
-    if isinstance(obj, float):
-        return obj if math.isfinite(obj) else None
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
-    if hasattr(obj, "item") and callable(obj.item):  # numpy scalars
-        return _jsonable(obj.item())
-    return obj
 
 
 def _specs(items: list[str] | None, default: list[str]):
@@ -136,7 +123,7 @@ def run_matching(args) -> int:
     res = evaluate_specs(seqs, specs, feature_dir=feat_dir, progress=_say(args))
     info = benchmark_info(root, layout, seqs)
     obj = {label: {**r.summary(), "benchmark": info} for label, r in res.items()}
-    obj = _jsonable(obj)
+    obj = jsonable(obj)
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
         (out / "matching.json").write_text(json.dumps(obj, indent=1))
@@ -240,7 +227,7 @@ def run_sfm_cmd(args) -> int:
                     dense=not args.no_dense, num_threads=args.threads, seed=args.seed,
                     max_runtime_seconds=args.time_limit, progress=_say(args))
         r["dataset"] = dataset
-        obj[spec.label] = _jsonable(r)
+        obj[spec.label] = jsonable(r)
         if out is not None:  # keep what is done if a later detector fails or is stopped
             out.mkdir(parents=True, exist_ok=True)
             (out / "sfm.json").write_text(json.dumps(obj, indent=1))
