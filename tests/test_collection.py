@@ -80,3 +80,11 @@ def test_unreachable_scheduler_is_a_clear_error(folder, tmp_path, capsys):
                  "--scheduler", "tcp://127.0.0.1:1"])
     assert code == 2
     assert "Traceback" not in capsys.readouterr().err
+
+
+def test_batch_leaves_the_callers_thread_setting_alone(folder, tmp_path, monkeypatch):
+    import os
+
+    monkeypatch.delenv("SOGDD_NUM_THREADS", raising=False)
+    run_batch([folder / "im0.png"], tmp_path / "t", fmt="npz", jobs=1)
+    assert "SOGDD_NUM_THREADS" not in os.environ

@@ -103,7 +103,6 @@ def detect_to_file(image: str, out_dir: str, fmt: str, preset: str, params: dict
     target = feature_path(out_dir, image, fmt)
     if resume and target.exists():
         return BatchItem(image, "skipped")
-    os.environ.setdefault("SOGDD_NUM_THREADS", "1")  # one process per core already
     try:
         img = read_image(image)
         c = detect_corners(img, preset=preset, **params)
@@ -157,11 +156,16 @@ def run_batch(
     else:
         from concurrent.futures import ProcessPoolExecutor, as_completed
 
-        with ProcessPoolExecutor(max_workers=jobs) as pool:
+        with ProcessPoolExecutor(max_workers=jobs, initializer=_one_thread_per_worker) as pool:
             futures = [pool.submit(detect_to_file, *a) for a in args]
             for f in as_completed(futures):
                 done(f.result())
     return [results[n] for n in names]
+
+
+def _one_thread_per_worker() -> None:
+    # the processes already fill the cores; threads inside each would oversubscribe them
+    os.environ["SOGDD_NUM_THREADS"] = "1"
 
 
 def _run_dask(args: list[tuple], scheduler: str, done: Callable[[BatchItem], None]) -> None:
