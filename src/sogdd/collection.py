@@ -57,6 +57,18 @@ def feature_path(out_dir: str | os.PathLike, image: str | os.PathLike, fmt: str)
     return Path(out_dir) / f"{Path(image).name}.{fmt}"
 
 
+def csv_rows(c: Corners, prefix: str = "") -> list[str]:
+    """``x,y,response,size`` rows (no header), each optionally prefixed (``"image,"``)."""
+    return [f"{prefix}{x:.4f},{y:.4f},{r:.9g},{s:.4g}" for (x, y), r, s in zip(c.xy, c.response, c.size)]
+
+
+def json_object(c: Corners, image: str) -> dict:
+    """The JSON form of one image's corners."""
+    return {"image": image, "n": len(c), "x": c.xy[:, 0].round(4).tolist(),
+            "y": c.xy[:, 1].round(4).tolist(), "response": c.response.tolist(),
+            "size": c.size.tolist()}
+
+
 def _encode(c: Corners, fmt: str, image: str, shape: tuple[int, ...]) -> bytes:
     if fmt == "npz":
         buf = io.BytesIO()
@@ -64,14 +76,9 @@ def _encode(c: Corners, fmt: str, image: str, shape: tuple[int, ...]) -> bytes:
                  image_shape=np.asarray(shape[:2]))
         return buf.getvalue()
     if fmt == "csv":
-        lines = ["x,y,response,size"]
-        lines += [f"{x:.4f},{y:.4f},{r:.9g},{s:.4g}" for (x, y), r, s in zip(c.xy, c.response, c.size)]
-        return ("\n".join(lines) + "\n").encode()
+        return ("\n".join(["x,y,response,size", *csv_rows(c)]) + "\n").encode()
     if fmt == "json":
-        obj = {"image": image, "n": len(c), "x": c.xy[:, 0].round(4).tolist(),
-               "y": c.xy[:, 1].round(4).tolist(), "response": c.response.tolist(),
-               "size": c.size.tolist()}
-        return json.dumps(obj).encode()
+        return json.dumps(json_object(c, image)).encode()
     raise ValueError(f"unknown format {fmt!r}")
 
 

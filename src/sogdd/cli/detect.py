@@ -7,7 +7,6 @@ Without ``--out`` all results go to one output (stdout by default). With
 from __future__ import annotations
 
 import argparse
-import io
 import json
 import sys
 from pathlib import Path
@@ -15,7 +14,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from ..collection import expand_inputs, run_batch
+from ..collection import csv_rows, expand_inputs, json_object, run_batch
 from ..corners import Corners
 from ..detector import detect_corners, resolve_params
 from ..io import read_image
@@ -28,27 +27,14 @@ def corners_table(c: Corners) -> np.ndarray:
 
 
 def _csv(results: list[tuple[str, Corners]], with_image: bool) -> str:
-    buf = io.StringIO()
-    buf.write(("image," if with_image else "") + "x,y,response,size\n")
+    lines = [("image," if with_image else "") + "x,y,response,size"]
     for name, c in results:
-        for x, y, r, s in corners_table(c):
-            prefix = f"{name}," if with_image else ""
-            buf.write(f"{prefix}{x:.4f},{y:.4f},{r:.9g},{s:.4g}\n")
-    return buf.getvalue()
+        lines += csv_rows(c, f"{name}," if with_image else "")
+    return "\n".join(lines) + "\n"
 
 
 def _json(results: list[tuple[str, Corners]]) -> str:
-    objs = [
-        {
-            "image": name,
-            "n": len(c),
-            "x": c.xy[:, 0].round(4).tolist(),
-            "y": c.xy[:, 1].round(4).tolist(),
-            "response": c.response.tolist(),
-            "size": c.size.tolist(),
-        }
-        for name, c in results
-    ]
+    objs = [json_object(c, name) for name, c in results]
     return json.dumps(objs[0] if len(objs) == 1 else objs)
 
 
