@@ -12,7 +12,7 @@ from .corners import Corners
 from .filters import kernel_radius
 from .io import BT601, MATLAB_RGB2GRAY, to_gray255, validate_image
 from .peaks import refine_gradient, refine_quadratic, select_peaks
-from .response import MeasureSpec, soddc_measure, window_halfwidths
+from .response import MeasureSpec, soddc_measure, supports_floor, window_halfwidths
 
 __all__ = ["PRESETS", "Params", "SOGDD", "check_mask", "corner_response", "detect_corners", "resolve_params"]
 
@@ -172,8 +172,18 @@ def corner_response(image, *, preset: str = "paper", **params) -> np.ndarray:
     return soddc_measure(_prepare(image, p), p.measure_spec())
 
 
+def _floor(p: Params, spec: MeasureSpec) -> float | None:
+    """The absolute threshold, when it alone decides which peaks pass (no relative or quantile one)."""
+    if p.threshold is None or p.threshold <= 0 or p.threshold_rel is not None or p.quantile is not None:
+        return None
+    return float(p.threshold) if supports_floor(spec) else None
+
+
 def _detect_level(grey: np.ndarray, p: Params, mask: np.ndarray | None) -> Corners:
-    resp = soddc_measure(grey, p.measure_spec())
+    # Exact wherever a peak above the threshold or its 3x3 neighbourhood can be, -inf
+    # where a bound proves the measure below it: the same corners as the full map.
+    spec = p.measure_spec()
+    resp = soddc_measure(grey, spec, floor=_floor(p, spec))
     rows, cols = select_peaks(
         resp,
         threshold=p.threshold,

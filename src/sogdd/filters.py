@@ -25,12 +25,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import cv2
+import numba
 import numpy as np
 
 __all__ = [
     "SteerableBasis",
-    "basis_responses",
+    "basis_tile",
     "kernel_radius",
     "orientations",
     "sogdd_kernel",
@@ -119,29 +119,113 @@ def steerable_basis(sigma2: float, radius: int, *, zero_mean: bool = False) -> S
     return SteerableBasis(float(sigma2), int(radius), gauss, d1, d2, zero_mean)
 
 
-def basis_responses(padded: np.ndarray, basis: SteerableBasis) -> np.ndarray:
-    """Filter a padded float64 image with ``g_xx, g_xy, g_yy``; (3, h, w) valid part.
+@numba.njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract"})
+def _reflect1(i, n):  # pragma: no cover - jit
+    """Half-sample symmetric reflection of one index into [0, n), any reach."""
+    m = i % (2 * n)
+    return m if m < n else 2 * n - 1 - m
 
-    ``padded`` must already carry ``basis.radius`` pixels of border on every side;
-    the result covers the interior ``padded[r:-r, r:-r]``. OpenCV correlates rather
-    than convolves; every 2-D basis kernel is even (``d1`` is odd, but it appears
-    twice), so the two agree.
+
+@numba.njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract"})
+def _basis_tile(img, r0, nrows, M, ext, fx, fy, means, out):  # pragma: no cover - jit
+    """Separable correlation of ``img`` with the basis pairs, rows ``r0 - M ..`` of a tile.
+
+    ``out[i, pr, x]`` holds filter pair i (row filter ``fy[i]``, column filter
+    ``fx[i]``) at image row ``r0 - M + pr`` and column ``x - M``, for
+    ``nrows + 2M`` rows and ``W + 2M`` columns. With ``ext == M`` the image is
+    reflected and filtered everywhere (numpy ``symmetric`` padding, the authors'
+    code); with ``ext == 0`` the responses are computed inside the image and
+    reflected themselves (scipy ``mode="reflect"`` at both stages). A fourth pair,
+    if present, is the box sum that makes zero-mean kernels (``out[i] -= means[i] * box``).
+    Horizontal passes are kept for the last ``2r + 1`` image rows in a ring.
     """
-    r = basis.radius
-    src = np.ascontiguousarray(padded, dtype=np.float64)
-    out_shape = (src.shape[0] - 2 * r, src.shape[1] - 2 * r)
-    out = np.empty((3, *out_shape), dtype=np.float64)
-    for i, (kx, ky) in enumerate(
-        [(basis.d2, basis.gauss), (basis.d1, basis.d1), (basis.gauss, basis.d2)]
-    ):
-        full = cv2.sepFilter2D(src, cv2.CV_64F, kx, ky, borderType=cv2.BORDER_REFLECT)
-        out[i] = full[r : r + out_shape[0], r : r + out_shape[1]]
+    H, W = img.shape
+    nf, T = fx.shape
+    rk = (T - 1) // 2
+    Wo = W + 2 * ext  # columns filtered, -ext .. W + ext
+    rs = T + 1
+    ring = np.empty((nf, rs, Wo))
+    ring_id = np.full(rs, -(1 << 62), np.int64)
+    rowbuf = np.empty(Wo + 2 * rk)
+    vert = np.empty((nf, Wo))
+    for pr in range(nrows + 2 * M):
+        y = r0 - M + pr
+        yc = y if ext > 0 else _reflect1(y, H)  # the row whose response this is
+        for a in range(T):
+            ri = _reflect1(yc - rk + a, H)
+            slot = ri % rs
+            if ring_id[slot] != ri:  # horizontal passes of image row ri
+                ring_id[slot] = ri
+                src = img[ri]
+                lo = ext + rk
+                for x in range(W):
+                    rowbuf[lo + x] = src[x]
+                for x in range(lo):
+                    rowbuf[x] = src[_reflect1(x - lo, W)]
+                for x in range(lo + W, Wo + 2 * rk):
+                    rowbuf[x] = src[_reflect1(x - lo, W)]
+                for i in range(nf):
+                    h = ring[i, slot]
+                    for x in range(Wo):
+                        h[x] = 0.0
+                    for b in range(T):
+                        wb = fx[i, b]
+                        rb = rowbuf[b : b + Wo]
+                        for x in range(Wo):
+                            h[x] += wb * rb[x]
+        for i in range(nf):
+            v = vert[i]
+            for x in range(Wo):
+                v[x] = 0.0
+            for a in range(T):
+                h = ring[i, _reflect1(yc - rk + a, H) % rs]
+                wa = fy[i, a]
+                for x in range(Wo):
+                    v[x] += wa * h[x]
+        if nf == 4:
+            box = vert[3]
+            for i in range(3):
+                v = vert[i]
+                mi = means[i]
+                for x in range(Wo):
+                    v[x] -= mi * box[x]
+        for i in range(3):
+            dst = out[i, pr, M - ext : M + W + ext]
+            v = vert[i]
+            for x in range(Wo):
+                dst[x] = v[x]
+            if ext < M:  # reflect the responses into the column margin
+                row = out[i, pr]
+                for x in range(M - ext):
+                    row[x] = row[M + _reflect1(x - M, W)]
+                for x in range(M + W + ext, W + 2 * M):
+                    row[x] = row[M + _reflect1(x - M, W)]
+
+
+def basis_tile(
+    image: np.ndarray, r0: int, r1: int, margin: int, basis: SteerableBasis, *, reflect_image: bool
+) -> np.ndarray:
+    """Responses to ``g_xx, g_xy, g_yy`` of image rows ``r0 .. r1 - 1`` with a margin.
+
+    Returns (3, r1 - r0 + 2 margin, W + 2 margin) float64: rows ``r0 - margin ..
+    r1 + margin - 1`` and columns ``-margin .. W + margin - 1``, outside positions
+    reflected (half-sample). ``reflect_image=True`` reflects the image and filters
+    there (numpy ``symmetric`` padding); ``False`` filters the image with
+    reflected borders and reflects the responses (scipy ``mode="reflect"``).
+    Correlation and convolution agree: every 2-D basis kernel is even.
+    """
+    img = np.ascontiguousarray(image, dtype=np.float64)
+    H, W = img.shape
+    M = int(margin)
+    fx = [basis.d2, basis.d1, basis.gauss]  # along x (columns)
+    fy = [basis.gauss, basis.d1, basis.d2]  # along y (rows)
     if basis.zero_mean:
-        # A constant c subtracted from a kernel subtracts c times the box sum of the image.
-        # a separable filter, not cv2.boxFilter, whose running sums would make the
-        # result depend on where a tile starts
-        ones = np.ones(2 * r + 1)
-        box = cv2.sepFilter2D(src, cv2.CV_64F, ones, ones, borderType=cv2.BORDER_REFLECT)
-        box = box[r : r + out_shape[0], r : r + out_shape[1]]
-        out -= basis.means[:, None, None] * box[None]
+        ones = np.ones(2 * basis.radius + 1)
+        fx.append(ones)
+        fy.append(ones)
+    out = np.empty((3, r1 - r0 + 2 * M, W + 2 * M))
+    _basis_tile(img, int(r0), int(r1 - r0), M, M if reflect_image else 0,
+                np.array(fx), np.array(fy), basis.means, out)
     return out
+
+
