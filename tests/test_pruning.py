@@ -1,0 +1,131 @@
+"""The pruned measure (``soddc_measure(..., floor=T)``) that detection uses.
+
+Contract: exact, bit for bit as the full map, wherever a peak above ``T`` or its
+3x3 neighbourhood can be; ``-inf`` only where the measure is below ``T``.
+"""
+
+import cv2
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy import ndimage
+
+import sogdd
+from sogdd import detector
+from sogdd.filters import basis_tile, kernel_radius, steerable_basis
+from sogdd.response import soddc_measure
+
+
+def _check_floor_contract(img, spec, floor, **kw):
+    full = soddc_measure(img, spec)
+    pruned = soddc_measure(img, spec, floor=floor, **kw)
+    exact = np.isfinite(pruned)
+    np.testing.assert_array_equal(pruned[exact], full[exact])
+    assert np.all(pruned[~exact] == -np.inf)
+    assert np.all(full[~exact] < floor)  # only pixels provably below the floor are skipped
+    around = cv2.dilate((full >= floor).astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
+    assert exact[around].all()  # every peak candidate and its 3x3 neighbourhood is exact
+    return exact
+
+
+def _photo_like(h, w, rng):
+    img = ndimage.gaussian_filter(rng.uniform(0, 255, (h, w)), 2.0) * 3 - 250
+    img[h // 3 : 2 * h // 3, w // 4 : w // 2] += 90
+    return np.clip(img + rng.normal(0, 2, (h, w)), 0, 255)
+
+
+def test_floor_contract_on_a_pattern_and_pruning_pays(pattern):
+    img = pattern[0].astype(np.float64)
+    spec = sogdd.resolve_params("paper").measure_spec()
+    exact = _check_floor_contract(img, spec, 1e9)
+    assert exact.mean() < 0.6  # most of a rendered pattern is proven below T_h
+
+
+def test_floor_contract_does_not_depend_on_tiles_or_threads(rng):
+    img = _photo_like(70, 300, rng)
+    spec = sogdd.resolve_params("paper").measure_spec()
+    a = soddc_measure(img, spec, floor=1e8, tile_rows=7, threads=2)
+    b = soddc_measure(img, spec, floor=1e8, tile_rows=64, threads=1)
+    fin = np.isfinite(a) & np.isfinite(b)
+    np.testing.assert_array_equal(a[fin], b[fin])
+    _check_floor_contract(img, spec, 1e8, tile_rows=7, threads=2)
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    h=st.integers(2, 40),
+    w=st.integers(2, 300),
+    k=st.integers(1, 9),
+    sigma2=st.floats(0.4, 3.0),
+    window=st.sampled_from([1, 3, 5, 7, 9]),
+    level=st.floats(0.0, 1.0),
+    seed=st.integers(0, 2**31 - 1),
+)
+def test_floor_contract_random(h, w, k, sigma2, window, level, seed):
+    rng = np.random.default_rng(seed)
+    img = _photo_like(h, w, rng) if seed % 2 else rng.uniform(0, 255, (h, w))
+    spec = sogdd.resolve_params("paper", n_orientations=k, sigma2=sigma2, window=window).measure_spec()
+    full = soddc_measure(img, spec)
+    pos = full[full > 0]
+    floor = float(np.quantile(pos, level)) if pos.size else 1.0
+    _check_floor_contract(img, spec, max(floor, 1e-300))
+
+
+def test_floor_needs_a_square_window_and_a_positive_value():
+    img = np.zeros((10, 10))
+    with pytest.raises(ValueError):
+        soddc_measure(img, sogdd.resolve_params("paper", window_shape="disk").measure_spec(), floor=1e9)
+    with pytest.raises(ValueError):
+        soddc_measure(img, sogdd.resolve_params("paper").measure_spec(), floor=0.0)
+
+
+@pytest.mark.parametrize("params", [{}, {"nms_radius": 3}, {"levels": 2}, {"threshold": 1e7, "border": 5}])
+def test_detection_is_that_of_the_full_map(pattern, rng, monkeypatch, params):
+    img = np.clip(pattern[0] + rng.normal(0, 4, pattern[0].shape), 0, 255).astype(np.uint8)
+    pruned = sogdd.detect_corners(img, **params)
+    monkeypatch.setattr(detector, "_floor", lambda p, spec: None)
+    full = sogdd.detect_corners(img, **params)
+    assert len(pruned) > 10
+    np.testing.assert_array_equal(pruned.xy, full.xy)
+    np.testing.assert_array_equal(pruned.response, full.response)
+
+
+def test_relative_and_quantile_thresholds_use_the_full_map():
+    p = sogdd.resolve_params("paper", threshold_rel=0.01)
+    assert detector._floor(p, p.measure_spec()) is None
+    p = sogdd.resolve_params("authors")
+    assert detector._floor(p, p.measure_spec()) is None
+    p = sogdd.resolve_params("paper")
+    assert detector._floor(p, p.measure_spec()) == 1e9
+
+
+@pytest.mark.parametrize("reflect_image", [False, True])
+@pytest.mark.parametrize("zero_mean", [False, True])
+@pytest.mark.parametrize("shape", [(40, 57), (3, 4), (1, 9)])
+def test_basis_tile_is_the_reflected_correlation(reflect_image, zero_mean, shape, rng):
+    """The numba separable filter against scipy's 2-D correlation, both padding schemes."""
+    img = rng.uniform(0, 255, shape)
+    sigma2 = 1.2
+    r = kernel_radius(sigma2)
+    basis = steerable_basis(sigma2, r, zero_mean=zero_mean)
+    H, W = shape
+    M, r0, r1 = 4, min(2, H - 1), H
+    got = basis_tile(img, r0, r1, M, basis, reflect_image=reflect_image)
+    rows = np.arange(r0 - M, r1 + M)
+    cols = np.arange(-M, W + M)
+    if reflect_image:
+        big = np.pad(img, M + r + 2 * max(H, W), mode="symmetric")
+        off = M + r + 2 * max(H, W)
+        want = np.stack([ndimage.correlate(big, k, mode="constant") for k in basis.kernels()])
+        want = want[:, rows[:, None] + off, cols[None, :] + off]
+    else:
+        want = np.stack([ndimage.correlate(img, k, mode="reflect") for k in basis.kernels()])
+
+        def refl(i, n):
+            m = np.mod(i, 2 * n)
+            return np.where(m < n, m, 2 * n - 1 - m)
+
+        want = want[:, refl(rows, H)[:, None], refl(cols, W)[None, :]]
+    scale = np.abs(img).max() * 2
+    assert np.max(np.abs(got - want)) <= 1e-12 * scale
