@@ -129,3 +129,30 @@ def test_basis_tile_is_the_reflected_correlation(reflect_image, zero_mean, shape
         want = want[:, refl(rows, H)[:, None], refl(cols, W)[None, :]]
     scale = np.abs(img).max() * 2
     assert np.max(np.abs(got - want)) <= 1e-12 * scale
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    h=st.integers(1, 30),
+    w=st.integers(1, 30),
+    radius=st.integers(1, 4),
+    border=st.integers(0, 6),
+    levels=st.integers(2, 6),
+    seed=st.integers(0, 2**31 - 1),
+)
+def test_peak_scan_equals_the_dilation_definition(h, w, radius, border, levels, seed):
+    """select_peaks' compiled scan against threshold & 'equal to the dilated map' & valid area."""
+    from sogdd.peaks import local_maxima, select_peaks, valid_area
+
+    rng = np.random.default_rng(seed)
+    resp = rng.integers(0, levels, (h, w)).astype(np.float64)  # plateaus and ties
+    resp[rng.random((h, w)) < 0.1] = -np.inf
+    mask = rng.random((h, w)) < 0.8
+    thr = float(levels) / 3
+    rows, cols = select_peaks(resp, threshold=thr, nms_radius=radius, border=border, mask=mask)
+    cand = valid_area(resp.shape, border, mask) & (resp > thr) & local_maxima(resp, radius)
+    got = set(zip(rows.tolist(), cols.tolist()))
+    assert got <= set(zip(*np.nonzero(cand)))
+    # every candidate is kept or lies within the radius of a kept one of equal value
+    for r, c in zip(*np.nonzero(cand)):
+        assert any(max(abs(r - r2), abs(c - c2)) <= radius and resp[r2, c2] == resp[r, c] for r2, c2 in got)

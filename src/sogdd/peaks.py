@@ -8,6 +8,7 @@ parameters happens in :mod:`sogdd.detector`.
 from __future__ import annotations
 
 import cv2
+import numba
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -47,7 +48,7 @@ def valid_area(shape: tuple[int, int], border: int = 0, mask: np.ndarray | None 
 
 def resolve_threshold(
     response: np.ndarray,
-    valid: np.ndarray,
+    valid: np.ndarray | None,
     *,
     threshold: float | None = None,
     threshold_rel: float | None = None,
@@ -73,6 +74,43 @@ def resolve_threshold(
     return max(levels) if levels else 0.0
 
 
+@numba.njit(cache=True, nogil=True)
+def _maxima_above(response, thr, radius):  # pragma: no cover - jit
+    """Rows and columns of pixels above ``thr`` that no pixel of their square exceeds.
+
+    The same points as ``(response > thr) & local_maxima(response, radius)``, but
+    only pixels above the threshold (few, on a detector's map) look at their
+    neighbours, so nothing the size of the image is allocated.
+    """
+    H, W = response.shape
+    rows = np.empty(64, np.int64)
+    cols = np.empty(64, np.int64)
+    n = 0
+    for y in range(H):
+        row = response[y]
+        for x in range(W):
+            v = row[x]
+            if not v > thr:
+                continue
+            peak = True
+            for yy in range(max(0, y - radius), min(H, y + radius + 1)):
+                nb = response[yy]
+                for xx in range(max(0, x - radius), min(W, x + radius + 1)):
+                    if nb[xx] > v:
+                        peak = False
+                        break
+                if not peak:
+                    break
+            if peak:
+                if n == rows.shape[0]:
+                    rows = np.concatenate((rows, np.empty(n, np.int64)))
+                    cols = np.concatenate((cols, np.empty(n, np.int64)))
+                rows[n] = y
+                cols[n] = x
+                n += 1
+    return rows[:n], cols[:n]
+
+
 def select_peaks(
     response: np.ndarray,
     *,
@@ -89,20 +127,30 @@ def select_peaks(
     A peak is a local maximum (``nms_radius``) strictly above the effective
     threshold, inside the valid area. Ties in strength keep raster order.
     """
-    valid = valid_area(response.shape, border, mask)
+    resp = np.asarray(response)
+    if resp.dtype not in (np.float32, np.float64):
+        resp = resp.astype(np.float64)
+    resp = np.ascontiguousarray(resp)
+    if threshold_rel is not None or quantile is not None:
+        valid = valid_area(resp.shape, border, mask)
+    else:
+        valid = None  # the absolute threshold needs no map of the valid area
     thr = resolve_threshold(
-        response, valid, threshold=threshold, threshold_rel=threshold_rel, quantile=quantile
+        resp, valid, threshold=threshold, threshold_rel=threshold_rel, quantile=quantile
     )
-    cand = valid & (response > thr) & local_maxima(response, nms_radius)
-    rows, cols = np.nonzero(cand)
-    order = np.argsort(-response[rows, cols], kind="stable")
+    rows, cols = _maxima_above(resp, float(thr), int(nms_radius))
+    h, w = resp.shape
+    inside = (rows >= border) & (rows < h - border) & (cols >= border) & (cols < w - border)
+    if mask is not None:
+        inside &= np.asarray(mask, dtype=bool)[rows, cols]
+    rows, cols = rows[inside], cols[inside]
+    order = np.argsort(-resp[rows, cols], kind="stable")
     rows, cols = rows[order], cols[order]
     keep = _break_ties(rows, cols, nms_radius)
     rows, cols = rows[keep], cols[keep]
-    order = np.arange(len(rows))
     if max_corners is not None:
-        order = order[: int(max_corners)]
-    return rows[order], cols[order]
+        rows, cols = rows[: int(max_corners)], cols[: int(max_corners)]
+    return rows, cols
 
 
 def _break_ties(rows: np.ndarray, cols: np.ndarray, radius: int) -> np.ndarray:

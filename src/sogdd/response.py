@@ -665,7 +665,7 @@ def _tiled(
             colneed = np.empty((h, W + 2 * R), np.uint8)
             rowneed = np.empty((h + 2 * R, W + 2 * R), np.uint8)
             _dilate_masks(keep, R, need, colneed, rowneed)
-        _soddc_tile_square(planes, margin - R, coef, nr, need, colneed, rowneed, parts, o, d, t, 256, 16)
+        _soddc_tile_square(planes, margin - R, coef, nr, need, colneed, rowneed, parts, o, d, t, 256, 32)
 
     n = threads or _n_threads()
     if n == 1 or len(starts) == 1:
