@@ -309,7 +309,7 @@ _HADAMARD_SLACK = 1e-10
 
 
 @numba.njit(**_JIT)
-def _fischer_row(srow, quad, pair, pi2, pj2, absc, floor, keep, nb, work):  # pragma: no cover - jit
+def _fischer_row(srow, quad, pair, pi2, pj2, floor, keep, nb, work):  # pragma: no cover - jit
     """keep[c] = False where Upsilon < floor is proven from the window sums ``srow[:, c]``.
 
     ``srow`` holds the six window sums S_pq = sum g_p g_q of products of the
@@ -322,52 +322,44 @@ def _fischer_row(srow, quad, pair, pi2, pj2, absc, floor, keep, nb, work):  # pr
     six window sums for any K. Rounding is covered by the margins above, so a
     pruned pixel is one that the full computation also puts below ``floor``.
     """
-    sq0, sq1, sq2, fb, hb, trs, eu = work
+    err, fb, hb, trs = work
     s00, s01, s02, s11, s12, s22 = srow[0], srow[1], srow[2], srow[3], srow[4], srow[5]
     for c in range(nb):
-        sq0[c] = np.sqrt(max(s00[c], 0.0))
-        sq1[c] = np.sqrt(max(s11[c], 0.0))
-        sq2[c] = np.sqrt(max(s22[c], 0.0))
+        # |c_kp| <= 1, so u = sum_p sqrt(S_pp) >= sum_p |c_kp| sqrt(S_pp) >= ||l_k|| (Minkowski),
+        # and the rounding errors of d_k and t_ij are a tiny multiple of u^2
+        u = np.sqrt(max(s00[c], 0.0)) + np.sqrt(max(s11[c], 0.0)) + np.sqrt(max(s22[c], 0.0))
+        err[c] = _GAMMA * u * u
         fb[c] = 1.0
         hb[c] = 1.0
         trs[c] = 0.0
-        eu[c] = 0.0
     K = quad.shape[0]
-    for t in range(pi2.shape[0] + K % 2):
-        i = pi2[t] if t < pi2.shape[0] else K - 1  # an odd K leaves a 1 x 1 block
-        j = pj2[t] if t < pi2.shape[0] else K - 1
-        single = i == j
+    for t in range(pi2.shape[0]):
+        i = pi2[t]
+        j = pj2[t]
         a0, a1, a2, a3, a4, a5 = quad[i, 0], quad[i, 1], quad[i, 2], quad[i, 3], quad[i, 4], quad[i, 5]
         b0, b1, b2, b3, b4, b5 = quad[j, 0], quad[j, 1], quad[j, 2], quad[j, 3], quad[j, 4], quad[j, 5]
-        p0, p1, p2 = 0.0, 0.0, 0.0
-        p3, p4, p5 = 0.0, 0.0, 0.0
-        if not single:
-            p0, p1, p2, p3, p4, p5 = pair[t, 0], pair[t, 1], pair[t, 2], pair[t, 3], pair[t, 4], pair[t, 5]
-        ei0, ei1, ei2 = absc[i, 0], absc[i, 1], absc[i, 2]
-        ej0, ej1, ej2 = absc[j, 0], absc[j, 1], absc[j, 2]
+        p0, p1, p2, p3, p4, p5 = pair[t, 0], pair[t, 1], pair[t, 2], pair[t, 3], pair[t, 4], pair[t, 5]
         for c in range(nb):
             di = a0 * s00[c] + a1 * s01[c] + a2 * s02[c] + a3 * s11[c] + a4 * s12[c] + a5 * s22[c]
             dj = b0 * s00[c] + b1 * s01[c] + b2 * s02[c] + b3 * s11[c] + b4 * s12[c] + b5 * s22[c]
             tij = p0 * s00[c] + p1 * s01[c] + p2 * s02[c] + p3 * s11[c] + p4 * s12[c] + p5 * s22[c]
-            # Minkowski: d_k <= u_k^2, and rounding errors are a tiny multiple of u_i u_j
-            ui = ei0 * sq0[c] + ei1 * sq1[c] + ei2 * sq2[c]
-            uj = ej0 * sq0[c] + ej1 * sq1[c] + ej2 * sq2[c]
-            dhi = di + _GAMMA * ui * ui
-            djh = dj + _GAMMA * uj * uj
-            if single:
-                fb[c] *= dhi
-                hb[c] *= dhi
-                trs[c] += di
-                eu[c] += ui * ui
-            else:
-                tl = max(abs(tij) - _GAMMA * ui * uj, 0.0)
-                fb[c] *= dhi * djh - tl * tl
-                hb[c] *= dhi * djh
-                trs[c] += di + dj
-                eu[c] += ui * ui + uj * uj
+            e = err[c]
+            dd = (di + e) * (dj + e)
+            tl = max(abs(tij) - e, 0.0)
+            fb[c] *= dd - tl * tl
+            hb[c] *= dd
+            trs[c] += di + dj
+    if K % 2 == 1:  # the last orientation is a 1 x 1 block
+        k = K - 1
+        a0, a1, a2, a3, a4, a5 = quad[k, 0], quad[k, 1], quad[k, 2], quad[k, 3], quad[k, 4], quad[k, 5]
+        for c in range(nb):
+            dk = a0 * s00[c] + a1 * s01[c] + a2 * s02[c] + a3 * s11[c] + a4 * s12[c] + a5 * s22[c]
+            fb[c] *= dk + err[c]
+            hb[c] *= dk + err[c]
+            trs[c] += dk
     lim = floor * (1.0 - 1e-9)
     for c in range(nb):
-        trl = trs[c] - _GAMMA * eu[c] + 2.22e-16
+        trl = trs[c] - K * err[c] + 2.22e-16
         # NaN or inf (overflow) keep the pixel: the bound proves nothing there
         keep[c] = not (trl > 0.0 and (fb[c] + _HADAMARD_SLACK * hb[c]) / trl < lim)
 
@@ -537,7 +529,7 @@ def _soddc_tile_square(planes, off, coef, nr, need, colneed, rowneed, want_parts
 
 
 @numba.njit(**_JIT)
-def _bound_mask(planes, nr, quad, pair, pi2, pj2, absc, floor, keep, block):  # pragma: no cover - jit
+def _bound_mask(planes, nr, quad, pair, pi2, pj2, floor, keep, block):  # pragma: no cover - jit
     """keep (Ht + 2, W + 2): the Fischer bound of tile rows -1..Ht, columns -1..W (margin R + 1).
 
     The six products of the basis responses are kept for the last ``nr`` rows
@@ -549,8 +541,7 @@ def _bound_mask(planes, nr, quad, pair, pi2, pj2, absc, floor, keep, block):  # 
     pring = np.empty((6, nr, WB))
     scol = np.empty((6, WB))
     srow = np.empty((6, nbm))
-    work = (np.empty(nbm), np.empty(nbm), np.empty(nbm), np.empty(nbm), np.empty(nbm), np.empty(nbm),
-            np.empty(nbm))
+    work = (np.empty(nbm), np.empty(nbm), np.empty(nbm), np.empty(nbm))
     row = np.empty(nbm, np.bool_)
     for x0 in range(0, Wk - 2, block):
         nb = min(block, Wk - 2 - x0) + 2
@@ -572,14 +563,14 @@ def _bound_mask(planes, nr, quad, pair, pi2, pj2, absc, floor, keep, block):  # 
             for q in range(6):
                 _column_sum(pring[q], r, nr, scol[q], 0, wcols)
                 _row_sum(scol[q], nr, srow[q], nb)
-            _fischer_row(srow, quad, pair, pi2, pj2, absc, floor, row, nb, work)
+            _fischer_row(srow, quad, pair, pi2, pj2, floor, row, nb, work)
             kr = keep[r, x0 : x0 + nb]
             for c in range(nb):
                 kr[c] = row[c]
 
 
 def _bound_tables(coef: np.ndarray):
-    """Coefficients of d_k and t_ij as forms in (S00, S01, S02, S11, S12, S22), and |coef|."""
+    """Coefficients of d_k and t_ij (adjacent pairs) as forms in (S00, S01, S02, S11, S12, S22)."""
     c = np.asarray(coef, dtype=np.float64)
     K = len(c)
     quad = np.stack([c[:, 0] ** 2, 2 * c[:, 0] * c[:, 1], 2 * c[:, 0] * c[:, 2],
@@ -590,7 +581,7 @@ def _bound_tables(coef: np.ndarray):
     pair = np.stack([a[:, 0] * b[:, 0], a[:, 0] * b[:, 1] + a[:, 1] * b[:, 0],
                      a[:, 0] * b[:, 2] + a[:, 2] * b[:, 0], a[:, 1] * b[:, 1],
                      a[:, 1] * b[:, 2] + a[:, 2] * b[:, 1], a[:, 2] * b[:, 2]], axis=1).reshape(-1, 6)
-    return quad, pair, pi2, pj2, np.abs(c)
+    return quad, pair, pi2, pj2
 
 
 def _take(arr: np.ndarray, axis: int, start: int, stop: int) -> np.ndarray:
