@@ -127,7 +127,7 @@ def _reflect1(i, n):  # pragma: no cover - jit
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract"})
-def _basis_tile(img, r0, nrows, M, ext, fx, fy, means, out):  # pragma: no cover - jit
+def _basis_tile(img, r0, nrows, M, ext, fx, fy, odd, means, out):  # pragma: no cover - jit
     """Separable correlation of ``img`` with the basis pairs, rows ``r0 - M ..`` of a tile.
 
     ``out[i, pr, x]`` holds filter pair i (row filter ``fy[i]``, column filter
@@ -157,31 +157,46 @@ def _basis_tile(img, r0, nrows, M, ext, fx, fy, means, out):  # pragma: no cover
             if ring_id[slot] != ri:  # horizontal passes of image row ri
                 ring_id[slot] = ri
                 src = img[ri]
-                lo = ext + rk
+                c0 = ext + rk
                 for x in range(W):
-                    rowbuf[lo + x] = src[x]
-                for x in range(lo):
-                    rowbuf[x] = src[_reflect1(x - lo, W)]
-                for x in range(lo + W, Wo + 2 * rk):
-                    rowbuf[x] = src[_reflect1(x - lo, W)]
+                    rowbuf[c0 + x] = src[x]
+                for x in range(c0):
+                    rowbuf[x] = src[_reflect1(x - c0, W)]
+                for x in range(c0 + W, Wo + 2 * rk):
+                    rowbuf[x] = src[_reflect1(x - c0, W)]
+                # every factor is even or odd, so taps b and T-1-b share one multiply
                 for i in range(nf):
                     h = ring[i, slot]
+                    w = fx[i, rk]
+                    rc = rowbuf[rk : rk + Wo]
                     for x in range(Wo):
-                        h[x] = 0.0
-                    for b in range(T):
-                        wb = fx[i, b]
-                        rb = rowbuf[b : b + Wo]
-                        for x in range(Wo):
-                            h[x] += wb * rb[x]
+                        h[x] = w * rc[x]
+                    for b in range(rk):
+                        w = fx[i, b]
+                        lo = rowbuf[b : b + Wo]
+                        hi = rowbuf[T - 1 - b : T - 1 - b + Wo]
+                        if odd[i]:
+                            for x in range(Wo):
+                                h[x] += w * (lo[x] - hi[x])
+                        else:
+                            for x in range(Wo):
+                                h[x] += w * (lo[x] + hi[x])
         for i in range(nf):
             v = vert[i]
+            w = fy[i, rk]
+            hc = ring[i, _reflect1(yc, H) % rs]
             for x in range(Wo):
-                v[x] = 0.0
-            for a in range(T):
-                h = ring[i, _reflect1(yc - rk + a, H) % rs]
-                wa = fy[i, a]
-                for x in range(Wo):
-                    v[x] += wa * h[x]
+                v[x] = w * hc[x]
+            for a in range(rk):
+                w = fy[i, a]
+                top = ring[i, _reflect1(yc - rk + a, H) % rs]
+                bot = ring[i, _reflect1(yc + rk - a, H) % rs]
+                if odd[nf + i]:
+                    for x in range(Wo):
+                        v[x] += w * (top[x] - bot[x])
+                else:
+                    for x in range(Wo):
+                        v[x] += w * (top[x] + bot[x])
         if nf == 4:
             box = vert[3]
             for i in range(3):
@@ -200,6 +215,15 @@ def _basis_tile(img, r0, nrows, M, ext, fx, fy, means, out):  # pragma: no cover
                     row[x] = row[M + _reflect1(x - M, W)]
                 for x in range(M + W + ext, W + 2 * M):
                     row[x] = row[M + _reflect1(x - M, W)]
+
+
+def _parity(f: np.ndarray) -> bool:
+    """True for an odd 1-D factor, False for an even one (the filter relies on one or the other)."""
+    if np.array_equal(f, f[::-1]):
+        return False
+    if np.array_equal(f, -f[::-1]):
+        return True
+    raise ValueError("basis factors must be even or odd")
 
 
 def basis_tile(
@@ -224,8 +248,9 @@ def basis_tile(
         fx.append(ones)
         fy.append(ones)
     out = np.empty((3, r1 - r0 + 2 * M, W + 2 * M))
-    _basis_tile(img, int(r0), int(r1 - r0), M, M if reflect_image else 0,
-                np.array(fx), np.array(fy), basis.means, out)
+    fx, fy = np.array(fx), np.array(fy)
+    odd = np.array([_parity(f) for f in [*fx, *fy]])
+    _basis_tile(img, int(r0), int(r1 - r0), M, M if reflect_image else 0, fx, fy, odd, basis.means, out)
     return out
 
 
