@@ -451,10 +451,16 @@ def _soddc_tile_square(planes, off, coef, nr, need, colneed, rowneed, want_parts
     labs = np.empty((K, WB))
     pring = np.empty((P, nr, WB))  # products of the last nr rows
     vsum = np.empty((P, WB))  # column sums of one output row
-    acc = np.empty((P, block))
-    det = np.empty(block)
-    f = np.empty(block)
-    tr = np.empty(block)
+    # window sums of needed pixels are gathered from several runs and rows, so the
+    # elimination runs on long vectors (its ~K^3/6 loops cost little per pixel then)
+    cap = 2 * block
+    acc = np.empty((P, cap))
+    det = np.empty(cap)
+    f = np.empty(cap)
+    tr = np.empty(cap)
+    ys = np.empty(cap, np.int64)
+    xs = np.empty(cap, np.int64)
+    pos = 0
     for x0 in range(0, W, block):
         n = min(block, W - x0)
         m = n + 2 * R
@@ -507,25 +513,39 @@ def _soddc_tile_square(planes, off, coef, nr, need, colneed, rowneed, want_parts
                 if dense:
                     break
                 a, b = _next_run(colneed[yo, x0:], b, m, gap)
-            orow = out[yo, x0 : x0 + n]
-            a, b = 0, n
             if not dense:
+                orow = out[yo, x0 : x0 + n]
                 for c in range(n):
                     orow[c] = -np.inf
                 a, b = _next_run(need[yo, x0:], 0, n, gap)
+            else:
+                a, b = 0, n
             while a < b:
                 w = b - a
+                if pos + w > cap:
+                    _flush(acc, diag, det, tr, f, pos, ys, xs, want_parts, out, det_out, tr_out)
+                    pos = 0
                 for q in range(P):
-                    _row_sum(vsum[q, a:], nr, acc[q], w)
-                _det_trace(acc, diag, det, tr, f, w)
+                    _row_sum(vsum[q, a:], nr, acc[q, pos:], w)
                 for t in range(w):
-                    orow[a + t] = det[t] / (tr[t] + 2.22e-16)
-                    if want_parts:
-                        det_out[yo, x0 + a + t] = det[t]
-                        tr_out[yo, x0 + a + t] = tr[t]
+                    ys[pos + t] = yo
+                    xs[pos + t] = x0 + a + t
+                pos += w
                 if dense:
                     break
                 a, b = _next_run(need[yo, x0:], b, n, gap)
+    _flush(acc, diag, det, tr, f, pos, ys, xs, want_parts, out, det_out, tr_out)
+
+
+@numba.njit(**_JIT)
+def _flush(acc, diag, det, tr, f, n, ys, xs, want_parts, out, det_out, tr_out):  # pragma: no cover - jit
+    """det / (tr + varsigma) of the n gathered window sums, written to their pixels."""
+    _det_trace(acc, diag, det, tr, f, n)
+    for t in range(n):
+        out[ys[t], xs[t]] = det[t] / (tr[t] + 2.22e-16)
+        if want_parts:
+            det_out[ys[t], xs[t]] = det[t]
+            tr_out[ys[t], xs[t]] = tr[t]
 
 
 @numba.njit(**_JIT)
