@@ -11,11 +11,17 @@ and the corner measure is (eq. 25)::
     Upsilon = det(Lambda) / (trace(Lambda) + varsigma),   varsigma = 2.22e-16
 
 The image is processed in row tiles, so memory stays bounded on large images.
-Each tile is filtered with the three steerable basis kernels (OpenCV), then a
-numba kernel steers the responses to K orientations, forms the window sums
-directly (no running sums, so no cancellation) and takes the determinant with a
-symmetric Gaussian elimination vectorised across pixels. Everything is float64:
-with K = 8 the determinant passes 1e40 on strong corners.
+Each tile is filtered with the three steerable basis kernels
+(:func:`sogdd.filters.basis_tile`), then a numba kernel steers the responses to
+K orientations, forms the window sums directly (no running sums, so no
+cancellation) and takes the determinant with a symmetric Gaussian elimination
+vectorised across pixels. Everything is float64: with K = 8 the determinant
+passes 1e40 on strong corners.
+
+Detection with an absolute threshold needs Upsilon only where it can reach
+that threshold: ``soddc_measure(..., floor=T)`` first proves most pixels below
+T with a Fischer bound built from six window sums, then evaluates the rest
+exactly (see :func:`soddc_measure`).
 """
 
 from __future__ import annotations
