@@ -716,8 +716,9 @@ def soddc_measure(
     With ``floor`` (> 0, square windows, see :func:`supports_floor`) only what
     peak selection above ``floor`` needs is computed: Upsilon is exact, bit for
     bit as without ``floor``, at every pixel that has a 3 x 3 neighbour where a
-    Fischer bound on det(Lambda) reaches ``floor``; every other pixel is
-    provably below ``floor`` and holds ``-inf``. Local maxima above ``floor``,
+    Fischer bound on det(Lambda) reaches ``floor`` (and at a few more, where
+    nearby runs are merged); every pixel that holds ``-inf`` is provably below
+    ``floor``. Local maxima above ``floor``,
     their values and their 3 x 3 neighbourhoods are then those of the full map,
     at a fraction of the cost on photographs (most pixels are proven below
     ``T_h`` by six window sums instead of K(K+1)/2 and an elimination).
