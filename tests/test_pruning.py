@@ -153,6 +153,12 @@ def test_peak_scan_equals_the_dilation_definition(h, w, radius, border, levels, 
     cand = valid_area(resp.shape, border, mask) & (resp > thr) & local_maxima(resp, radius)
     got = set(zip(rows.tolist(), cols.tolist()))
     assert got <= set(zip(*np.nonzero(cand)))
+    # the scan of the few pixels above the threshold and the dilation give the same maxima
+    from sogdd.peaks import _maxima_above
+
+    scan = _maxima_above(resp, thr, radius)
+    dense = np.nonzero((resp > thr) & local_maxima(resp, radius))
+    np.testing.assert_array_equal(np.stack(scan), np.stack(dense))
     # every candidate is kept or lies within the radius of a kept one of equal value
     for r, c in zip(*np.nonzero(cand)):
         assert any(max(abs(r - r2), abs(c - c2)) <= radius and resp[r2, c2] == resp[r, c] for r2, c2 in got)
