@@ -105,30 +105,29 @@ _JIT = dict(cache=True, nogil=True, error_model="numpy", fastmath={"contract"})
 
 
 @numba.njit(**_JIT)
-def _steer(planes, y, x0, coef, absl, n):  # pragma: no cover - jit
-    """|l_k| = |sum_p coef[k, p] planes[p]| on one row (eq. 23 and the |.| of eq. 24)."""
+def _steer(planes, y, x0, coef, absl, a, b):  # pragma: no cover - jit
+    """absl[k, a:b] = |sum_p coef[k, p] planes[p, y, x0 + a : x0 + b]| (eq. 23 and the |.| of eq. 24)."""
     npl = planes.shape[0]
+    w = b - a
     for k in range(coef.shape[0]):
-        row = absl[k]
+        row = absl[k, a:b]
         if npl == 3:  # the steerable basis g_xx, g_xy, g_yy
-            c0 = coef[k, 0]
-            c1 = coef[k, 1]
-            c2 = coef[k, 2]
-            a = planes[0, y, x0:]
-            b = planes[1, y, x0:]
-            c = planes[2, y, x0:]
-            for x in range(n):
-                row[x] = abs(c0 * a[x] + c1 * b[x] + c2 * c[x])
+            c0, c1, c2 = coef[k, 0], coef[k, 1], coef[k, 2]
+            g0 = planes[0, y, x0 + a : x0 + b]
+            g1 = planes[1, y, x0 + a : x0 + b]
+            g2 = planes[2, y, x0 + a : x0 + b]
+            for x in range(w):
+                row[x] = abs(c0 * g0[x] + c1 * g1[x] + c2 * g2[x])
         else:
-            for x in range(n):
+            for x in range(w):
                 row[x] = 0.0
             for p in range(npl):
-                w = coef[k, p]
-                if w != 0.0:
-                    src = planes[p, y, x0:]
-                    for x in range(n):
-                        row[x] += w * src[x]
-            for x in range(n):
+                cp = coef[k, p]
+                if cp != 0.0:
+                    g = planes[p, y, x0 + a : x0 + b]
+                    for x in range(w):
+                        row[x] += cp * g[x]
+            for x in range(w):
                 row[x] = abs(row[x])
 
 
@@ -278,7 +277,7 @@ def _soddc_tile_rows(planes, off, coef, halfw, want_parts, out, det_out, tr_out,
         m = n + 2 * R
         for y in range(Ht + 2 * R):
             slot = y % nr
-            _steer(planes, y + off, x0 + off, coef, absl, m)
+            _steer(planes, y + off, x0 + off, coef, absl, 0, m)
             for q in range(P):
                 ai = absl[pi[q]]
                 aj = absl[pj[q]]
@@ -447,7 +446,6 @@ def _soddc_tile_square(planes, off, coef, nr, need, colneed, rowneed, want_parts
     for bit, whatever the masks.
     """
     K = coef.shape[0]
-    npl = planes.shape[0]
     P = K * (K + 1) // 2
     R = (nr - 1) // 2
     Ht, W = out.shape
@@ -478,26 +476,7 @@ def _soddc_tile_square(planes, off, coef, nr, need, colneed, rowneed, want_parts
                 a, b = _next_run(rowneed[y, x0:], 0, m, gap)
             while a < b:
                 w = b - a
-                for k in range(K):
-                    lk = labs[k, a:b]
-                    if npl == 3:  # the steerable basis g_xx, g_xy, g_yy (eq. 23 and |.|)
-                        c0, c1, c2 = coef[k, 0], coef[k, 1], coef[k, 2]
-                        g0 = planes[0, y + off, xp + a : xp + b]
-                        g1 = planes[1, y + off, xp + a : xp + b]
-                        g2 = planes[2, y + off, xp + a : xp + b]
-                        for j in range(w):
-                            lk[j] = abs(c0 * g0[j] + c1 * g1[j] + c2 * g2[j])
-                    else:
-                        for j in range(w):
-                            lk[j] = 0.0
-                        for p in range(npl):
-                            cp = coef[k, p]
-                            if cp != 0.0:
-                                g = planes[p, y + off, xp + a : xp + b]
-                                for j in range(w):
-                                    lk[j] += cp * g[j]
-                        for j in range(w):
-                            lk[j] = abs(lk[j])
+                _steer(planes, y + off, xp, coef, labs, a, b)
                 for q in range(P):
                     li = labs[pi[q], a:b]
                     lj = labs[pj[q], a:b]
@@ -657,7 +636,7 @@ def _tiled(
     halfw = np.ascontiguousarray(halfwidths, dtype=np.int64)
     R = (len(halfw) - 1) // 2
     nr = 2 * R + 1
-    square = bool(np.all(halfw == R))
+    square = _is_square(halfw)
     coef = np.ascontiguousarray(coef, dtype=np.float64)
     out = np.empty((H, W), dtype=np.float64)
     det = np.empty((H, W)) if parts else np.empty((1, 1))
@@ -694,10 +673,14 @@ def _tiled(
     return (out, det, tr) if parts else out
 
 
+def _is_square(halfwidths: np.ndarray) -> bool:
+    """Whether a window given by its half-widths is a square."""
+    return bool(np.all(np.asarray(halfwidths) == (len(halfwidths) - 1) // 2))
+
+
 def supports_floor(spec: MeasureSpec) -> bool:
     """Whether :func:`soddc_measure` can prune below a floor for this spec (square windows)."""
-    R = (len(spec.halfwidths) - 1) // 2
-    return not spec.authors_measure and bool(np.all(np.asarray(spec.halfwidths) == R))
+    return not spec.authors_measure and _is_square(spec.halfwidths)
 
 
 def soddc_measure(
