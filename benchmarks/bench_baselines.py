@@ -19,7 +19,7 @@ import numpy as np
 
 import sogdd
 from sogdd import baselines
-from sogdd.synthetic import test_pattern
+from sogdd.synthetic import pattern_image
 
 
 def timed(fn, repeat: int) -> float:
@@ -42,7 +42,7 @@ def make_image(side: int, path: str | None) -> tuple[np.ndarray, str]:
             y0, x0 = (img.shape[0] - side) // 2, (img.shape[1] - side) // 2
             return img[y0 : y0 + side, x0 : x0 + side], os.path.basename(path)
         return cv2.resize(img, (side, side), interpolation=cv2.INTER_LINEAR), os.path.basename(path)
-    img, _ = test_pattern((side, side), seed=0, noise=3.0)
+    img, _ = pattern_image((side, side), seed=0, noise=3.0)
     return img, "rendered test pattern, noise 3"
 
 

@@ -19,7 +19,7 @@ import numpy as np
 import sogdd
 from sogdd.reference import reference_lambda, reference_measure
 from sogdd.response import soddc_measure
-from sogdd.synthetic import test_pattern
+from sogdd.synthetic import pattern_image
 
 
 def _max_rel(fast: np.ndarray, ref: np.ndarray, mask: np.ndarray) -> str:
@@ -32,7 +32,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", default=os.environ.get("SOGDD_DATA", "../shared/data"))
     args = ap.parse_args()
-    images = {"rendered pattern 240x320": test_pattern((240, 320), seed=1)[0]}
+    images = {"rendered pattern 240x320": pattern_image((240, 320), seed=1)[0]}
     geo = sorted((Path(args.data) / "corners_gt" / "geometric").glob("image.*"))
     if geo:
         images["Geometric, 200x300 crop"] = cv2.imread(str(geo[0]), cv2.IMREAD_GRAYSCALE)[:200, :300]

@@ -56,9 +56,9 @@ def make_image(mp: int, root: Path | None) -> tuple[np.ndarray, str]:
                 tiles.append(img[y0 : y0 + t, x0 : x0 + t])
             rows = [np.hstack(tiles[r * n : (r + 1) * n]) for r in range(n)]
             return np.vstack(rows), "fountain-P11 crops"
-    from sogdd.synthetic import test_pattern
+    from sogdd.synthetic import pattern_image
 
-    img, _ = test_pattern((side, side), seed=0, noise=3.0)
+    img, _ = pattern_image((side, side), seed=0, noise=3.0)
     return img, "rendered test pattern (no shared data found)"
 
 

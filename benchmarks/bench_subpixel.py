@@ -1,6 +1,6 @@
 """Sub-pixel accuracy of sogdd on rendered polygons with exactly known vertices.
 
-For each noise level, renders ``--images`` scenes of ``sogdd.synthetic.test_pattern``
+For each noise level, renders ``--images`` scenes of ``sogdd.synthetic.pattern_image``
 (anti-aliased polygons, random sub-pixel vertices, uint8), detects with the
 ``paper`` preset and each sub-pixel mode, and matches every true vertex to the
 nearest detection within 2 px. Prints recall, RMS error, the median error and
@@ -20,7 +20,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 import sogdd
-from sogdd.synthetic import pattern_polygons, test_pattern
+from sogdd.synthetic import pattern_image, pattern_polygons
 
 
 def _scores(xy: np.ndarray, gt: np.ndarray, centres: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -46,7 +46,7 @@ def main() -> None:
     for noise in [float(v) for v in args.noise.split(",")]:
         acc: dict[str, list] = {m: [] for m in [*methods, "OpenCV GFTT + cornerSubPix"]}
         for seed in range(args.images):
-            img, gt = test_pattern((480, 640), seed=100 + seed, noise=noise)
+            img, gt = pattern_image((480, 640), seed=100 + seed, noise=noise)
             polys = pattern_polygons((480, 640), seed=100 + seed)
             centres = np.concatenate([np.repeat(p.vertices.mean(0, keepdims=True), len(p.vertices), 0)
                                       for p in polys])

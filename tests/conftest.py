@@ -4,7 +4,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sogdd.synthetic import test_pattern as _pattern
+from sogdd.synthetic import pattern_image as _pattern
 
 
 def shared_data() -> Path | None:

@@ -11,10 +11,10 @@ from sogdd.baselines._soddc_generic import disk_offsets, soddc_at, soddc_map
 from sogdd.baselines.opencv import fast_score
 from sogdd.baselines.zhang2013 import Zhang2013
 from sogdd.corners import Corners
-from sogdd.synthetic import test_pattern as make_pattern
+from sogdd.synthetic import pattern_image as make_pattern
 
 SHAPE = (240, 320)
-CELL = 80  # test_pattern puts one polygon per 80 x 80 cell
+CELL = 80  # pattern_image puts one polygon per 80 x 80 cell
 
 # Point detectors located at the vertex: recall >= 0.8 within 2 px on the rendered pattern.
 CORNER = ["harris", "shi-tomasi", "fast", "zhang2013", "zhang2020", "zhang2021", "sogdd", "sogdd-authors"]

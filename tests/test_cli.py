@@ -4,7 +4,7 @@ import cv2
 import numpy as np
 
 from sogdd.cli.main import main
-from sogdd.synthetic import test_pattern as make_pattern
+from sogdd.synthetic import pattern_image as make_pattern
 
 
 def _write(path, img):

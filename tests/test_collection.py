@@ -6,7 +6,7 @@ import pytest
 
 from sogdd.cli.main import main
 from sogdd.collection import expand_inputs, feature_path, run_batch
-from sogdd.synthetic import test_pattern as make_pattern
+from sogdd.synthetic import pattern_image as make_pattern
 
 
 @pytest.fixture

@@ -6,7 +6,7 @@ from scipy.spatial import cKDTree
 import sogdd
 from sogdd.io import to_gray255
 from sogdd.synthetic import Polygon, render_polygons
-from sogdd.synthetic import test_pattern as make_pattern
+from sogdd.synthetic import pattern_image as make_pattern
 
 
 def _match(xy, gt, tol=2.0):

@@ -32,7 +32,7 @@ from sogdd.evaluation.matching_mma import (
     mutual_nn,
     project,
 )
-from sogdd.synthetic import test_pattern as _pattern
+from sogdd.synthetic import pattern_image as _pattern
 
 # A mild viewpoint change: rotation, scale, a little perspective (maps image 1 to image 2).
 H_TEST = np.array([[0.95, -0.12, 30.0], [0.10, 0.97, 12.0], [1.0e-4, -5.0e-5, 1.0]])

@@ -14,7 +14,8 @@ from scipy import ndimage
 import sogdd
 from sogdd import detector
 from sogdd.filters import basis_tile, kernel_radius, steerable_basis
-from sogdd.response import _reflect, soddc_measure
+from sogdd.response import soddc_measure
+from sogdd.window import reflect_index
 
 
 def _check_floor_contract(img, spec, floor, **kw):
@@ -121,7 +122,7 @@ def test_basis_tile_is_the_reflected_correlation(reflect_image, zero_mean, shape
         want = want[:, rows[:, None] + off, cols[None, :] + off]
     else:
         want = np.stack([ndimage.correlate(img, k, mode="reflect") for k in basis.kernels()])
-        want = want[:, _reflect(rows, H)[:, None], _reflect(cols, W)[None, :]]
+        want = want[:, reflect_index(rows, H)[:, None], reflect_index(cols, W)[None, :]]
     scale = np.abs(img).max() * 2
     assert np.max(np.abs(got - want)) <= 1e-12 * scale
 

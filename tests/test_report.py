@@ -10,7 +10,7 @@ from sogdd.evaluation.gt_accuracy import evaluate_gt
 from sogdd.evaluation.gt_data import find_gt_sets, write_corners_csv
 from sogdd.report.results_page import rank_of
 from sogdd.report.tables import fmt, gt_summary_table, gt_table, markdown_table
-from sogdd.synthetic import test_pattern as make_pattern
+from sogdd.synthetic import pattern_image as make_pattern
 
 
 def test_markdown_table_and_fmt():

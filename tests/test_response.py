@@ -6,7 +6,8 @@ from hypothesis import strategies as st
 import sogdd
 from sogdd.filters import kernel_radius, orientations, sogdd_kernel
 from sogdd.reference import reference_lambda, reference_measure
-from sogdd.response import VARSIGMA, soddc_measure, window_halfwidths, window_offsets
+from sogdd.response import VARSIGMA, soddc_measure
+from sogdd.window import window_halfwidths, window_offsets
 
 
 def _assert_exact(fast, ref, floor=1e6):

@@ -6,34 +6,23 @@ images that differ only in extension never collide, and are written atomically
 (a temporary file in the same folder, then ``os.replace``), so an interrupted
 run never leaves a half-written file that ``resume`` would mistake for done.
 
-Formats (coordinates: x = column, y = row, pixel centres at integers):
-
-- ``npz``: arrays ``xy`` (N, 2), ``response`` (N,), ``size`` (N,), ``level`` (N,)
-  and ``image_shape`` (2,);
-- ``csv``: ``x,y,response,size``;
-- ``json``: ``{"image", "n", "x", "y", "response", "size"}``.
+The file formats are those of :mod:`sogdd.features`.
 """
 
 from __future__ import annotations
 
 import glob
-import io
-import json
 import os
-import tempfile
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
+from .detector import detect_corners
+from .features import FORMATS, write_features
+from .io import list_images, read_image
+from .params import resolve_params
 
-from .corners import Corners
-from .detector import detect_corners, resolve_params
-from .io import read_image
-
-__all__ = ["IMAGE_SUFFIXES", "BatchItem", "expand_inputs", "feature_path", "run_batch", "write_features"]
-
-IMAGE_SUFFIXES = {".png", ".jpg", ".jpeg", ".bmp", ".ppm", ".pgm", ".pbm", ".tif", ".tiff", ".webp"}
+__all__ = ["BatchItem", "expand_inputs", "feature_path", "run_batch"]
 
 
 def expand_inputs(items: Iterable[str]) -> list[Path]:
@@ -42,7 +31,7 @@ def expand_inputs(items: Iterable[str]) -> list[Path]:
     for item in items:
         p = Path(item)
         if p.is_dir():
-            out.extend(sorted(q for q in p.iterdir() if q.suffix.lower() in IMAGE_SUFFIXES))
+            out.extend(list_images(p))
         elif not p.exists() and any(ch in item for ch in "*?["):
             matches = sorted(Path(m) for m in glob.glob(item, recursive=True))
             if not matches:
@@ -55,44 +44,6 @@ def expand_inputs(items: Iterable[str]) -> list[Path]:
 
 def feature_path(out_dir: str | os.PathLike, image: str | os.PathLike, fmt: str) -> Path:
     return Path(out_dir) / f"{Path(image).name}.{fmt}"
-
-
-def csv_rows(c: Corners, prefix: str = "") -> list[str]:
-    """``x,y,response,size`` rows (no header), each optionally prefixed (``"image,"``)."""
-    return [f"{prefix}{x:.4f},{y:.4f},{r:.9g},{s:.4g}" for (x, y), r, s in zip(c.xy, c.response, c.size)]
-
-
-def json_object(c: Corners, image: str) -> dict:
-    """The JSON form of one image's corners."""
-    return {"image": image, "n": len(c), "x": c.xy[:, 0].round(4).tolist(),
-            "y": c.xy[:, 1].round(4).tolist(), "response": c.response.tolist(),
-            "size": c.size.tolist()}
-
-
-def _encode(c: Corners, fmt: str, image: str, shape: tuple[int, ...]) -> bytes:
-    if fmt == "npz":
-        buf = io.BytesIO()
-        np.savez(buf, xy=c.xy, response=c.response, size=c.size, level=c.level,
-                 image_shape=np.asarray(shape[:2]))
-        return buf.getvalue()
-    if fmt == "csv":
-        return ("\n".join(["x,y,response,size", *csv_rows(c)]) + "\n").encode()
-    if fmt == "json":
-        return json.dumps(json_object(c, image)).encode()
-    raise ValueError(f"unknown format {fmt!r}")
-
-
-def write_features(path: Path, c: Corners, fmt: str, image: str, shape: tuple[int, ...]) -> None:
-    """Write one feature file atomically."""
-    data = _encode(c, fmt, image, shape)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 @dataclass(frozen=True)
@@ -140,7 +91,7 @@ def run_batch(
     """
     params = dict(params or {})
     resolve_params(preset, **params)  # bad parameters fail before any work
-    if fmt not in ("npz", "csv", "json"):
+    if fmt not in FORMATS:
         raise ValueError(f"unknown format {fmt!r}")
     if jobs < 1:
         raise ValueError(f"jobs must be >= 1, got {jobs}")

@@ -1,141 +1,23 @@
-"""Presets, parameter checks, the image pyramid and the public detection API."""
+"""The public detection API: the corner measure map and the corner detector.
+
+The pipeline is io -> filters -> response -> peaks: an image is validated and
+brought to grey on the 0-255 scale (:mod:`sogdd.io`), filtered and measured
+(:mod:`sogdd.response`), and its peaks selected and refined (:mod:`sogdd.peaks`);
+:func:`detect_corners` adds the image pyramid.
+"""
 
 from __future__ import annotations
-
-import math
-from dataclasses import dataclass, fields, replace
 
 import cv2
 import numpy as np
 
 from .corners import Corners
-from .filters import kernel_radius
-from .io import BT601, MATLAB_RGB2GRAY, to_gray255, validate_image
+from .io import check_mask, to_gray255, validate_image
+from .params import Params, resolve_params
 from .peaks import refine_gradient, refine_quadratic, select_peaks
-from .response import MeasureSpec, soddc_measure, supports_floor, window_halfwidths
+from .response import MeasureSpec, soddc_measure, supports_floor
 
-__all__ = ["PRESETS", "Params", "SOGDD", "check_mask", "corner_response", "detect_corners", "resolve_params"]
-
-
-@dataclass(frozen=True)
-class Params:
-    """Every detector parameter. See the README's preset table for their meaning."""
-
-    sigma2: float = 1.2
-    n_orientations: int = 8
-    window: int = 7
-    window_shape: str = "square"
-    threshold: float | None = 1e9
-    threshold_rel: float | None = None
-    quantile: float | None = None
-    nms_radius: int = 1
-    max_corners: int | None = None
-    subpixel: bool | str = True
-    border: int = 0
-    levels: int = 1
-    scale_factor: float = 2.0
-    # how the measure is computed (the authors' code differs from the paper here)
-    kernel_radius_rule: str = "paper"
-    zero_mean: bool = False
-    padding: str = "response"
-    authors_measure: bool = False
-    gray_weights: tuple[float, float, float] = BT601
-    gray_round: bool = False
-    channel_order: str = "rgb"
-
-    def measure_spec(self) -> MeasureSpec:
-        return MeasureSpec(
-            sigma2=float(self.sigma2),
-            n_orientations=int(self.n_orientations),
-            halfwidths=window_halfwidths(self.window_shape, int(self.window)),
-            radius_rule=self.kernel_radius_rule,
-            zero_mean=self.zero_mean,
-            padding=self.padding,
-            authors_measure=self.authors_measure,
-        )
-
-    def keypoint_size(self) -> float:
-        """Diameter of the pixels that influence one response: window + kernel support."""
-        return float(int(self.window) + 2 * kernel_radius(self.sigma2, self.kernel_radius_rule))
-
-
-PRESETS: dict[str, Params] = {
-    # The paper's experiments: sigma^2 = 1.2, 7x7 window, T_h = 1e9; K = 8 (see README).
-    "paper": Params(),
-    # The defaults of the authors' public Python code.
-    "authors": Params(
-        sigma2=1.44,
-        n_orientations=4,
-        window=5,
-        window_shape="disk",
-        threshold=None,
-        quantile=0.99,
-        nms_radius=1,
-        subpixel=False,
-        border=9,
-        kernel_radius_rule="authors",
-        zero_mean=True,
-        padding="image",
-        authors_measure=True,
-        gray_weights=MATLAB_RGB2GRAY,
-        gray_round=True,
-    ),
-}
-
-_NAMES = {f.name for f in fields(Params)}
-
-
-def _is_int(v) -> bool:
-    return isinstance(v, (int, np.integer)) and not isinstance(v, bool)
-
-
-def _check(cond: bool, msg: str) -> None:
-    if not cond:
-        raise ValueError(msg)
-
-
-def resolve_params(preset: str = "paper", **params) -> Params:
-    """Start from a preset, apply overrides, and validate every value (``ValueError``)."""
-    if preset not in PRESETS:
-        raise ValueError(f"unknown preset {preset!r}; choose from {', '.join(PRESETS)}")
-    unknown = sorted(set(params) - _NAMES)
-    if unknown:
-        raise ValueError(f"unknown parameter(s): {', '.join(unknown)}")
-    p = replace(PRESETS[preset], **params)
-    s2 = p.sigma2
-    _check(
-        isinstance(s2, (int, float, np.number)) and not isinstance(s2, bool) and math.isfinite(s2)
-        and 0 < s2 <= 400,
-        f"sigma2 must be a finite number in (0, 400], got {s2!r}",
-    )
-    _check(_is_int(p.n_orientations) and 1 <= p.n_orientations <= 64,
-           f"n_orientations must be an integer in [1, 64], got {p.n_orientations!r}")
-    _check(p.window_shape in ("square", "disk"),
-           f"window_shape must be 'square' or 'disk', got {p.window_shape!r}")
-    _check(_is_int(p.window) and p.window >= 1 and p.window % 2 == 1 and p.window <= 101,
-           f"window must be an odd integer in [1, 101], got {p.window!r}")
-    for name in ("threshold",):
-        v = getattr(p, name)
-        _check(v is None or (isinstance(v, (int, float, np.number)) and math.isfinite(v)),
-               f"{name} must be a finite number or None, got {v!r}")
-    _check(p.threshold_rel is None or (0 <= float(p.threshold_rel) <= 1),
-           f"threshold_rel must be in [0, 1], got {p.threshold_rel!r}")
-    _check(p.quantile is None or (0 <= float(p.quantile) < 1),
-           f"quantile must be in [0, 1), got {p.quantile!r}")
-    _check(_is_int(p.nms_radius) and 1 <= p.nms_radius <= 100,
-           f"nms_radius must be an integer in [1, 100], got {p.nms_radius!r}")
-    _check(p.max_corners is None or (_is_int(p.max_corners) and p.max_corners >= 1),
-           f"max_corners must be a positive integer or None, got {p.max_corners!r}")
-    _check(isinstance(p.subpixel, bool) or p.subpixel in ("gradient", "quadratic", "none"),
-           f"subpixel must be True, False, 'gradient', 'quadratic' or 'none', got {p.subpixel!r}")
-    _check(_is_int(p.border) and p.border >= 0, f"border must be an integer >= 0, got {p.border!r}")
-    _check(_is_int(p.levels) and 1 <= p.levels <= 16,
-           f"levels must be an integer in [1, 16], got {p.levels!r}")
-    _check(isinstance(p.scale_factor, (int, float, np.number)) and math.isfinite(p.scale_factor)
-           and 1 < p.scale_factor <= 4, f"scale_factor must be in (1, 4], got {p.scale_factor!r}")
-    _check(p.padding in ("response", "image"), "padding must be 'response' or 'image'")
-    _check(p.channel_order in ("rgb", "bgr"), "channel_order must be 'rgb' or 'bgr'")
-    return p
+__all__ = ["corner_response", "detect_corners"]
 
 
 def _prepare(image, p: Params) -> np.ndarray:
@@ -144,17 +26,6 @@ def _prepare(image, p: Params) -> np.ndarray:
         img, weights=p.gray_weights, round_integer=p.gray_round, channel_order=p.channel_order
     )
 
-
-def check_mask(mask, shape: tuple[int, int]) -> np.ndarray | None:
-    """Validate an OpenCV-style mask (uint8 or bool, image-sized); return it as bool."""
-    if mask is None:
-        return None
-    m = np.asarray(mask)
-    if m.dtype not in (np.uint8, np.bool_):
-        raise ValueError(f"mask must be uint8 or bool, got {m.dtype}")
-    if m.shape != shape:
-        raise ValueError(f"mask shape {m.shape} does not match image shape {shape}")
-    return m.astype(bool)
 
 
 def corner_response(image, *, preset: str = "paper", **params) -> np.ndarray:
@@ -167,6 +38,23 @@ def corner_response(image, *, preset: str = "paper", **params) -> np.ndarray:
         or bool. Converted to grey on the 0-255 scale (see :mod:`sogdd.io`).
     preset : {"paper", "authors"}
         Starting parameter set; keyword arguments override it.
+
+    Returns
+    -------
+    ndarray
+        Upsilon = det(Lambda) / (tr(Lambda) + varsigma) at every pixel, with
+        Lambda the window sum of ``|l| |l|^T`` over the K absolute SOGDD
+        responses ``l_k = psi_{sigma, theta_k} * I`` (eqs. 23-25).
+
+    Examples
+    --------
+    >>> from sogdd.synthetic import pattern_image
+    >>> img, _ = pattern_image((120, 160))
+    >>> R = corner_response(img)
+    >>> R.shape, R.dtype.name
+    ((120, 160), 'float64')
+    >>> bool(R.max() > 1e9)  # strong corners pass the paper's T_h
+    True
     """
     p = resolve_params(preset, **params)
     return soddc_measure(_prepare(image, p), p.measure_spec())
@@ -195,9 +83,9 @@ def _detect_level(grey: np.ndarray, p: Params, mask: np.ndarray | None) -> Corne
         max_corners=p.max_corners,
     )
     xy = np.stack([cols, rows], axis=1).astype(np.float64)
-    if p.subpixel is not False and p.subpixel != "none" and len(rows):
+    if p.subpixel != "none" and len(rows):
         xy += refine_quadratic(resp, rows, cols)
-        if p.subpixel is True or p.subpixel == "gradient":
+        if p.subpixel == "gradient":
             xy = refine_gradient(grey, xy)
     return Corners(xy, resp[rows, cols], np.full(len(rows), p.keypoint_size()))
 
@@ -221,6 +109,26 @@ def detect_corners(image, *, preset: str = "paper", mask=None, **params) -> Corn
     -------
     Corners
         Strongest first. ``xy`` is (x, y) with pixel centres at integers.
+
+    Notes
+    -----
+    Corners are the local maxima of Upsilon (:func:`corner_response`) within
+    ``nms_radius`` above the threshold, refined to sub-pixel positions
+    (``subpixel="gradient"``: the least-squares point q with
+    ``grad I(p) . (p - q) = 0`` over a window, Foerstner 1987). With
+    ``levels > 1`` the image pyramid's corners are mapped back to full
+    resolution and ranked together.
+
+    Examples
+    --------
+    >>> from sogdd.synthetic import pattern_image
+    >>> img, truth = pattern_image((240, 320))
+    >>> c = detect_corners(img)
+    >>> len(c) > 20, c.xy.shape[1]
+    (True, 2)
+    >>> d = np.hypot(*(c.xy[:, None, :] - truth[None, :, :]).transpose(2, 0, 1)).min(axis=1)
+    >>> bool(np.median(d) < 0.5)  # sub-pixel: on the rendered vertices
+    True
     """
     p = resolve_params(preset, **params)
     grey = _prepare(image, p)
@@ -251,47 +159,3 @@ def detect_corners(image, *, preset: str = "paper", mask=None, **params) -> Corn
             order = order[: p.max_corners]
         out = out.subset(order)
     return out
-
-
-class SOGDD:
-    """OpenCV-style detector object (``detect``), without subclassing ``cv2.Feature2D``.
-
-    Colour arrays are taken as BGR here, as ``cv2.imread`` returns them.
-    """
-
-    def __init__(self, preset: str = "paper", **params) -> None:
-        params.setdefault("channel_order", "bgr")
-        self.preset = preset
-        self.params = resolve_params(preset, **params)
-        self._overrides = params
-
-    def detect_corners(self, image, mask=None) -> Corners:
-        return detect_corners(image, preset=self.preset, mask=mask, **self._overrides)
-
-    def detect(self, image, mask=None) -> tuple[cv2.KeyPoint, ...]:
-        """Detect keypoints (``cv2.Feature2D.detect`` signature)."""
-        return self.detect_corners(image, mask).to_keypoints()
-
-    def compute(self, image, keypoints, descriptors=None):
-        """SIFT descriptors at given keypoints (``cv2.Feature2D.compute`` signature).
-
-        Returns ``(keypoints, descriptors)``: keypoints with SIFT-style orientations,
-        descriptors (N, 128) float32 (an empty (0, 128) array where OpenCV gives None).
-        """
-        from .describe import compute_keypoints  # descriptors are a client of the detector
-
-        return compute_keypoints(image, keypoints, "sift", channel_order=self.params.channel_order)
-
-    def detectAndCompute(self, image, mask=None, descriptors=None, useProvidedKeypoints=False):  # noqa: N802,N803
-        """Detect, then describe (``cv2.Feature2D.detectAndCompute`` signature)."""
-        from .describe import compute_keypoints
-
-        kps = self.detect(image, mask)
-        return compute_keypoints(image, kps, "sift", channel_order=self.params.channel_order,
-                                 size=8.0, scale_factor=self.params.scale_factor)
-
-    def getDefaultName(self) -> str:  # noqa: N802 - OpenCV's name
-        return "SOGDD"
-
-    def __repr__(self) -> str:
-        return f"SOGDD(preset={self.preset!r}, {self._overrides})"

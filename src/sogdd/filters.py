@@ -28,6 +28,9 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from ._jit import JIT
+from .window import reflect1
+
 __all__ = [
     "SteerableBasis",
     "basis_tile",
@@ -119,14 +122,7 @@ def steerable_basis(sigma2: float, radius: int, *, zero_mean: bool = False) -> S
     return SteerableBasis(float(sigma2), int(radius), gauss, d1, d2, zero_mean)
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract"})
-def _reflect1(i, n):  # pragma: no cover - jit
-    """Half-sample symmetric reflection of one index into [0, n), any reach."""
-    m = i % (2 * n)
-    return m if m < n else 2 * n - 1 - m
-
-
-@numba.njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract"})
+@numba.njit(**JIT)
 def _basis_tile(img, r0, nrows, M, ext, fx, fy, odd, means, out):  # pragma: no cover - jit
     """Separable correlation of ``img`` with the basis pairs, rows ``r0 - M ..`` of a tile.
 
@@ -150,9 +146,9 @@ def _basis_tile(img, r0, nrows, M, ext, fx, fy, odd, means, out):  # pragma: no 
     vert = np.empty((nf, Wo))
     for pr in range(nrows + 2 * M):
         y = r0 - M + pr
-        yc = y if ext > 0 else _reflect1(y, H)  # the row whose response this is
+        yc = y if ext > 0 else reflect1(y, H)  # the row whose response this is
         for a in range(T):
-            ri = _reflect1(yc - rk + a, H)
+            ri = reflect1(yc - rk + a, H)
             slot = ri % rs
             if ring_id[slot] != ri:  # horizontal passes of image row ri
                 ring_id[slot] = ri
@@ -161,9 +157,9 @@ def _basis_tile(img, r0, nrows, M, ext, fx, fy, odd, means, out):  # pragma: no 
                 for x in range(W):
                     rowbuf[c0 + x] = src[x]
                 for x in range(c0):
-                    rowbuf[x] = src[_reflect1(x - c0, W)]
+                    rowbuf[x] = src[reflect1(x - c0, W)]
                 for x in range(c0 + W, Wo + 2 * rk):
-                    rowbuf[x] = src[_reflect1(x - c0, W)]
+                    rowbuf[x] = src[reflect1(x - c0, W)]
                 # every factor is even or odd, so taps b and T-1-b share one multiply
                 for i in range(nf):
                     h = ring[i, slot]
@@ -184,13 +180,13 @@ def _basis_tile(img, r0, nrows, M, ext, fx, fy, odd, means, out):  # pragma: no 
         for i in range(nf):
             v = vert[i]
             w = fy[i, rk]
-            hc = ring[i, _reflect1(yc, H) % rs]
+            hc = ring[i, reflect1(yc, H) % rs]
             for x in range(Wo):
                 v[x] = w * hc[x]
             for a in range(rk):
                 w = fy[i, a]
-                top = ring[i, _reflect1(yc - rk + a, H) % rs]
-                bot = ring[i, _reflect1(yc + rk - a, H) % rs]
+                top = ring[i, reflect1(yc - rk + a, H) % rs]
+                bot = ring[i, reflect1(yc + rk - a, H) % rs]
                 if odd[nf + i]:
                     for x in range(Wo):
                         v[x] += w * (top[x] - bot[x])
@@ -212,9 +208,9 @@ def _basis_tile(img, r0, nrows, M, ext, fx, fy, odd, means, out):  # pragma: no 
             if ext < M:  # reflect the responses into the column margin
                 row = out[i, pr]
                 for x in range(M - ext):
-                    row[x] = row[M + _reflect1(x - M, W)]
+                    row[x] = row[M + reflect1(x - M, W)]
                 for x in range(M + W + ext, W + 2 * M):
-                    row[x] = row[M + _reflect1(x - M, W)]
+                    row[x] = row[M + reflect1(x - M, W)]
 
 
 def _parity(f: np.ndarray) -> bool:

@@ -28,19 +28,63 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-__all__ = ["BT601", "MATLAB_RGB2GRAY", "read_image", "to_gray255", "validate_image"]
+__all__ = [
+    "BT601",
+    "IMAGE_SUFFIXES",
+    "MATLAB_RGB2GRAY",
+    "check_mask",
+    "list_images",
+    "read_image",
+    "to_gray255",
+    "to_uint8_grey",
+    "validate_image",
+]
 
 BT601 = (0.299, 0.587, 0.114)
 MATLAB_RGB2GRAY = (0.298936021293775, 0.587043074451121, 0.114020904255103)
 
+# file suffixes that folder expansion treats as images (what cv2.imdecode reads)
+IMAGE_SUFFIXES = frozenset(
+    {".png", ".jpg", ".jpeg", ".jpe", ".bmp", ".dib", ".ppm", ".pgm", ".pbm", ".pnm", ".tif", ".tiff",
+     ".webp", ".jp2", ".sr", ".ras", ".exr", ".hdr", ".pic", ".gif"}
+)
+
 _FLOAT_TOL = 1e-6
 _DTYPES = (np.uint8, np.uint16, np.float32, np.float64, np.bool_)
+
+
+def list_images(folder: str | os.PathLike) -> list[Path]:
+    """The image files of a folder (by suffix, case-insensitive), sorted by name.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> d = Path(tempfile.mkdtemp())
+    >>> for name in ("b.PNG", "a.jpg", "notes.txt"):
+    ...     _ = (d / name).write_bytes(b"")
+    >>> [p.name for p in list_images(d)]
+    ['a.jpg', 'b.PNG']
+    """
+    return sorted(q for q in Path(folder).iterdir() if q.is_file() and q.suffix.lower() in IMAGE_SUFFIXES)
 
 
 def read_image(path: str | os.PathLike) -> np.ndarray:
     """Read an image file as a numpy array (grey, or RGB/RGBA), keeping its dtype.
 
     Raises ``ValueError`` (one line) for a missing, unreadable or corrupt file.
+
+    Examples
+    --------
+    >>> import tempfile, cv2
+    >>> path = Path(tempfile.mkdtemp()) / "grey.png"
+    >>> _ = cv2.imwrite(str(path), np.full((4, 6), 200, np.uint8))
+    >>> img = read_image(path)
+    >>> img.shape, img.dtype.name, int(img[0, 0])
+    ((4, 6), 'uint8', 200)
+    >>> read_image(path.with_name("missing.png"))
+    Traceback (most recent call last):
+    ...
+    ValueError: ...missing.png: no such file
     """
     p = Path(path)
     if not p.exists():
@@ -128,3 +172,33 @@ def to_gray255(
     if img.dtype == np.bool_:
         return grey * 255.0
     return np.clip(grey, 0.0, 1.0) * 255.0
+
+
+def to_uint8_grey(image, channel_order: str = "rgb") -> np.ndarray:
+    """Validate an image and convert it to the uint8 grey image OpenCV's detectors need.
+
+    Examples
+    --------
+    >>> to_uint8_grey(np.array([[0.0, 0.5], [1.0, 1.0]])).tolist()
+    [[0, 128], [255, 255]]
+    """
+    grey = to_gray255(validate_image(image), channel_order=channel_order)
+    return np.clip(np.round(grey), 0, 255).astype(np.uint8)
+
+
+def check_mask(mask, shape: tuple[int, int]) -> np.ndarray | None:
+    """Validate an OpenCV-style mask (uint8 or bool, image-sized); return it as bool.
+
+    Examples
+    --------
+    >>> check_mask(np.array([[0, 255]], np.uint8), (1, 2)).tolist()
+    [[False, True]]
+    """
+    if mask is None:
+        return None
+    m = np.asarray(mask)
+    if m.dtype not in (np.uint8, np.bool_):
+        raise ValueError(f"mask must be uint8 or bool, got {m.dtype}")
+    if m.shape != shape:
+        raise ValueError(f"mask shape {m.shape} does not match image shape {shape}")
+    return m.astype(bool)

@@ -249,7 +249,7 @@ def refine_gradient(
     """Move corners to the point orthogonal to the image gradients around them.
 
     A second-derivative measure peaks *inside* a corner, not on its vertex (about
-    1.5 px on the wedges of ``sogdd.synthetic.test_pattern`` with sigma^2 = 1.2).
+    1.5 px on the wedges of ``sogdd.synthetic.pattern_image`` with sigma^2 = 1.2).
     The vertex of an ideal corner is the one point ``q`` with
     ``grad I(p) . (p - q) = 0`` for every ``p`` on its two edges, so the least
     squares solution of that system (Foerstner 1987; ``cv2.cornerSubPix``) removes

@@ -12,7 +12,8 @@ import numpy as np
 from scipy import ndimage
 
 from .filters import kernel_radius, orientations, sogdd_kernel
-from .response import VARSIGMA, MeasureSpec, window_offsets
+from .response import VARSIGMA, MeasureSpec, authors_measure
+from .window import window_offsets
 
 __all__ = ["reference_lambda", "reference_measure"]
 
@@ -46,7 +47,18 @@ def reference_lambda(image: np.ndarray, spec: MeasureSpec) -> np.ndarray:
 
 
 def reference_measure(image: np.ndarray, spec: MeasureSpec, *, chunk: int = 65536) -> np.ndarray:
-    """Upsilon by the definition (eq. 25), float64, H x W."""
+    """Upsilon by the definition (eq. 25), float64, H x W.
+
+    Examples
+    --------
+    >>> from sogdd.response import soddc_measure
+    >>> from sogdd.window import window_halfwidths
+    >>> img = np.random.default_rng(0).uniform(0, 255, (20, 24))
+    >>> spec = MeasureSpec(1.2, 4, window_halfwidths("square", 5))
+    >>> ref, fast = reference_measure(img, spec), soddc_measure(img, spec)
+    >>> bool(np.allclose(fast, ref, rtol=1e-8, atol=0))
+    True
+    """
     lam = reference_lambda(image, spec)
     H, W, K, _ = lam.shape
     lam = lam.reshape(-1, K, K)
@@ -55,7 +67,5 @@ def reference_measure(image: np.ndarray, spec: MeasureSpec, *, chunk: int = 6553
     det = det.reshape(H, W)
     tr = tr.reshape(H, W)
     if spec.authors_measure:
-        from .response import _authors_measure
-
-        return _authors_measure(det, tr)
+        return authors_measure(det, tr)
     return det / (tr + VARSIGMA)

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-__all__ = ["Polygon", "pattern_polygons", "regular_polygon", "render_polygons", "test_pattern"]
+__all__ = ["Polygon", "pattern_polygons", "regular_polygon", "render_polygons", "pattern_image"]
 
 _SHIFT = 8  # fixed-point fraction bits for cv2.fillPoly
 
@@ -53,7 +53,7 @@ def regular_polygon(centre: tuple[float, float], radius: float, n: int, angle: f
 
 
 def pattern_polygons(shape: tuple[int, int] = (240, 320), *, seed: int = 0) -> list[Polygon]:
-    """The polygons of :func:`test_pattern`: one per 80-px cell, 3 to 5 vertices each.
+    """The polygons of :func:`pattern_image`: one per 80-px cell, 3 to 5 vertices each.
 
     Shapes are separated enough that every vertex is an isolated corner; their
     positions carry random sub-pixel offsets and rotations.
@@ -74,7 +74,7 @@ def pattern_polygons(shape: tuple[int, int] = (240, 320), *, seed: int = 0) -> l
     return polys
 
 
-def test_pattern(
+def pattern_image(
     shape: tuple[int, int] = (240, 320), *, seed: int = 0, noise: float = 0.0
 ) -> tuple[np.ndarray, np.ndarray]:
     """A built-in scene of polygons with sub-pixel vertices, and its GT corners.
@@ -82,6 +82,12 @@ def test_pattern(
     Returns ``(image_uint8, corners_xy)`` for the polygons of
     :func:`pattern_polygons` on a dark background. ``noise`` adds seeded
     Gaussian noise (0-255 scale) before rounding to uint8.
+
+    Examples
+    --------
+    >>> img, gt = pattern_image((240, 320))
+    >>> img.shape, img.dtype.name, gt.shape[1]
+    ((240, 320), 'uint8', 2)
     """
     polys = pattern_polygons(shape, seed=seed)
     img = render_polygons(shape, polys, background=40.0)

@@ -22,8 +22,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ..corners import Corners
-from ..detector import check_mask
-from ..io import to_gray255, validate_image
+from ..io import check_mask, to_gray255, validate_image
 
 __all__ = ["BaselineDetector", "available", "get", "register", "registered"]
 

@@ -14,7 +14,8 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ..corners import Corners
-from ..detector import PRESETS, detect_corners, resolve_params
+from ..detector import detect_corners
+from ..params import PRESETS, resolve_params
 from .registry import BaselineDetector, register
 
 __all__ = ["SOGDDPaper", "SOGDDAuthors"]

@@ -9,12 +9,12 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ..detector import detect_corners
-from ..synthetic import test_pattern
+from ..synthetic import pattern_image
 from .overlay import save_overlay
 
 
 def run(args: argparse.Namespace) -> int:
-    img, gt = test_pattern((480, 640), seed=args.seed, noise=args.noise)
+    img, gt = pattern_image((480, 640), seed=args.seed, noise=args.noise)
     detect_corners(img[:32, :32], preset=args.preset)  # compile the kernels outside the timing
     t0 = time.perf_counter()
     c = detect_corners(img, preset=args.preset)

@@ -14,10 +14,12 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from ..collection import csv_rows, expand_inputs, json_object, run_batch
+from ..collection import expand_inputs, run_batch
 from ..corners import Corners
-from ..detector import detect_corners, resolve_params
+from ..detector import detect_corners
+from ..features import csv_rows, json_object
 from ..io import read_image
+from ..params import resolve_params
 from .overlay import save_overlay
 from .params import add_detector_arguments, detector_overrides
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ..detector import PRESETS
+from ..params import PRESETS
 
 
 def _opt_float(text: str) -> float | None:

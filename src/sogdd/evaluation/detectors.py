@@ -192,13 +192,13 @@ class LocalSOGDD:
         self.preset = _LOCAL[name]
         self.params = params
         # fail early on bad parameters, as the registry does
-        from ..detector import resolve_params
+        from ..params import resolve_params
 
         resolve_params(self.preset, **params)
 
     @property
     def threshold(self):
-        from ..detector import resolve_params
+        from ..params import resolve_params
 
         return resolve_params(self.preset, **self.params).threshold
 

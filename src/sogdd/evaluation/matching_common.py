@@ -27,14 +27,13 @@ import cv2
 import numpy as np
 
 from ..corners import Corners
-from ..describe import METHODS, describe
+from ..describe import DESC_SIZE, METHODS, describe
 from .detectors import parse_value
 
 __all__ = [
     "PAPER_PIPELINE",
     "FeatureSet",
     "FeatureSpec",
-    "CORNER_DESC_SIZE",
     "build_detector",
     "descriptor_sizes",
     "extract_features",
@@ -45,12 +44,6 @@ __all__ = [
 PAPER_PIPELINE = {"levels": 5, "remove_border": 75}
 
 _PIPELINE_KEYS = {"remove_border", "top_k", "desc", "upright", "desc_size"}
-
-#: Descriptor diameter (SIFT keypoint size, px) given to level-0 points of
-#: detectors without a scale estimate. Chosen once on the local HPatches and
-#: Oxford sequences for sogdd (4, 6, 8, 12 px tried; 8 best at 5-10 px); it is
-#: the same for every corner detector.
-CORNER_DESC_SIZE = 8.0
 
 
 @dataclass(frozen=True)
@@ -119,7 +112,7 @@ class _LocalSOGDD:
     """Stand-in for the registry's ``sogdd`` entry when the registry is not importable."""
 
     def __init__(self, preset: str, **params: Any) -> None:
-        from ..detector import resolve_params
+        from ..params import resolve_params
 
         resolve_params(preset, **params)  # fail early on bad parameters
         self.name = "sogdd" if preset == "paper" else "sogdd-authors"
@@ -142,7 +135,7 @@ class _LocalSIFT:
         self.sift = cv2.SIFT_create(**params)
 
     def detect_corners(self, image, mask=None) -> Corners:
-        from ..describe import to_uint8_grey
+        from ..io import to_uint8_grey
 
         kps = self.sift.detect(to_uint8_grey(image), None if mask is None else np.asarray(mask, np.uint8))
         c = Corners.from_keypoints(kps)
@@ -246,7 +239,7 @@ def descriptor_sizes(
     size = corners.size.astype(np.float64)
     if len(corners) == 0 or desc_size == "own" or (desc_size == "auto" and family == "blob"):
         return size
-    base = CORNER_DESC_SIZE if desc_size == "auto" else float(desc_size)
+    base = DESC_SIZE if desc_size == "auto" else float(desc_size)
     lvl0 = size[corners.level == 0]
     ref = float(lvl0.min()) if len(lvl0) else float(size.min())
     return base * size / max(ref, 1e-9)

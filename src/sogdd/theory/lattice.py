@@ -31,7 +31,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..filters import kernel_radius, steerable_basis
-from ..response import MeasureSpec, soddc_measure, window_halfwidths
+from ..response import MeasureSpec, soddc_measure
+from ..window import window_halfwidths
 from .models import CornerModel, make_model
 from .steering import Coefficients
 

@@ -1,0 +1,177 @@
+"""An exact upper bound of the measure, to skip pixels that cannot reach a threshold.
+
+Detection with an absolute threshold ``T`` needs Upsilon only where it can
+reach ``T``. Fischer's inequality on the 2 x 2 diagonal blocks of adjacent
+orientations bounds det(Lambda) from six window sums of products of the basis
+responses, for any K (:func:`fischer_row`). Pixels whose bound is below ``T``
+are provably below it; the exact kernel runs only near the others
+(:func:`dilate_masks`).
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from ._jit import JIT
+from ._kernels import VARSIGMA, column_sum, row_sum
+
+__all__ = ["bound_mask", "bound_tables", "dilate_masks", "fischer_row"]
+
+# Safety margins of the pruning bound, far above the rounding they cover: the
+# bound's own (~50 eps relative to the Cauchy-Schwarz scale u_i u_j) and that of
+# the elimination (~K^3 eps times the Hadamard bound of Upsilon).
+_GAMMA = 1e-12
+_HADAMARD_SLACK = 1e-10
+
+
+@numba.njit(**JIT)
+def fischer_row(srow, quad, pair, pi2, pj2, floor, keep, nb, work):  # pragma: no cover - jit
+    """keep[c] = False where Upsilon < floor is proven from the window sums ``srow[:, c]``.
+
+    ``srow`` holds the six window sums S_pq = sum g_p g_q of products of the
+    basis responses (g_xx, g_xy, g_yy). Upper bound (Fischer's inequality on the
+    2 x 2 diagonal blocks of adjacent orientations, then |sum l_i l_j| <= sum |l_i l_j|)::
+
+        det(Lambda) <= prod_(i, j) (d_i d_j - t_ij^2),   d_i = sum l_i^2,   t_ij = sum l_i l_j
+
+    Neither d nor t needs |.|: both are quadratic forms in S, so the bound costs
+    six window sums for any K. Rounding is covered by the margins above, so a
+    pruned pixel is one that the full computation also puts below ``floor``.
+    """
+    err, fb, hb, trs = work
+    s00, s01, s02, s11, s12, s22 = srow[0], srow[1], srow[2], srow[3], srow[4], srow[5]
+    for c in range(nb):
+        # |c_kp| <= 1, so u = sum_p sqrt(S_pp) >= sum_p |c_kp| sqrt(S_pp) >= ||l_k|| (Minkowski),
+        # and the rounding errors of d_k and t_ij are a tiny multiple of u^2
+        u = np.sqrt(max(s00[c], 0.0)) + np.sqrt(max(s11[c], 0.0)) + np.sqrt(max(s22[c], 0.0))
+        err[c] = _GAMMA * u * u
+        fb[c] = 1.0
+        hb[c] = 1.0
+        trs[c] = 0.0
+    K = quad.shape[0]
+    for t in range(pi2.shape[0]):
+        i = pi2[t]
+        j = pj2[t]
+        a0, a1, a2, a3, a4, a5 = quad[i, 0], quad[i, 1], quad[i, 2], quad[i, 3], quad[i, 4], quad[i, 5]
+        b0, b1, b2, b3, b4, b5 = quad[j, 0], quad[j, 1], quad[j, 2], quad[j, 3], quad[j, 4], quad[j, 5]
+        p0, p1, p2, p3, p4, p5 = pair[t, 0], pair[t, 1], pair[t, 2], pair[t, 3], pair[t, 4], pair[t, 5]
+        for c in range(nb):
+            di = a0 * s00[c] + a1 * s01[c] + a2 * s02[c] + a3 * s11[c] + a4 * s12[c] + a5 * s22[c]
+            dj = b0 * s00[c] + b1 * s01[c] + b2 * s02[c] + b3 * s11[c] + b4 * s12[c] + b5 * s22[c]
+            tij = p0 * s00[c] + p1 * s01[c] + p2 * s02[c] + p3 * s11[c] + p4 * s12[c] + p5 * s22[c]
+            e = err[c]
+            dd = (di + e) * (dj + e)
+            tl = max(abs(tij) - e, 0.0)
+            fb[c] *= dd - tl * tl
+            hb[c] *= dd
+            trs[c] += di + dj
+    if K % 2 == 1:  # the last orientation is a 1 x 1 block
+        k = K - 1
+        a0, a1, a2, a3, a4, a5 = quad[k, 0], quad[k, 1], quad[k, 2], quad[k, 3], quad[k, 4], quad[k, 5]
+        for c in range(nb):
+            dk = a0 * s00[c] + a1 * s01[c] + a2 * s02[c] + a3 * s11[c] + a4 * s12[c] + a5 * s22[c]
+            fb[c] *= dk + err[c]
+            hb[c] *= dk + err[c]
+            trs[c] += dk
+    lim = floor * (1.0 - 1e-9)
+    for c in range(nb):
+        trl = trs[c] - K * err[c] + VARSIGMA
+        # NaN or inf (overflow) keep the pixel: the bound proves nothing there
+        keep[c] = not (trl > 0.0 and (fb[c] + _HADAMARD_SLACK * hb[c]) / trl < lim)
+
+
+@numba.njit(**JIT)
+def dilate_masks(keep, R, need, colneed, rowneed):  # pragma: no cover - jit
+    """From the bound mask to what the square kernel must compute.
+
+    ``keep`` (Ht + 2, W + 2) covers tile rows -1..Ht and columns -1..W. ``need``
+    (Ht, W): pixels to evaluate (a 3 x 3 neighbour kept). ``colneed`` (Ht, W + 2R):
+    columns -R..W+R-1 whose column sums those pixels use. ``rowneed``
+    (Ht + 2R, W + 2R): window rows and columns whose products those sums use.
+    """
+    Ht, W = need.shape
+    nr = 2 * R + 1
+    hk = np.empty(W, np.uint8)
+    for y in range(Ht):
+        nd = need[y]
+        for x in range(W):
+            nd[x] = 0
+        for dy in range(3):
+            kr = keep[y + dy]
+            for x in range(W):
+                hk[x] = kr[x] | kr[x + 1] | kr[x + 2]
+            for x in range(W):
+                nd[x] |= hk[x]
+        cn = colneed[y]
+        for j in range(W + 2 * R):
+            cn[j] = 0
+        for t in range(nr):  # need[x] covers columns x .. x + 2R
+            dst = cn[t : t + W]
+            for x in range(W):
+                dst[x] |= nd[x]
+    for y in range(Ht + 2 * R):
+        rn = rowneed[y]
+        for j in range(W + 2 * R):
+            rn[j] = 0
+        for yo in range(max(0, y - 2 * R), min(Ht, y + 1)):
+            cn = colneed[yo]
+            for j in range(W + 2 * R):
+                rn[j] |= cn[j]
+
+
+
+@numba.njit(**JIT)
+def bound_mask(planes, nr, quad, pair, pi2, pj2, floor, keep, block):  # pragma: no cover - jit
+    """keep (Ht + 2, W + 2): the Fischer bound of tile rows -1..Ht, columns -1..W (margin R + 1).
+
+    The six products of the basis responses are kept for the last ``nr`` rows
+    (a ring), summed down the columns, then along the rows.
+    """
+    Hk, Wk = keep.shape
+    nbm = block + 2
+    WB = nbm + nr - 1
+    pring = np.empty((6, nr, WB))
+    scol = np.empty((6, WB))
+    srow = np.empty((6, nbm))
+    work = (np.empty(nbm), np.empty(nbm), np.empty(nbm), np.empty(nbm))
+    row = np.empty(nbm, np.bool_)
+    for x0 in range(0, Wk - 2, block):
+        nb = min(block, Wk - 2 - x0) + 2
+        wcols = nb + nr - 1
+        for y in range(Hk + nr - 1):
+            slot = y % nr
+            q = 0
+            for p in range(3):
+                for pp in range(p, 3):
+                    a = planes[p, y, x0 : x0 + wcols]
+                    b = planes[pp, y, x0 : x0 + wcols]
+                    dst = pring[q, slot]
+                    for j in range(wcols):
+                        dst[j] = a[j] * b[j]
+                    q += 1
+            r = y - nr + 1  # keep row whose window ends at planes row y
+            if r < 0:
+                continue
+            for q in range(6):
+                column_sum(pring[q], r, nr, scol[q], 0, wcols)
+                row_sum(scol[q], nr, srow[q], nb)
+            fischer_row(srow, quad, pair, pi2, pj2, floor, row, nb, work)
+            kr = keep[r, x0 : x0 + nb]
+            for c in range(nb):
+                kr[c] = row[c]
+
+
+def bound_tables(coef: np.ndarray):
+    """Coefficients of d_k and t_ij (adjacent pairs) as forms in (S00, S01, S02, S11, S12, S22)."""
+    c = np.asarray(coef, dtype=np.float64)
+    K = len(c)
+    quad = np.stack([c[:, 0] ** 2, 2 * c[:, 0] * c[:, 1], 2 * c[:, 0] * c[:, 2],
+                     c[:, 1] ** 2, 2 * c[:, 1] * c[:, 2], c[:, 2] ** 2], axis=1)
+    pi2 = np.arange(0, K - 1, 2, dtype=np.int64)
+    pj2 = pi2 + 1
+    a, b = c[pi2], c[pj2]
+    pair = np.stack([a[:, 0] * b[:, 0], a[:, 0] * b[:, 1] + a[:, 1] * b[:, 0],
+                     a[:, 0] * b[:, 2] + a[:, 2] * b[:, 0], a[:, 1] * b[:, 1],
+                     a[:, 1] * b[:, 2] + a[:, 2] * b[:, 1], a[:, 2] * b[:, 2]], axis=1).reshape(-1, 6)
+    return quad, pair, pi2, pj2
