@@ -5,6 +5,7 @@ from scipy.spatial import cKDTree
 
 import sogdd
 from sogdd.io import to_gray255
+from sogdd.peaks import refine_gradient, refine_quadratic
 from sogdd.synthetic import Polygon, render_polygons
 from sogdd.synthetic import pattern_image as make_pattern
 
@@ -172,3 +173,45 @@ def test_opencv_style_compute_and_detect_and_compute():
     matcher = cv2.BFMatcher(cv2.NORM_L2, crossCheck=True)
     kr, dr = det.detectAndCompute(np.rot90(img).copy(), None)
     assert len(matcher.match(desc, dr)) > 0.5 * len(kps)
+
+
+def test_paper_preset_states_the_papers_settings():
+    """The experiments section: sigma^2 = 1.2, a 7 x 7 window, T_h = 1e9 (K = 8: see the README)."""
+    p = sogdd.PRESETS["paper"]
+    assert p.sigma2 == 1.2
+    assert (p.n_orientations, p.window, p.window_shape) == (8, 7, "square")
+    assert (p.threshold, p.threshold_rel, p.quantile, p.nms_radius, p.border) == (1e9, None, None, 1, 0)
+    assert sogdd.resolve_params("paper").subpixel == "gradient"
+
+
+@pytest.mark.parametrize("radius", [1, 2, 3, 5, 8])
+def test_nms_contract_no_two_corners_within_the_radius(radius):
+    """Of maxima within the (2r+1)^2 neighbourhood only one survives: Chebyshev distance > r."""
+    img = np.random.default_rng(radius).uniform(0, 1, (90, 110))
+    img = cv2.GaussianBlur(img, (0, 0), 1.0)  # plateaus and close maxima both occur
+    img = (img - img.min()) / (img.max() - img.min())
+    c = sogdd.detect_corners(img, threshold=None, nms_radius=radius, subpixel=False)
+    assert len(c) > 10
+    d = np.abs(c.xy[:, None, :] - c.xy[None, :, :]).max(axis=2) + np.eye(len(c)) * 1e9
+    assert d.min() > radius
+
+
+def test_gradient_refinement_refuses_moves_over_max_shift():
+    """A point 2.1 px from a vertex moves onto it; one 3.5 px away keeps its position."""
+    img = np.zeros((60, 60))
+    img[30:, 30:] = 200.0  # an L-corner with its vertex at (29.5, 29.5)
+    img = cv2.GaussianBlur(img, (0, 0), 0.8)
+    near = refine_gradient(img, np.array([[31.0, 31.0]]))
+    assert np.allclose(near, 29.5, atol=0.25)  # the gradient method's inward bias on a blurred vertex
+    start = np.array([[32.0, 32.0]])  # 3.5 px from the vertex, inside the 7x7 window's reach
+    np.testing.assert_array_equal(refine_gradient(img, start, max_shift=3.0), start)
+    assert np.allclose(refine_gradient(img, start, max_shift=5.0), 29.5, atol=0.25)
+
+
+def test_quadratic_fallback_is_clipped_to_half_a_pixel():
+    """Where the 2-D fit leaves the pixel, each axis takes its own parabola, clipped to +-0.5."""
+    a = np.array([0.0, 1.0, 1.5])  # rising to the right: the parabola's vertex is at +1.5
+    b = np.array([0.0, 1.0, 0.0])  # a symmetric peak in y
+    patch = a[None, :] + b[:, None]
+    off = refine_quadratic(np.pad(patch, 1), np.array([2]), np.array([2]), log=False)
+    np.testing.assert_allclose(off, [[0.5, 0.0]])

@@ -34,6 +34,19 @@ class Corners:
         Diameter of the meaningful neighbourhood in pixels (OpenCV ``KeyPoint.size``).
     level : (N,) int64
         Pyramid level the point was found on (0 = full resolution).
+
+    Examples
+    --------
+    >>> c = Corners(np.array([[10.0, 20.0], [3.5, 4.25]]), response=[5e9, 2e9])
+    >>> len(c), c.x.tolist(), c.size.tolist()
+    (2, [10.0, 3.5], [7.0, 7.0])
+    >>> c.rc().tolist()  # (row, col) for scikit-image
+    [[20.0, 10.0], [4.25, 3.5]]
+    >>> kp = c.to_keypoints()[0]
+    >>> kp.pt, kp.response
+    ((10.0, 20.0), 5000000000.0)
+    >>> len(c.subset(c.response > 3e9))
+    1
     """
 
     xy: np.ndarray

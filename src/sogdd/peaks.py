@@ -140,6 +140,16 @@ def select_peaks(
 
     A peak is a local maximum (``nms_radius``) strictly above the effective
     threshold, inside the valid area. Ties in strength keep raster order.
+
+    Examples
+    --------
+    >>> r = np.zeros((7, 9))
+    >>> r[2, 3], r[2, 4], r[5, 7] = 5.0, 4.0, 3.0
+    >>> rows, cols = select_peaks(r, threshold=1.0)
+    >>> rows.tolist(), cols.tolist()  # (2, 4) is not a local maximum
+    ([2, 5], [3, 7])
+    >>> select_peaks(r, threshold=1.0, border=2)[0].tolist()
+    [2]
     """
     resp = np.asarray(response)
     if resp.dtype not in (np.float32, np.float64):
