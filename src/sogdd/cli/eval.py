@@ -216,3 +216,7 @@ def register(subparsers) -> None:
         register_eval(eval_subparsers)
     except ImportError:
         pass
+
+    from .eval_chessboard import register_chessboard
+
+    register_chessboard(eval_subparsers)
