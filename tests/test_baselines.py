@@ -7,11 +7,12 @@ from scipy.spatial import cKDTree
 
 import sogdd
 from sogdd import baselines
-from sogdd.baselines._soddc_generic import disk_offsets, soddc_at, soddc_map
 from sogdd.baselines.opencv import fast_score
 from sogdd.baselines.zhang2013 import Zhang2013
 from sogdd.corners import Corners
+from sogdd.response import soddc_at, soddc_from_responses
 from sogdd.synthetic import pattern_image as make_pattern
+from sogdd.window import disk_halfwidths, window_offsets
 
 SHAPE = (240, 320)
 CELL = 80  # pattern_image puts one polygon per 80 x 80 cell
@@ -224,15 +225,17 @@ def test_learned_detectors_need_a_model_file(name, model, tmp_path):
 
 def test_generic_measure_matches_the_definition(rng):
     absl = np.abs(rng.normal(size=(20, 17, 5)))
-    off = disk_offsets(10.0)
+    halfw = disk_halfwidths(10.0)
+    off = window_offsets(halfw)
     assert len(off) == 37
-    got = soddc_map(absl, off)
+    got = soddc_from_responses(np.moveaxis(absl, 2, 0), halfw)
     pad = np.pad(absl, ((3, 3), (3, 3), (0, 0)), mode="symmetric")
     for y, x in [(0, 0), (5, 9), (19, 16), (10, 0)]:
         lam = sum(np.outer(pad[y + 3 + dy, x + 3 + dx], pad[y + 3 + dy, x + 3 + dx]) for dy, dx in off)
         want = np.linalg.det(lam) / (np.trace(lam) + 2.22e-16)
         assert got[y, x] == pytest.approx(want, rel=1e-9)
-        assert soddc_at(absl, off, np.array([y]), np.array([x]))[0] == pytest.approx(want, rel=1e-9)
+        at = soddc_at(np.moveaxis(absl, 2, 0), halfw, np.array([y]), np.array([x]))[0]
+        assert at == pytest.approx(want, rel=1e-9)
 
 
 def test_fast_score_agrees_with_opencv_segment_test():

@@ -14,7 +14,9 @@ import numpy as np
 
 from ._jit import JIT
 
-__all__ = ["is_square", "reflect_index", "take_reflected", "window_halfwidths", "window_offsets"]
+__all__ = [
+    "disk_halfwidths", "is_square", "reflect_index", "take_reflected", "window_halfwidths", "window_offsets",
+]
 
 
 def window_halfwidths(shape: str, size: int) -> tuple[int, ...]:
@@ -35,9 +37,22 @@ def window_halfwidths(shape: str, size: int) -> tuple[int, ...]:
     if shape == "square":
         return (R,) * (2 * R + 1)
     if shape == "disk":
-        dy = np.arange(-R, R + 1)
-        return tuple(int(h) for h in np.floor(np.sqrt((R + 0.5) ** 2 - dy * dy)))
+        return disk_halfwidths((R + 0.5) ** 2)
     raise ValueError(f"unknown window shape {shape!r}")
+
+
+def disk_halfwidths(r2: float) -> tuple[int, ...]:
+    """Half-widths of the disk of integer offsets with ``dy^2 + dx^2 <= r2``.
+
+    Examples
+    --------
+    >>> h = disk_halfwidths(10.0)  # the 37-pixel window of Zhang & Sun's detectors
+    >>> h, sum(2 * w + 1 for w in h)
+    ((1, 2, 3, 3, 3, 2, 1), 37)
+    """
+    R = int(np.floor(np.sqrt(r2)))
+    dy = np.arange(-R, R + 1)
+    return tuple(int(h) for h in np.floor(np.sqrt(r2 - dy * dy)))
 
 
 def window_offsets(halfwidths) -> np.ndarray:

@@ -44,7 +44,7 @@ import numpy as np
 
 from ..corners import Corners
 from ..peaks import select_peaks
-from ._soddc_generic import rotated_coordinates
+from .directional_bank import rotated_coordinates
 from .registry import BaselineDetector, check_int, check_number, register
 
 __all__ = ["Zhang2013", "andd_kernels", "canny_matlab", "step_edge_template"]

@@ -24,14 +24,9 @@ import numpy as np
 
 from ..corners import Corners
 from ..peaks import select_peaks
-from ._soddc_generic import (
-    anisotropic_gaussian,
-    directional_responses,
-    disk_offsets,
-    rotated_coordinates,
-    soddc_at,
-    soddc_map,
-)
+from ..response import soddc_at, soddc_from_responses
+from ..window import disk_halfwidths
+from .directional_bank import anisotropic_gaussian, directional_responses, rotated_coordinates
 from .registry import BaselineDetector, check_int, check_number, register
 
 __all__ = ["Zhang2020", "fogdd_kernels"]
@@ -98,11 +93,11 @@ class Zhang2020(BaselineDetector):
     def response(self, grey: np.ndarray, scale_index: int = 0) -> np.ndarray:
         """The measure map at one of the scales, for a grey 0-255 float image."""
         absl = self._abs_responses(grey, self.params["scales"][scale_index])
-        return soddc_map(absl, disk_offsets(float(self.params["window_r2"])))
+        return soddc_from_responses(absl, disk_halfwidths(float(self.params["window_r2"])))
 
     def _detect(self, grey: np.ndarray, mask: np.ndarray | None) -> Corners:
         p = self.params
-        off = disk_offsets(float(p["window_r2"]))
+        halfw = disk_halfwidths(float(p["window_r2"]))
         resp = self.response(grey, 0)
         rows, cols = select_peaks(resp, threshold=p["threshold"], nms_radius=p["nms_size"] // 2,
                                   mask=mask)
@@ -110,7 +105,7 @@ class Zhang2020(BaselineDetector):
         for s2 in p["scales"][1:]:
             if len(rows) == 0:
                 break
-            v = soddc_at(self._abs_responses(grey, s2), off, rows, cols)
+            v = soddc_at(self._abs_responses(grey, s2), halfw, rows, cols)
             keep = v > p["threshold"]
             rows, cols = rows[keep], cols[keep]
         if p["max_corners"] is not None:

@@ -32,13 +32,9 @@ from scipy.spatial import cKDTree
 
 from ..corners import Corners
 from ..peaks import valid_area
-from ._soddc_generic import (
-    anisotropic_gaussian,
-    directional_responses,
-    disk_offsets,
-    rotated_coordinates,
-    soddc_map,
-)
+from ..response import soddc_from_responses
+from ..window import disk_halfwidths
+from .directional_bank import anisotropic_gaussian, directional_responses, rotated_coordinates
 from .registry import BaselineDetector, check_int, check_number, register
 
 __all__ = ["Zhang2021", "soggdd_kernels", "disk_maxima"]
@@ -112,7 +108,7 @@ class Zhang2021(BaselineDetector):
     def response(self, grey: np.ndarray) -> np.ndarray:
         """The corner measure map of a grey 0-255 float image."""
         absl = directional_responses(grey, self.kernels())
-        return soddc_map(absl, disk_offsets(float(self.params["window_r2"])))
+        return soddc_from_responses(absl, disk_halfwidths(float(self.params["window_r2"])))
 
     def _candidates(self, grey: np.ndarray, mask: np.ndarray | None) -> tuple[np.ndarray, ...]:
         p = self.params
