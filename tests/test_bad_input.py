@@ -107,3 +107,13 @@ def test_cli_bad_input_exit_2_one_line(argv, tmp_path, capsys):
     assert code == 2
     assert "Traceback" not in err
     assert len([ln for ln in err.splitlines() if ln.startswith("sogdd: error")]) == 1
+
+
+@pytest.mark.parametrize(
+    "name, value",
+    [("padding", "zero"), ("kernel_radius_rule", "big"), ("zero_mean", "yes"), ("authors_measure", 1),
+     ("gray_round", None), ("gray_weights", (0.3, 0.6)), ("gray_weights", (0.3, float("nan"), 0.1))],
+)
+def test_every_params_field_is_validated(name, value):
+    with pytest.raises(ValueError, match=name):
+        sogdd.resolve_params("paper", **{name: value})

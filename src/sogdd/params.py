@@ -13,7 +13,7 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 
 from .filters import kernel_radius
-from .io import BT601, MATLAB_RGB2GRAY
+from .io import BT601, MATLAB_RGB2GRAY, check_value_range
 from .response import MeasureSpec
 from .window import window_halfwidths
 
@@ -47,6 +47,7 @@ class Params:
     gray_weights: tuple[float, float, float] = BT601
     gray_round: bool = False
     channel_order: str = "rgb"
+    value_range: tuple[float, float] | None = None  # input values mapped onto 0-255 (None: by dtype)
 
     def measure_spec(self) -> MeasureSpec:
         """The resolved :class:`~sogdd.response.MeasureSpec` of these parameters."""
@@ -160,6 +161,16 @@ def resolve_params(preset: str = "paper", **params) -> Params:
            f"levels must be an integer in [1, 16], got {p.levels!r}")
     _check(isinstance(p.scale_factor, (int, float, np.number)) and math.isfinite(p.scale_factor)
            and 1 < p.scale_factor <= 4, f"scale_factor must be in (1, 4], got {p.scale_factor!r}")
-    _check(p.padding in ("response", "image"), "padding must be 'response' or 'image'")
+    _check(p.padding in ("response", "image"), f"padding must be 'response' or 'image', got {p.padding!r}")
+    _check(p.kernel_radius_rule in ("paper", "authors"),
+           f"kernel_radius_rule must be 'paper' or 'authors', got {p.kernel_radius_rule!r}")
+    for name in ("zero_mean", "authors_measure", "gray_round"):
+        _check(isinstance(getattr(p, name), (bool, np.bool_)), f"{name} must be True or False")
+    w = p.gray_weights
+    _check(isinstance(w, (tuple, list)) and len(w) == 3
+           and all(isinstance(v, (int, float, np.number)) and math.isfinite(v) and v >= 0 for v in w)
+           and sum(w) > 0, f"gray_weights must be three finite non-negative numbers, got {w!r}")
     _check(p.channel_order in ("rgb", "bgr"), "channel_order must be 'rgb' or 'bgr'")
+    if p.value_range is not None:
+        p = replace(p, value_range=check_value_range(p.value_range))
     return p
