@@ -21,9 +21,10 @@ __all__ = ["corner_response", "detect_corners"]
 
 
 def _prepare(image, p: Params) -> np.ndarray:
-    img = validate_image(image)
+    img = validate_image(image, value_range=p.value_range)
     return to_gray255(
-        img, weights=p.gray_weights, round_integer=p.gray_round, channel_order=p.channel_order
+        img, weights=p.gray_weights, round_integer=p.gray_round, channel_order=p.channel_order,
+        value_range=p.value_range,
     )
 
 
