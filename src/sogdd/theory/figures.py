@@ -1,4 +1,4 @@
-"""Figures: the paper's Fig. 3 (END) and Fig. 5 (L), the sigma range, the lattice study.
+"""Figures: the paper's Fig. 3 (END) and Fig. 5 (L), the sigma range, the lattice study, Fig. 1.
 
 All drawing uses matplotlib's Agg backend (no display needed).
 """
@@ -106,8 +106,12 @@ def figure_lattice(path: Path, *, ds=(2.0, 3.0, 4.0, 5.0, 6.0), sigma2s=None) ->
     return path
 
 
-def write_figures(out: str | Path, *, lattice: bool = True) -> list[Path]:
-    """Write all theory figures as PNGs into ``out`` (created if needed); returns the paths."""
+def write_figures(out: str | Path, *, lattice: bool = True, data: str | Path | None = None) -> list[Path]:
+    """Write all theory figures as PNGs into ``out`` (created if needed); returns the paths.
+
+    With ``data`` (the shared data root) the paper's Fig. 1 is redone on a real
+    image too (:func:`sogdd.theory.fig1.write_fig1`: ``fig1_*.png``).
+    """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     paths = [
@@ -117,4 +121,8 @@ def write_figures(out: str | Path, *, lattice: bool = True) -> list[Path]:
     ]
     if lattice:
         paths.append(figure_lattice(out / "lattice.png"))
+    if data is not None:
+        from .fig1 import write_fig1  # reads an image: only when asked
+
+        paths += write_fig1(out, data)
     return paths
