@@ -91,6 +91,20 @@ def _detect_level(grey: np.ndarray, p: Params, mask: np.ndarray | None) -> Corne
     return Corners(xy, resp[rows, cols], np.full(len(rows), p.keypoint_size()))
 
 
+def _allowed(xy: np.ndarray, mask: np.ndarray | None, border: int, shape: tuple[int, int]) -> np.ndarray:
+    """Points whose nearest full-resolution pixel is inside the mask and ``border`` px from the edge.
+
+    Sub-pixel refinement (up to 3 px) and the pyramid's coarser mask can move a
+    peak found inside the allowed area out of it; such points are dropped, not clamped.
+    """
+    h, w = shape
+    col, row = np.rint(xy[:, 0]).astype(np.int64), np.rint(xy[:, 1]).astype(np.int64)
+    ok = (col >= border) & (col <= w - 1 - border) & (row >= border) & (row <= h - 1 - border)
+    if mask is not None:
+        ok[ok] = mask[row[ok], col[ok]]
+    return ok
+
+
 def detect_corners(image, *, preset: str = "paper", mask=None, **params) -> Corners:
     """Detect corners: local maxima of Upsilon above a threshold.
 
@@ -105,6 +119,8 @@ def detect_corners(image, *, preset: str = "paper", mask=None, **params) -> Corn
         ``scale_factor``, ...).
     mask : ndarray of uint8 or bool, optional
         Same height and width as the image; corners are kept where it is non-zero.
+        Mask and ``border`` hold for the final positions: a point that sub-pixel
+        refinement or a pyramid level moves outside them is dropped.
 
     Returns
     -------
@@ -152,7 +168,8 @@ def detect_corners(image, *, preset: str = "paper", mask=None, **params) -> Corn
         c = _detect_level(g, p, mk)
         # pixel centres at integers: x_full = (x_level + 0.5) * s - 0.5
         xy = np.stack([(c.xy[:, 0] + 0.5) * sx - 0.5, (c.xy[:, 1] + 0.5) * sy - 0.5], axis=1)
-        parts.append(Corners(xy, c.response, c.size * (sx + sy) / 2, np.full(len(c), level)))
+        c = Corners(xy, c.response, c.size * (sx + sy) / 2, np.full(len(c), level))
+        parts.append(c.subset(_allowed(xy, m, p.border, (h, w))))
     out = Corners.concatenate(parts)
     if p.levels > 1:
         order = np.argsort(-out.response, kind="stable")
