@@ -96,6 +96,10 @@ def _is_int(v) -> bool:
     return isinstance(v, (int, np.integer)) and not isinstance(v, bool)
 
 
+def _is_number(v) -> bool:
+    return isinstance(v, (int, float, np.number)) and not isinstance(v, (bool, np.bool_)) and math.isfinite(v)
+
+
 def _check(cond: bool, msg: str) -> None:
     if not cond:
         raise ValueError(msg)
@@ -144,10 +148,10 @@ def resolve_params(preset: str = "paper", **params) -> Params:
         v = getattr(p, name)
         _check(v is None or (isinstance(v, (int, float, np.number)) and math.isfinite(v)),
                f"{name} must be a finite number or None, got {v!r}")
-    _check(p.threshold_rel is None or (0 <= float(p.threshold_rel) <= 1),
-           f"threshold_rel must be in [0, 1], got {p.threshold_rel!r}")
-    _check(p.quantile is None or (0 <= float(p.quantile) < 1),
-           f"quantile must be in [0, 1), got {p.quantile!r}")
+    _check(p.threshold_rel is None or (_is_number(p.threshold_rel) and 0 <= p.threshold_rel <= 1),
+           f"threshold_rel must be a number in [0, 1], got {p.threshold_rel!r}")
+    _check(p.quantile is None or (_is_number(p.quantile) and 0 <= p.quantile < 1),
+           f"quantile must be a number in [0, 1), got {p.quantile!r}")
     _check(_is_int(p.nms_radius) and 1 <= p.nms_radius <= 100,
            f"nms_radius must be an integer in [1, 100], got {p.nms_radius!r}")
     _check(p.max_corners is None or (_is_int(p.max_corners) and p.max_corners >= 1),

@@ -106,7 +106,9 @@ class MeasureSpec:
 def _n_threads() -> int:
     env = os.environ.get("SOGDD_NUM_THREADS")
     if env:
-        return max(1, int(env))
+        if not env.strip().isdigit() or int(env) < 1:
+            raise ValueError(f"SOGDD_NUM_THREADS must be a positive integer, got {env!r}")
+        return int(env)
     return max(1, min(os.cpu_count() or 1, 8))
 
 
