@@ -50,7 +50,7 @@ def test_registry_lists_every_detector():
     for n in names:
         det = baselines.get(n)
         assert det.name == n
-        text = det.describe()
+        text = det.provenance()
         assert n in text and det.strength_param in text
         assert det.threshold == det.params[det.strength_param]
 

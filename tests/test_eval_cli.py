@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from sogdd.cli.main import main
-from sogdd.evaluation.detectors import DetectorSpec, parse_spec, permissive_detections
-from sogdd.evaluation.gt_data import find_gt_sets, read_corners_csv, write_corners_csv
+from sogdd.evaluation.gt import find_gt_sets, read_corners_csv, write_corners_csv
 from sogdd.evaluation.resolution import Config, render_configuration, score_configuration
+from sogdd.evaluation.specs import DetectorSpec, parse_spec, permissive_detections
 from sogdd.synthetic import pattern_image as make_pattern
 
 

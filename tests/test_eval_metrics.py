@@ -5,8 +5,9 @@ import math
 import numpy as np
 import pytest
 
-from sogdd.evaluation.matching import gt_metrics, match_points
-from sogdd.evaluation.tuning import best_point, joint_tuning, sweep_curve
+from sogdd.evaluation.gt.metrics import gt_metrics
+from sogdd.evaluation.gt.tuning import best_point, joint_tuning, sweep_curve
+from sogdd.evaluation.points import match_points
 
 
 @pytest.fixture

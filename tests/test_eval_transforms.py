@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 import sogdd
-from sogdd.evaluation.repeatability import pair_repeatability, repeatability_score
-from sogdd.evaluation.transforms import (
+from sogdd.evaluation.repeatability.protocol import pair_repeatability, repeatability_score
+from sogdd.evaluation.repeatability.transforms import (
     FAMILIES,
     Transform,
     apply_transform,

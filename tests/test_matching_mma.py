@@ -9,29 +9,25 @@ import pytest
 
 from sogdd.cli.main import main
 from sogdd.corners import Corners
-from sogdd.evaluation.homography_data import (
+from sogdd.evaluation.features import FeatureSet, descriptor_sizes
+from sogdd.evaluation.matching.data import (
     D2NET_EXCLUDED,
     HomographySequence,
     detect_layout,
     homogr_to_zero_based,
+    load_published,
     load_sequences,
 )
-from sogdd.evaluation.matching_common import (
-    FeatureSet,
-    descriptor_sizes,
-    parse_feature_spec,
-    select,
-)
-from sogdd.evaluation.matching_mma import (
+from sogdd.evaluation.matching.protocol import (
     THRESHOLDS,
     evaluate_features,
     evaluate_specs,
-    load_published,
     match_errors,
     mma_of_errors,
     mutual_nn,
     project,
 )
+from sogdd.evaluation.specs import parse_spec, select
 from sogdd.synthetic import pattern_image as _pattern
 
 # A mild viewpoint change: rotation, scale, a little perspective (maps image 1 to image 2).
@@ -200,11 +196,11 @@ def test_pipeline_border_and_top_k():
     kept = select(c, (100, 100), remove_border=10, top_k=None)
     assert kept.xy.tolist() == [[50.0, 50.0], [89.0, 50.0]]
     assert select(c, (100, 100), 0, 2).response.tolist() == [5.0, 4.0]
-    spec = parse_feature_spec("sogdd:levels=5:remove_border=75:top_k=2000:desc=rootsift")
+    spec = parse_spec("sogdd:levels=5:remove_border=75:top_k=2000:desc=rootsift")
     assert spec.params == {"levels": 5}
     assert (spec.remove_border, spec.top_k, spec.desc) == (75, 2000, "rootsift")
     with pytest.raises(ValueError):
-        parse_feature_spec("sogdd:desc=sosnet")
+        parse_spec("sogdd:desc=sosnet")
 
 
 def test_descriptor_sizes_follow_pyramid_level():
@@ -231,7 +227,7 @@ def synthetic_root(tmp_path_factory):
 
 def test_synthetic_pair_end_to_end(synthetic_root, tmp_path):
     seqs = load_sequences(synthetic_root)
-    specs = [parse_feature_spec("sogdd")]
+    specs = [parse_spec("sogdd")]
     res = evaluate_specs(seqs, specs, feature_dir=tmp_path)["sogdd"].summary()
     curve = res["mma"]["viewpoint"]
     assert res["matches"] >= 10

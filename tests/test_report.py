@@ -5,9 +5,8 @@ import math
 import cv2
 import numpy as np
 
-from sogdd.evaluation.detectors import DetectorSpec
-from sogdd.evaluation.gt_accuracy import evaluate_gt
-from sogdd.evaluation.gt_data import find_gt_sets, write_corners_csv
+from sogdd.evaluation.gt import evaluate_gt, find_gt_sets, write_corners_csv
+from sogdd.evaluation.specs import DetectorSpec
 from sogdd.report.results_page import rank_of
 from sogdd.report.tables import fmt, gt_summary_table, gt_table, markdown_table
 from sogdd.synthetic import pattern_image as make_pattern
@@ -43,7 +42,7 @@ def test_gt_tables(tmp_path):
 
 
 def test_report_includes_downstream_runs(tmp_path):
-    from sogdd.report.results_page import _downstream_sections
+    from sogdd.report.results_page import downstream_stage as _downstream_sections
 
     folder = tmp_path / "figures" / "downstream"
     assert _downstream_sections(folder, tmp_path) == []

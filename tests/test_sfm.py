@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from sogdd.cli.main import main
-from sogdd.evaluation.colmap_io import (
+from sogdd.colmap import (
     descriptors_to_colmap,
     find_camera_prior,
     from_colmap_xy,
@@ -119,7 +119,7 @@ def _write_tiny_images(folder, n=3):
 
 def test_database_keypoints_roundtrip(tmp_path):
     pycolmap = pytest.importorskip("pycolmap")
-    from sogdd.evaluation.colmap_io import import_images, write_features
+    from sogdd.colmap import import_images, write_features
 
     _write_tiny_images(tmp_path / "img")
     db_path = tmp_path / "db.db"
@@ -167,12 +167,12 @@ def _chair(data_dir):
 def test_chair_sfm_end_to_end(data_dir, tmp_path):
     """pycolmap on 8 consecutive chair images with sogdd features: a model with most images registered."""
     pytest.importorskip("pycolmap")
-    from sogdd.evaluation.matching_common import parse_feature_spec
     from sogdd.evaluation.sfm import run_sfm
+    from sogdd.evaluation.specs import parse_spec
 
     chair = _chair(data_dir)
     names = [f"image{i:03d}.jpg" for i in range(8)]
-    r = run_sfm(chair, parse_feature_spec("sogdd"), tmp_path / "work", matcher="mnn", image_names=names)
+    r = run_sfm(chair, parse_spec("sogdd"), tmp_path / "work", matcher="mnn", image_names=names)
     assert r["images"] == 8
     assert r["camera_prior"]["model"] == "OPENCV"
     assert r["registered"] >= 6

@@ -11,7 +11,7 @@ Every detector is a :class:`BaselineDetector` subclass registered under a name.
 * raise ``ValueError`` with a one-line message on bad input or parameters,
 * expose one sweepable strength parameter (:attr:`BaselineDetector.strength_param`,
   ``threshold`` wherever the method has a threshold), and
-* say where their defaults come from in :meth:`BaselineDetector.describe`.
+* say where their defaults come from in :meth:`BaselineDetector.provenance`.
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ _REGISTRY: dict[str, type[BaselineDetector]] = {}
 
 
 class BaselineDetector:
-    """Base class: parameter handling, input checks, mask, ``describe()``.
+    """Base class: parameter handling, input checks, mask, ``provenance()``.
 
     Subclasses set the class attributes and implement :meth:`_detect`, which
     receives the grey image (float64, 0-255) and the boolean mask (or ``None``)
@@ -50,7 +50,7 @@ class BaselineDetector:
     stricter_when_higher: ClassVar[bool] = True
     #: value of the strength parameter that keeps (nearly) every candidate
     permissive_value: ClassVar[Any] = 0.0
-    #: the strength parameter's scale, for describe()
+    #: the strength parameter's scale, for provenance()
     strength_doc: ClassVar[str] = ""
     #: where the method and its defaults come from
     source: ClassVar[str] = ""
@@ -122,7 +122,7 @@ class BaselineDetector:
         """``cv2.Feature2D.detect``-style call returning ``cv2.KeyPoint`` objects."""
         return self.detect_corners(image, mask).to_keypoints()
 
-    def describe(self) -> str:
+    def provenance(self) -> str:
         """Where the method and its defaults come from, and the current parameters."""
         shown = ", ".join(f"{k}={v!r}" for k, v in self.params.items())
         lines = [f"{self.name}: {self.source}", f"parameters: {shown}"]

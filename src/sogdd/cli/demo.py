@@ -1,4 +1,4 @@
-"""``sogdd demo``: detect corners on a built-in rendered test pattern with known corners."""
+"""sogdd demo: detect corners on a built-in rendered test pattern with known corners."""
 
 from __future__ import annotations
 
@@ -30,10 +30,11 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def register(sub) -> None:
-    p = sub.add_parser("demo", help="run on a built-in example and write an overlay", description=__doc__)
-    p.add_argument("--out", default="sogdd_demo.png", help="overlay PNG (default: sogdd_demo.png)")
-    p.add_argument("--preset", default="paper", choices=["paper", "authors"])
+def configure(p: argparse.ArgumentParser) -> None:
+    """The ``demo`` command's arguments."""
+    p.description = __doc__
+    p.add_argument("--out", default="sogdd_demo.png", help="overlay PNG")
+    p.add_argument("--preset", default="paper", choices=["paper", "authors"], help="parameter preset")
     p.add_argument("--noise", type=float, default=0.0, help="Gaussian noise (0-255 scale)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0, help="seed of the rendered pattern")
     p.set_defaults(func=run)

@@ -1,7 +1,8 @@
-"""``sogdd detect``: corners of one or many images, as CSV, JSON or NPZ.
+"""sogdd detect: corners of one or many images, as CSV, JSON or NPZ.
 
-Without ``--out`` all results go to one output (stdout by default). With
-``--out DIR`` each image gets its own feature file (see :mod:`sogdd.collection`).
+Without --out all results go to one output (stdout by default). With --out DIR
+each image gets its own feature file (the schema of sogdd.features), written by
+local worker processes or a Dask cluster, resumable.
 """
 
 from __future__ import annotations
@@ -118,17 +119,18 @@ def _run_folder(args: argparse.Namespace, paths: list[Path], params: dict) -> in
     return 2 if counts["failed"] else 0
 
 
-def register(sub) -> None:
-    p = sub.add_parser("detect", help="detect corners in images", description=__doc__)
+def configure(p: argparse.ArgumentParser) -> None:
+    """The ``detect`` command's arguments."""
+    p.description = __doc__
     p.add_argument("images", nargs="+", help="image files, folders or glob patterns")
     add_detector_arguments(p)
     p.add_argument("--output", "-o", default="-", help="one output file for all images, or - for stdout")
     p.add_argument("--format", choices=["csv", "json", "npz"], default=None,
-                   help="csv (default), json or npz; npz is the default with --out")
+                   help="csv, json or npz [default: csv; npz with --out]")
     p.add_argument("--overlay", metavar="PNG", help="write an overlay image (single image only)")
     g = p.add_argument_group("image collections")
     g.add_argument("--out", metavar="DIR", help="write one feature file per image into DIR")
     g.add_argument("--resume", action="store_true", help="skip images whose feature file exists")
-    g.add_argument("--jobs", type=int, default=1, help="local worker processes (default 1)")
+    g.add_argument("--jobs", type=int, default=1, help="local worker processes")
     g.add_argument("--scheduler", metavar="ADDRESS", help="run on a Dask distributed scheduler")
     p.set_defaults(func=run)

@@ -1,11 +1,11 @@
-"""Entry point of the ``sogdd`` command.
+"""Entry point of the sogdd command.
 
-Each sub-command lives in its own module of this package and exposes
-``register(subparsers)``, which adds its parser and sets ``func`` (a callable
-taking the parsed ``argparse.Namespace`` and returning an exit code). Errors a
-user can fix (bad files, bad parameters) are raised as ``ValueError`` or
-``OSError`` and reported here as one line on stderr with exit code 2, never as a
-traceback.
+Each command lives in its own module of this package, imported only when that
+command runs (so that sogdd --help stays fast), and exposes configure(parser),
+which adds its arguments and sets func: a callable taking the parsed
+argparse.Namespace and returning an exit code. Errors a user can fix (bad
+files, bad parameters) are raised as ValueError or OSError and reported here as
+one line on stderr with exit code 2, never as a traceback.
 """
 
 from __future__ import annotations
@@ -13,29 +13,54 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
+from collections.abc import Sequence
 
-# Sub-command modules, in the order they appear in ``sogdd --help``.
-_MODULES = ["detect", "response", "demo", "theory", "eval", "report", "colmap"]
+from .. import __version__
+from ._common import HelpFormatter
+
+__all__ = ["COMMANDS", "build_parser", "main"]
+
+#: command -> one-line help, in the order of ``sogdd --help``; the module is ``sogdd.cli.<command>``
+COMMANDS = {
+    "detect": "detect corners in images",
+    "response": "write the corner measure map (.npy)",
+    "demo": "run on a built-in example and write an overlay",
+    "theory": "the paper's corner theory: figures, sigma ranges, tables",
+    "eval": "evaluate detectors: GT accuracy, repeatability, resolution, matching, SfM",
+    "report": "run the evaluations and write the results page (Markdown + figures)",
+    "colmap": "COLMAP interoperability (needs pycolmap)",
+}
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="sogdd", description="High-resolution corner detection with SOGDD filters."
-    )
+def _command_of(argv: Sequence[str]) -> str | None:
+    """The command named in ``argv`` (the main parser's own options take no values)."""
+    for a in argv:
+        if not a.startswith("-"):
+            return a if a in COMMANDS else None
+    return None
+
+
+def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
+    """The ``sogdd`` parser: every command listed, only the one in ``argv`` configured.
+
+    With ``argv=None`` every command is configured (all modules imported).
+    """
+    parser = argparse.ArgumentParser(prog="sogdd", description="High-resolution corner detection with SOGDD "
+                                     "filters.", formatter_class=HelpFormatter)
+    parser.add_argument("--version", action="version", version=f"sogdd {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for name in _MODULES:
-        try:
-            module = importlib.import_module(f"sogdd.cli.{name}")
-        except ModuleNotFoundError as exc:  # a sub-command not built yet
-            if exc.name != f"sogdd.cli.{name}":
-                raise
-            continue
-        module.register(sub)
+    wanted = None if argv is None else _command_of(argv)
+    for name, text in COMMANDS.items():
+        p = sub.add_parser(name, help=text, description=text, formatter_class=HelpFormatter)
+        if argv is None or name == wanted:
+            importlib.import_module(f"sogdd.cli.{name}").configure(p)
     return parser
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run ``sogdd`` with ``argv`` (default: the process's arguments); return the exit code."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser(argv)
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help(sys.stderr)

@@ -1,39 +1,43 @@
-"""``sogdd report``: run the fast evaluations and write the results page."""
+"""sogdd report: run the fast evaluations and write the results page.
+
+GT accuracy, repeatability (quick grid unless --full) and adjacent-corner
+resolution are run on the benchmark data; the matching and SfM runs already
+written under figures/downstream/ next to the page are included as they are.
+"""
 
 from __future__ import annotations
 
+import argparse
 import os
-from pathlib import Path
 
-__all__ = ["register"]
+from ._common import data_path
+
+__all__ = ["configure"]
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     from ..report.results_page import build_report
-    from .eval import data_root
 
-    data = Path(args.data) if args.data else data_root()
-    if data is None or not data.is_dir():
-        raise ValueError("no benchmark data: pass --data DIR or set SOGDD_DATA")
-    if not (data / "corners_gt").is_dir():
-        raise ValueError(f"{data}: has no corners_gt/ folder")
+    data = data_path(args.data, what="benchmark data", flag="--data DIR")
+    for sub in ("corners_gt", "repeatability"):
+        if not (data / sub).is_dir():
+            raise ValueError(f"{data}: has no {sub}/ folder")
     out = build_report(args.out, data, full=args.full, jobs=args.jobs, paper_csv=args.paper,
-                       progress=not args.no_progress)
+                       progress=not args.quiet)
     print(out)
     return 0
 
 
-def register(subparsers) -> None:
-    p = subparsers.add_parser(
-        "report", help="run the evaluations and write the results page (Markdown + figures)")
-    p.add_argument("--out", default="docs/results.md", help="the page [docs/results.md]; "
-                   "figures go to figures/results/ next to it")
-    p.add_argument("--data", metavar="DIR", help="benchmark data root [$SOGDD_DATA or "
-                   "../shared/data]")
+def configure(p: argparse.ArgumentParser) -> None:
+    """The ``report`` command's arguments."""
+    p.description = __doc__
+    p.add_argument("--out", default="docs/results.md",
+                   help="the page; figures go to figures/results/ next to it")
+    p.add_argument("--data", metavar="DIR", help="benchmark data root [default: $SOGDD_DATA or ../shared/data]")
     p.add_argument("--paper", metavar="CSV", help="the paper's Table 1 "
-                   "[DATA/../reference/paper_table1.csv]")
+                   "[default: DATA/../reference/paper_table1.csv]")
     p.add_argument("--full", action="store_true",
                    help="the paper's full repeatability grid and the full resolution grid")
-    p.add_argument("--jobs", type=int, default=min(2, os.cpu_count() or 1))
-    p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--jobs", type=int, default=min(2, os.cpu_count() or 1), help="worker processes")
+    p.add_argument("--quiet", "--no-progress", dest="quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=run)

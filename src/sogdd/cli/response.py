@@ -1,4 +1,4 @@
-"""``sogdd response``: the corner measure map of an image, saved as ``.npy``."""
+"""sogdd response: the corner measure map of an image (eq. 25), saved as .npy."""
 
 from __future__ import annotations
 
@@ -20,9 +20,10 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def register(sub) -> None:
-    p = sub.add_parser("response", help="write the corner measure map (.npy)", description=__doc__)
-    p.add_argument("image")
+def configure(p: argparse.ArgumentParser) -> None:
+    """The ``response`` command's arguments."""
+    p.description = __doc__
+    p.add_argument("image", help="image file")
     add_detector_arguments(p)
-    p.add_argument("--output", "-o", required=True, metavar="R.npy")
+    p.add_argument("--output", "-o", required=True, metavar="R.npy", help="the map, float64 (H, W)")
     p.set_defaults(func=run)

@@ -11,8 +11,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from ..evaluation.repeatability import RepeatabilityReport  # noqa: E402
-from ..evaluation.resolution import ResolutionReport  # noqa: E402
+from ..evaluation.repeatability.protocol import RepeatabilityReport  # noqa: E402
+from ..evaluation.resolution.protocol import ResolutionReport  # noqa: E402
 
 __all__ = ["repeatability_figure", "resolution_figure", "sigma2_figure"]
 

@@ -8,9 +8,9 @@ import math
 import os
 from pathlib import Path
 
-from ..evaluation.gt_accuracy import GTReport
-from ..evaluation.repeatability import RepeatabilityReport
-from ..evaluation.resolution import ResolutionReport
+from ..evaluation.gt.protocol import GTReport
+from ..evaluation.repeatability.protocol import RepeatabilityReport
+from ..evaluation.resolution.protocol import ResolutionReport
 
 __all__ = ["markdown_table", "gt_table", "gt_summary_table", "gt_csv", "paper_table1", "repeatability_table",
            "resolution_table", "fmt"]

@@ -1,0 +1,7 @@
+"""``python -m sogdd``: the ``sogdd`` command."""
+
+import sys
+
+from .cli.main import main
+
+sys.exit(main())

@@ -1,0 +1,113 @@
+"""What every command shares: the help format, data paths, the common flags, JSON output, progress."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+__all__ = [
+    "HelpFormatter",
+    "add_detectors_argument",
+    "add_output_arguments",
+    "data_path",
+    "data_root",
+    "jsonable",
+    "print_json",
+    "reference_file",
+    "reporter",
+]
+
+
+class HelpFormatter(argparse.RawDescriptionHelpFormatter):
+    """Descriptions as written; every option's default shown where it has a meaningful one.
+
+    An option whose help already says ``[default: ...]`` (defaults found at run
+    time, such as ``$SOGDD_DATA/...``), or whose default is ``None``/``False``,
+    is left as it is.
+    """
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        if ("default" in text or not action.option_strings or action.default in (None, False)
+                or action.default is argparse.SUPPRESS):
+            return text
+        return f"{text} [default: %(default)s]"
+
+
+def data_root() -> Path | None:
+    """``$SOGDD_DATA``, else ``../shared/data`` relative to the working directory if it exists."""
+    env = os.environ.get("SOGDD_DATA")
+    if env:
+        return Path(env)
+    p = Path("..") / "shared" / "data"
+    return p if p.is_dir() else None
+
+
+def data_path(given: str | None, *sub: str, what: str, flag: str) -> Path:
+    """``given``, else ``<data root>/<sub...>``; ``ValueError`` naming ``flag`` when neither exists."""
+    if given:
+        return Path(given)
+    root = data_root()
+    p = root.joinpath(*sub) if root is not None else None
+    if p is None or not p.exists():
+        raise ValueError(f"no {what}: pass {flag} or set SOGDD_DATA")
+    return p
+
+
+def reference_file(name: str) -> Path | None:
+    """``<data root>/../reference/<name>`` (the published numbers), if it exists."""
+    root = data_root()
+    p = root.parent / "reference" / name if root is not None else None
+    return p if p is not None and p.is_file() else None
+
+
+def jsonable(obj):
+    """``obj`` with non-finite floats as None and numpy scalars as Python numbers.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> jsonable({"a": float("nan"), "b": np.int64(3), "c": [np.float32(0.5)]})
+    {'a': None, 'b': 3, 'c': [0.5]}
+    """
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {str(k): jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [jsonable(v) for v in obj]
+    if hasattr(obj, "item") and callable(obj.item):  # numpy scalars
+        return jsonable(obj.item())
+    return obj
+
+
+def print_json(obj) -> None:
+    """One JSON object on stdout (non-finite floats as null)."""
+    sys.stdout.write(json.dumps(jsonable(obj)) + "\n")
+
+
+def add_detectors_argument(p: argparse.ArgumentParser, default: str) -> None:
+    """``--detectors SPEC [SPEC ...]``, space- or comma-separated; ``default`` describes the default."""
+    p.add_argument("--detectors", nargs="+", metavar="SPEC",
+                   help="detector specs NAME[:key=value...], space- or comma-separated; 'all' = every "
+                        f"registry name [default: {default}]")
+
+
+def add_output_arguments(p: argparse.ArgumentParser, files: str) -> None:
+    """``--out DIR`` (writing ``files``), ``--json`` and ``--quiet``/``--no-progress``."""
+    p.add_argument("--out", metavar="DIR", help=f"write {files} here")
+    p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    p.add_argument("--quiet", "--no-progress", dest="quiet", action="store_true",
+                   help="no progress on stderr")
+
+
+def reporter(args: argparse.Namespace) -> Callable[[str], None] | None:
+    """A progress callback printing to stderr, or ``None`` with ``--quiet``."""
+    if getattr(args, "quiet", False):
+        return None
+    return lambda msg: print(msg, file=sys.stderr, flush=True)

@@ -1,0 +1,100 @@
+"""Features for the downstream evaluations (matching, SfM): detect, select, describe.
+
+:func:`extract_features` runs a spec's detector, its border removal and top-k
+(:func:`sogdd.evaluation.specs.select`), and describes every point with OpenCV's
+SIFT descriptor (:func:`sogdd.describe`) at the diameter given by
+:func:`descriptor_sizes`.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..corners import Corners
+from ..describe import DESC_SIZE, describe
+from .specs import DetectorSpec, build_detector, detect
+
+__all__ = ["FeatureSet", "descriptor_sizes", "extract_features"]
+
+
+@dataclass
+class FeatureSet:
+    """Features of one image, in D2-Net's layout plus the corner metadata.
+
+    ``keypoints`` (N, 2) x, y (pixel centres at integers); ``scores`` (N,);
+    ``descriptors`` (N, D) float32; ``size`` and ``level`` as in ``Corners``.
+    """
+
+    keypoints: np.ndarray
+    scores: np.ndarray
+    descriptors: np.ndarray
+    size: np.ndarray
+    level: np.ndarray
+    image_shape: tuple[int, int]
+    seconds_detect: float = 0.0
+    seconds_describe: float = 0.0
+
+    def __len__(self) -> int:
+        return len(self.keypoints)
+
+    def save_npz(self, path) -> None:
+        """Write D2-Net's ``.npz`` layout (``keypoints``, ``scores``, ``descriptors``) to ``path``.
+
+        The file is written to ``path`` exactly (no ``.npz`` suffix added), as
+        D2-Net names its files ``<image>.<method>``.
+        """
+        with open(path, "wb") as fh:
+            np.savez(fh, keypoints=self.keypoints.astype(np.float32), scores=self.scores.astype(np.float32),
+                     descriptors=self.descriptors.astype(np.float32), size=self.size.astype(np.float32),
+                     level=self.level.astype(np.int32))
+
+    @staticmethod
+    def load_npz(path) -> FeatureSet:
+        """Read a file written by :meth:`save_npz` (or by D2-Net)."""
+        with np.load(path) as z:
+            kp = np.asarray(z["keypoints"], dtype=np.float64)[:, :2]
+            n = len(kp)
+            scores = np.asarray(z["scores"]) if "scores" in z else np.zeros(n)
+            size = np.asarray(z["size"]) if "size" in z else np.full(n, np.nan)
+            level = np.asarray(z["level"]) if "level" in z else np.zeros(n, np.int64)
+            return FeatureSet(kp, scores, np.asarray(z["descriptors"], np.float32), size, level, (0, 0))
+
+
+def descriptor_sizes(
+    corners: Corners, desc_size: float | str = "auto", family: str | None = None
+) -> np.ndarray:
+    """Descriptor diameters (SIFT keypoint sizes) for detected points.
+
+    The detectors' own ``size`` values mean different things (SOGDD: window
+    plus filter support, 17 px; Harris 6; Shi-Tomasi 3; ORB 31), so they are not
+    used as they are: a point's size is a common base diameter times its
+    pyramid scale, ``desc_size * size / size_of_level_0`` (for SOGDD's pyramid
+    this is ``desc_size * scale_factor ** level``). Detectors that estimate a
+    scale themselves (``family == "blob"``: SIFT, KAZE, AKAZE, Harris-Laplace,
+    ORB) keep their own sizes under ``"auto"``; that scale is part of what they
+    detect. ``"own"`` keeps every detector's sizes.
+    """
+    size = corners.size.astype(np.float64)
+    if len(corners) == 0 or desc_size == "own" or (desc_size == "auto" and family == "blob"):
+        return size
+    base = DESC_SIZE if desc_size == "auto" else float(desc_size)
+    lvl0 = size[corners.level == 0]
+    ref = float(lvl0.min()) if len(lvl0) else float(size.min())
+    return base * size / max(ref, 1e-9)
+
+
+def extract_features(image: np.ndarray, spec: DetectorSpec, detector=None) -> FeatureSet:
+    """Detect with ``spec``'s detector, apply its pipeline, describe every point."""
+    det = detector if detector is not None else build_detector(spec)
+    t0 = time.perf_counter()
+    corners = detect(spec, image, det)
+    t1 = time.perf_counter()
+    sizes = descriptor_sizes(corners, spec.desc_size, getattr(det, "family", None))
+    described = Corners(corners.xy, corners.response, sizes, corners.level)
+    desc = describe(image, described, spec.desc, upright=spec.upright)
+    t2 = time.perf_counter()
+    return FeatureSet(corners.xy.copy(), corners.response.copy(), desc, sizes,
+                      corners.level.copy(), tuple(image.shape[:2]), t1 - t0, t2 - t1)

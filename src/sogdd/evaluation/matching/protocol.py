@@ -1,0 +1,248 @@
+"""Mean matching accuracy on homography sequences: the D2-Net HPatches protocol.
+
+Protocol (Dusmanu et al., CVPR 2019, ``HPatches-Sequences-Matching-Benchmark``),
+reproduced step by step:
+
+1. For each sequence, image 1 is matched against images 2..6.
+2. Matches are the **mutual nearest neighbours** of the L2-normalised
+   descriptors (largest dot product, i.e. smallest L2 distance, both ways). No
+   ratio test.
+3. Image 1's matched point is projected by ``H_1_k``; the match is correct at
+   threshold ``t`` when the projection lies within ``t`` px (``<=``) of its
+   partner, for ``t = 1..10``.
+4. A pair scores the fraction of correct matches; a pair with no match scores
+   0. MMA(t) is the mean over pairs: overall, and separately over the
+   illumination (``i_*``) and viewpoint (``v_*``) sequences.
+5. The mean number of features is over every image (6 per sequence), the mean
+   number of matches over pairs.
+
+The paper's own pipeline (a 5-level pyramid, 75 px removed at the borders,
+top-k) is expressed with detector specs (:mod:`sogdd.evaluation.specs`), e.g.
+``sogdd:levels=5:remove_border=75:top_k=5000``.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ...io import read_image
+from ..features import FeatureSet, extract_features
+from ..specs import DetectorSpec, build_detector
+from .data import D2NET_EXCLUDED, HomographySequence
+
+__all__ = [
+    "SPLITS",
+    "THRESHOLDS",
+    "MatchingResult",
+    "PairRecord",
+    "benchmark_info",
+    "evaluate_features",
+    "evaluate_specs",
+    "match_errors",
+    "mma_of_errors",
+    "mutual_nn",
+    "project",
+]
+
+THRESHOLDS: tuple[int, ...] = tuple(range(1, 11))
+SPLITS = ("overall", "illumination", "viewpoint")
+
+
+def _l2n(d: np.ndarray) -> np.ndarray:
+    d = np.asarray(d, dtype=np.float32)
+    n = np.linalg.norm(d, axis=1, keepdims=True)
+    return d / np.maximum(n, 1e-12)
+
+
+def mutual_nn(desc_a: np.ndarray, desc_b: np.ndarray, *, chunk: int = 4096) -> np.ndarray:
+    """Mutual nearest neighbours of L2-normalised descriptors.
+
+    Parameters
+    ----------
+    desc_a, desc_b : (Na, D), (Nb, D) arrays
+        Descriptors (normalised here).
+
+    Returns
+    -------
+    (M, 2) int64
+        ``(i_a, i_b)`` pairs, sorted by ``i_a``: ``i_b`` is ``i_a``'s nearest
+        neighbour in B and ``i_a`` is ``i_b``'s nearest neighbour in A. Ties go
+        to the lowest index (``torch.max``/``argmax`` behaviour).
+    """
+    a, b = _l2n(desc_a), _l2n(desc_b)
+    if len(a) == 0 or len(b) == 0:
+        return np.zeros((0, 2), np.int64)
+    nn12 = np.empty(len(a), np.int64)
+    best21 = np.full(len(b), -np.inf, np.float32)
+    nn21 = np.zeros(len(b), np.int64)
+    # blocks of rows keep the similarity matrix small for 10k x 10k features
+    for s in range(0, len(a), chunk):
+        sim = a[s : s + chunk] @ b.T
+        nn12[s : s + chunk] = np.argmax(sim, axis=1)
+        col_arg = np.argmax(sim, axis=0)
+        col_max = sim[col_arg, np.arange(len(b))]
+        better = col_max > best21  # strict: earlier rows win ties
+        best21[better] = col_max[better]
+        nn21[better] = col_arg[better] + s
+    ids = np.arange(len(a))
+    mask = nn21[nn12] == ids
+    return np.stack([ids[mask], nn12[mask]], axis=1)
+
+
+def project(h: np.ndarray, xy: np.ndarray) -> np.ndarray:
+    """Apply a homography to (N, 2) points."""
+    xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    ph = np.concatenate([xy, np.ones((len(xy), 1))], axis=1) @ np.asarray(h, dtype=np.float64).T
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return ph[:, :2] / ph[:, 2:]
+
+
+def match_errors(xy_a: np.ndarray, xy_b: np.ndarray, matches: np.ndarray, h_ab: np.ndarray) -> np.ndarray:
+    """Distance (px) between each matched B point and its A partner projected by ``h_ab``."""
+    if len(matches) == 0:
+        return np.zeros(0)
+    proj = project(h_ab, np.asarray(xy_a)[matches[:, 0], :2])
+    d = np.linalg.norm(np.asarray(xy_b)[matches[:, 1], :2] - proj, axis=1)
+    return np.where(np.isfinite(d), d, np.inf)
+
+
+def mma_of_errors(errors: np.ndarray, thresholds: Sequence[float] = THRESHOLDS) -> np.ndarray:
+    """Fraction of errors ``<= t`` for each threshold; an empty match set scores 0."""
+    e = np.asarray(errors, dtype=np.float64)
+    if e.size == 0:
+        return np.zeros(len(thresholds))
+    return np.array([np.mean(e <= t) for t in thresholds])
+
+
+@dataclass
+class PairRecord:
+    """One image pair's outcome."""
+
+    sequence: str
+    split: str
+    target: str
+    n_features_a: int
+    n_features_b: int
+    n_matches: int
+    accuracy: list[float]
+
+
+@dataclass
+class MatchingResult:
+    """Per-pair records of one detector on a set of sequences, and their summary."""
+
+    label: str
+    pairs: list[PairRecord] = field(default_factory=list)
+    features: list[int] = field(default_factory=list)  # one entry per image
+    thresholds: tuple[int, ...] = THRESHOLDS
+    seconds: float = 0.0
+    spec: dict = field(default_factory=dict)
+
+    def mma(self, split: str = "overall") -> list[float] | None:
+        """MMA(t) over the pairs of ``split`` (``None`` when it has no pairs)."""
+        recs = [p for p in self.pairs if split == "overall" or p.split == split]
+        if not recs:
+            return None
+        return np.mean([p.accuracy for p in recs], axis=0).tolist()
+
+    def summary(self) -> dict:
+        """JSON-ready: ``mma`` per split (list for t = 1..10), ``features``, ``matches``, counts."""
+        return {
+            "mma": {s: self.mma(s) for s in SPLITS},
+            "pairs": {s: sum(1 for p in self.pairs if s == "overall" or p.split == s) for s in SPLITS},
+            "features": float(np.mean(self.features)) if self.features else 0.0,
+            "matches": float(np.mean([p.n_matches for p in self.pairs])) if self.pairs else 0.0,
+            "thresholds": list(self.thresholds),
+            "seconds": round(self.seconds, 3),
+            "spec": self.spec,
+        }
+
+
+def evaluate_features(
+    sequences: Sequence[HomographySequence],
+    features: Callable[[HomographySequence, Path], FeatureSet],
+    *,
+    label: str = "",
+    thresholds: Sequence[int] = THRESHOLDS,
+    progress: Callable[[str], None] | None = None,
+) -> MatchingResult:
+    """Run the protocol with features from ``features(sequence, image_path)``."""
+    res = MatchingResult(label, thresholds=tuple(thresholds))
+    t0 = time.perf_counter()
+    for seq in sequences:
+        fa = features(seq, seq.reference)
+        res.features.append(len(fa))
+        for target, h in seq.targets:
+            fb = features(seq, target)
+            res.features.append(len(fb))
+            m = mutual_nn(fa.descriptors, fb.descriptors)
+            err = match_errors(fa.keypoints, fb.keypoints, m, h)
+            res.pairs.append(PairRecord(seq.name, seq.split, target.name, len(fa), len(fb), len(m),
+                                        mma_of_errors(err, thresholds).tolist()))
+        if progress:
+            last = res.pairs[-1]
+            progress(f"{label}: {seq.name}: {len(fa)} features, {last.n_matches} matches with {last.target}")
+    res.seconds = time.perf_counter() - t0
+    return res
+
+
+def evaluate_specs(
+    sequences: Sequence[HomographySequence],
+    specs: Sequence[DetectorSpec],
+    *,
+    thresholds: Sequence[int] = THRESHOLDS,
+    feature_dir: str | Path | None = None,
+    method_names: dict[str, str] | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> dict[str, MatchingResult]:
+    """Evaluate each detector spec; optionally save every image's features.
+
+    Features go to ``feature_dir/<sequence>/<image>.<method>`` in D2-Net's
+    ``.npz`` layout, ``<method>`` being ``method_names[label]`` or the label
+    with unsafe characters replaced.
+    """
+    out = {}
+    for spec in specs:
+        det = build_detector(spec)
+        method = (method_names or {}).get(spec.label) or _safe(spec.label)
+
+        def feats(seq: HomographySequence, path: Path, _det=det, _spec=spec, _method=method) -> FeatureSet:
+            fs = extract_features(read_image(path), _spec, _det)
+            if feature_dir is not None:
+                d = Path(feature_dir) / seq.name
+                d.mkdir(parents=True, exist_ok=True)
+                fs.save_npz(d / f"{path.name}.{_method}")
+            return fs
+
+        r = evaluate_features(sequences, feats, label=spec.label, thresholds=thresholds, progress=progress)
+        r.spec = spec.to_json()
+        out[spec.label] = r
+    return out
+
+
+def _safe(label: str) -> str:
+    return "".join(ch if ch.isalnum() or ch in "-_=" else "_" for ch in label)
+
+
+def benchmark_info(root: str | Path, layout: str, sequences: Sequence[HomographySequence]) -> dict:
+    """What was run, and whether it is the full D2-Net HPatches benchmark (108 sequences)."""
+    names = [s.name for s in sequences]
+    n_i = sum(s.split == "illumination" for s in sequences)
+    n_v = sum(s.split == "viewpoint" for s in sequences)
+    full = layout == "hpatches" and len(names) == 108 and not (set(names) & D2NET_EXCLUDED)
+    return {
+        "root": str(root),
+        "layout": layout,
+        "sequences": names,
+        "n_sequences": len(names),
+        "n_illumination": n_i,
+        "n_viewpoint": n_v,
+        "n_pairs": int(sum(len(s) for s in sequences)),
+        "full_hpatches": bool(full),
+        "descriptor": "OpenCV SIFT at every detector's points (the paper's SOSNet weights are not available)",
+    }

@@ -1,0 +1,110 @@
+"""The matching evaluation's table and figure: MMA per split (Markdown) and MMA curves (Fig. 10)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..evaluation.matching.protocol import SPLITS, THRESHOLDS
+
+__all__ = ["matching_markdown", "plot_mma"]
+
+
+def matching_markdown(results: dict, info: dict) -> str:
+    """Markdown table of a matching run: MMA at 1, 3, 5, 10 px per split, features, matches."""
+    full = "the full D2-Net HPatches benchmark" if info["full_hpatches"] else "NOT the full HPatches benchmark"
+    lines = [
+        f"Sequences: {info['n_sequences']} ({info['n_illumination']} illumination, "
+        f"{info['n_viewpoint']} viewpoint), {info['n_pairs']} pairs; layout {info['layout']}; {full}. "
+        f"Descriptor: {info['descriptor']}.",
+        "",
+        "| detector | split | MMA@1 | MMA@3 | MMA@5 | MMA@10 | features | matches |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for label, s in results.items():
+        n_all = s["pairs"]["overall"]
+        for split, curve in s["mma"].items():
+            if curve is None:
+                continue
+            if split != "overall" and s["pairs"][split] == n_all:
+                continue  # the only split present: its row would repeat the overall row
+            name = split
+            if split == "overall":
+                only = [k for k in ("illumination", "viewpoint") if s["pairs"][k] == n_all]
+                name = f"overall (all {only[0]})" if only else "overall"
+            lines.append(
+                f"| `{label}` | {name}, {s['pairs'][split]} pairs | {curve[0]:.3f} | {curve[2]:.3f} | "
+                f"{curve[4]:.3f} | {curve[9]:.3f} | {s['features']:.0f} | {s['matches']:.0f} |"
+            )
+    return "\n".join(lines) + "\n"
+
+
+def plot_mma(
+    results: dict[str, dict],
+    path: str | Path,
+    *,
+    published: dict[str, dict[str, dict]] | None = None,
+    full_benchmark: bool = False,
+    title: str = "",
+) -> Path:
+    """MMA against threshold, one panel per split (Fig. 10's layout).
+
+    ``results`` maps a label to a :meth:`MatchingResult.summary` dict.
+    Published curves, if given, are drawn dashed and grey-toned, and labelled
+    as the full HPatches benchmark unless ``full_benchmark`` says the local run
+    is that benchmark too.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    t = np.asarray(THRESHOLDS)
+    tag = "" if full_benchmark else " [published; full HPatches: a different data set]"
+    n_pub = len(published or {})
+    n_leg = len(results) + n_pub
+    ncol = 3
+    rows = -(-n_leg // ncol)
+    height = 4.0 + 0.2 * rows + 0.4
+    fig, axes = plt.subplots(1, 3, figsize=(14, height), sharey=True)
+    cmap = plt.get_cmap("tab20")
+    greys = plt.get_cmap("Greys")
+    for ax, split in zip(axes, SPLITS):
+        if published:
+            for k, (meth, splits) in enumerate(sorted(published.items())):
+                if split in splits:
+                    grey = greys(0.35 + 0.6 * k / max(n_pub, 1))
+                    ax.plot(t, splits[split]["mma"], ls="--", lw=1.0, color=grey,
+                            label=f"{meth}{tag}" if split == "overall" else None)
+        n_pairs = None
+        for k, (label, s) in enumerate(results.items()):
+            curve = s["mma"].get(split)
+            if curve is None:
+                continue
+            n_pairs = s["pairs"][split]
+            ours = label.startswith("sogdd")
+            ax.plot(t, curve, lw=2.6 if ours else 1.4, marker="o", ms=3.5 if ours else 2, color=cmap(k % 20),
+                    zorder=3 if ours else 2,
+                    label=f"{label} ({s['features']:.0f} feat., {s['matches']:.0f} matches)"
+                    if split == "overall" else None)
+        ax.set_title(f"{split} ({n_pairs} pairs)" if n_pairs else f"{split} (no local pairs)")
+        ax.set_xlabel("threshold [px]")
+        ax.set_xlim(1, 10)
+        ax.set_ylim(0, 1)
+        ax.grid(alpha=0.3)
+    axes[0].set_ylabel("MMA")
+    if title:
+        fig.suptitle(title)
+    handles, labels = axes[0].get_legend_handles_labels()
+    # local results first, then the published curves
+    order = [i for i, lab in enumerate(labels) if "[published" not in lab] + [
+        i for i, lab in enumerate(labels) if "[published" in lab]
+    fig.legend([handles[i] for i in order], [labels[i] for i in order], loc="lower center", ncol=ncol,
+               fontsize=7.5, frameon=False)
+    fig.tight_layout(rect=(0, (0.2 * rows + 0.3) / height, 1, 1))
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+    return path
