@@ -143,12 +143,12 @@ def score_frame(truth: np.ndarray, det: np.ndarray, radius: float = 1.0) -> tupl
     inside = _grown_hull(truth)(det) if len(det) else np.zeros(0, bool)
     if len(det):
         d = np.min(np.hypot(det[:, None, 0] - truth[None, :, 0], det[:, None, 1] - truth[None, :, 1]), 1)
-        false = int(np.sum(inside & (d > radius)))
+        false, near = int(np.sum(inside & (d > radius))), int(np.sum(d <= radius))
     else:
-        false = 0
+        false = near = 0
     loc = match_points(truth, det, _CAPTURE)
     resid = det[loc.ib] - truth[loc.ia]
-    return ImageScore(len(truth), hits, false, np.asarray(loc.dist, dtype=np.float64)), resid
+    return ImageScore(len(truth), hits, false, np.asarray(loc.dist, dtype=np.float64), near - hits), resid
 
 
 def evaluate_calibration(detectors=None, root: str | os.PathLike | None = None) -> dict:

@@ -12,6 +12,9 @@ and detections ``D``:
   from every inner corner. Outside ``Q`` (the board's outer half cell with its
   L- and T-junctions, the paper, the image border) nothing is counted: those
   are real corners or border effects that are not inner corners.
+* **duplicates** counts the detections within ``r`` of an inner corner beyond
+  the one that hit it: a detector that reports one X-corner as 2-4 coincident
+  points is not penalised by ``false`` but shows here.
 * **located** corners are matched one to one within the capture radius
   ``c / 2`` (halfway to the next corner, so the assignment is unambiguous).
   **mean_error** and **p95_error** are the mean and 95th percentile of their
@@ -20,7 +23,7 @@ and detections ``D``:
 
 Pooled over the images of one cell size: ``recall = sum(hits) / sum(|C|)``,
 ``false = sum(false detections) / sum(|C|)`` (false detections per inner
-corner, comparable across cell sizes), ``located = sum(located) / sum(|C|)``,
+corner, comparable across cell sizes), ``duplicates`` likewise, ``located = sum(located) / sum(|C|)``,
 and the error statistics over all located corners.
 """
 
@@ -63,6 +66,7 @@ class ImageScore:
     hits: int
     false: int
     located: np.ndarray  # distances of the corners located within c / 2
+    duplicates: int = 0
 
 
 def score_image(corners: np.ndarray, region: np.ndarray, det_xy: np.ndarray, cell: float,
@@ -74,8 +78,8 @@ def score_image(corners: np.ndarray, region: np.ndarray, det_xy: np.ndarray, cel
     >>> c = np.array([[10.0, 10.0], [15.0, 10.0]])
     >>> q = np.array([[7.5, 7.5], [17.5, 7.5], [17.5, 12.5], [7.5, 12.5]])
     >>> s = score_image(c, q, np.array([[10.5, 10.0], [13.0, 10.0], [30.0, 30.0]]), cell=5)
-    >>> s.hits, s.false, s.located.tolist()
-    (1, 1, [0.5, 2.0])
+    >>> s.hits, s.false, s.duplicates, s.located.tolist()
+    (1, 1, 0, [0.5, 2.0])
     """
     corners = np.asarray(corners, dtype=np.float64).reshape(-1, 2)
     det = np.asarray(det_xy, dtype=np.float64).reshape(-1, 2)
@@ -89,7 +93,8 @@ def score_image(corners: np.ndarray, region: np.ndarray, det_xy: np.ndarray, cel
         near = d <= radius
     false = int(np.sum(~near & inside_convex(region, det))) if len(det) else 0
     loc = match_points(corners, det, cell / 2)
-    return ImageScore(len(corners), hits, false, np.asarray(loc.dist, dtype=np.float64))
+    return ImageScore(len(corners), hits, false, np.asarray(loc.dist, dtype=np.float64),
+                      int(near.sum()) - hits)
 
 
 @dataclass
@@ -100,6 +105,7 @@ class CellScore:
     n_corners: int = 0
     hits: int = 0
     false: int = 0
+    duplicates: int = 0
     errors: list = field(default_factory=list)
 
     def add(self, s: ImageScore) -> None:
@@ -107,6 +113,7 @@ class CellScore:
         self.n_corners += s.n_corners
         self.hits += s.hits
         self.false += s.false
+        self.duplicates += s.duplicates
         self.errors.append(s.located)
 
     def as_dict(self) -> dict:
@@ -121,6 +128,7 @@ class CellScore:
             "p95_error": float(np.percentile(err, 95)) if len(err) else None,
             "recall": self.hits / n,
             "false": self.false / n,
+            "duplicates": self.duplicates / n,
             "located": len(err) / n,
             "n_images": self.n_images,
             "n_corners": self.n_corners,

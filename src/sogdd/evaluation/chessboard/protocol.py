@@ -73,7 +73,7 @@ class ChessboardReport:
     def table(self, key: str = "mean_error") -> str:
         """A Markdown table: rows = detectors, columns = cells, ``key`` / recall per cell."""
         head = "| detector | " + " | ".join(f"{c:g} px" for c in self.cells) + " |"
-        lines = [f"{key} / recall / false per corner", "", head,
+        lines = [f"{key} (px) / recall / false per corner / duplicates per corner", "", head,
                  "|---|" + "---|" * len(self.cells)]
         for lab in self.labels:
             pc = self.per_cell(lab)
@@ -85,7 +85,7 @@ class ChessboardReport:
                     continue
                 v = r[key]
                 cells.append(f"{'n/a' if v is None else f'{v:.2f}'} / {r['recall']:.2f} / "
-                             f"{r['false']:.2f}")
+                             f"{r['false']:.2f} / {r['duplicates']:.2f}")
             lines.append(f"| {lab} | " + " | ".join(cells) + " |")
         return "\n".join(lines) + "\n"
 

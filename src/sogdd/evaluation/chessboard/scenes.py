@@ -223,7 +223,7 @@ def render_board(s: BoardScene) -> RenderedBoard:
 class SceneGrid:
     """The nuisance grid rendered for every cell size."""
 
-    phases: int
+    phases: int  # repeats of the angle x PSF x noise grid, each scene with its own phase
     angles: tuple[float, ...]
     psfs: tuple[float, ...]
     noises: tuple[float, ...]
@@ -234,15 +234,16 @@ class SceneGrid:
 
 #: about a second per detector for all seven cell sizes
 QUICK_GRID = SceneGrid(phases=1, angles=(0.0, 30.0), psfs=(0.7,), noises=(2.0,))
-#: 6 phases x 3 angles x 3 PSFs x 3 noise levels = 162 boards per cell size
-FULL_GRID = SceneGrid(phases=6, angles=(0.0, 10.0, 30.0), psfs=(0.0, 0.7, 1.5), noises=(0.0, 2.0, 5.0))
+#: 4 repeats x 3 angles x 3 PSFs x 3 noise levels = 108 boards (and phases) per cell size
+FULL_GRID = SceneGrid(phases=4, angles=(0.0, 10.0, 30.0), psfs=(0.0, 0.7, 1.5), noises=(0.0, 2.0, 5.0))
 
 
 def scene_grid(cells=CELLS, quick: bool = False, seed: int = 0) -> list[BoardScene]:
     """Every scene of the benchmark: cells x phases x angles x PSFs x noise levels.
 
-    Phases are uniform in ``[0, 1)^2`` from a generator seeded with ``seed``; each
-    scene gets its own noise seed. The quick grid has one phase, two angles,
+    Every scene draws its own phase, uniform in ``[0, 1)^2``, and its own noise
+    seed from a generator seeded with ``seed`` (so a cell size sees
+    ``grid.size()`` distinct phases). The quick grid has one repeat, two angles,
     PSF 0.7 and noise 2.
     """
     g = QUICK_GRID if quick else FULL_GRID
@@ -254,10 +255,10 @@ def scene_grid(cells=CELLS, quick: bool = False, seed: int = 0) -> list[BoardSce
             raise ValueError(f"cell sizes must be in [2, 64] px, got {c:g}")
         n_cols, n_rows = board_size(c)
         for _ in range(g.phases):
-            ph = (float(rng.uniform(0, 1)), float(rng.uniform(0, 1)))
             for a in g.angles:
                 for p in g.psfs:
                     for nz in g.noises:
+                        ph = (float(rng.uniform(0, 1)), float(rng.uniform(0, 1)))
                         out.append(BoardScene(c, n_cols, n_rows, a, ph, p, nz,
                                               int(rng.integers(2**31))))
     return out
