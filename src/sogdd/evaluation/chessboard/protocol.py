@@ -182,8 +182,8 @@ def evaluate(detector: Any, *, cells=CELLS, quick: bool = False, seed: int = 0) 
     ...     p = cv2.goodFeaturesToTrack(img, 0, 0.01, 2)
     ...     return np.zeros((0, 2)) if p is None else p.reshape(-1, 2)
     >>> r = evaluate(peaks, cells=[16], quick=True)
-    >>> sorted(r["16"])[:4]
-    ['false', 'located', 'mean_error', 'n_corners']
+    >>> {"mean_error", "p95_error", "recall", "false"} <= set(r["16"])
+    True
     >>> r["16"]["located"] > 0.9
     True
     """
