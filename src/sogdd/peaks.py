@@ -139,7 +139,9 @@ def select_peaks(
     """Rows and columns of the selected peaks, strongest first.
 
     A peak is a local maximum (``nms_radius``) strictly above the effective
-    threshold, inside the valid area. Ties in strength keep raster order.
+    threshold, inside the valid area; with ``border`` the maxima are those of the
+    valid area alone (what lies beyond the border never suppresses a peak, as in
+    the authors' code). Ties in strength keep raster order.
 
     Examples
     --------
@@ -162,8 +164,16 @@ def select_peaks(
     thr = resolve_threshold(
         resp, valid, threshold=threshold, threshold_rel=threshold_rel, quantile=quantile
     )
-    rows, cols = maxima_above(resp, float(thr), int(nms_radius))
     h, w = resp.shape
+    b = int(border)
+    if b and 2 * b < h and 2 * b < w:
+        # The excluded border is outside the image for the maxima too: a peak on the last valid
+        # row or column is not suppressed by a larger pixel beyond it (the authors' 3x3 maximum
+        # filter runs on the valid area alone).
+        rows, cols = maxima_above(np.ascontiguousarray(resp[b : h - b, b : w - b]), float(thr), int(nms_radius))
+        rows, cols = rows + b, cols + b
+    else:
+        rows, cols = maxima_above(resp, float(thr), int(nms_radius))
     inside = (rows >= border) & (rows < h - border) & (cols >= border) & (cols < w - border)
     if mask is not None:
         inside &= np.asarray(mask, dtype=bool)[rows, cols]
