@@ -2,7 +2,9 @@ import json
 
 import cv2
 import numpy as np
+import pytest
 
+import sogdd
 from sogdd.cli.main import main
 from sogdd.synthetic import pattern_image as make_pattern
 
@@ -17,16 +19,16 @@ def test_detect_csv_json_npz_overlay(tmp_path, capsys):
     f = _write(tmp_path / "a.png", img)
     assert main(["detect", f]) == 0
     out = capsys.readouterr().out.splitlines()
-    assert out[0] == "x,y,response,size"
-    rows = np.array([[float(v) for v in ln.split(",")] for ln in out[1:]])
+    assert out[0].startswith("# sogdd {") and out[1] == "x,y,response,size"  # provenance, then the header
+    rows = np.array([[float(v) for v in ln.split(",")] for ln in out[2:]])
     assert len(rows) >= 0.9 * len(gt) and np.all(rows[:, 2] > 1e9)
     assert main(["detect", f, "--format", "json", "--max-corners", "5"]) == 0
-    obj = json.loads(capsys.readouterr().out)
+    (obj,) = json.loads(capsys.readouterr().out)  # always a list, one object per image
     assert obj["n"] == 5 and len(obj["x"]) == 5
     npz = tmp_path / "c.npz"
     assert main(["detect", f, "--format", "npz", "-o", str(npz), "--overlay",
                  str(tmp_path / "o.png")]) == 0
-    assert np.load(npz)["corners"].shape[1] == 4
+    assert sogdd.load_features(npz).xy.shape == (len(rows), 2)
     assert cv2.imread(str(tmp_path / "o.png")) is not None
 
 
@@ -39,9 +41,9 @@ def test_detect_batch_with_one_bad_file(tmp_path, capsys):
     code = main(["detect", good1, str(bad), good2, "-o", str(tmp_path / "all.csv")])
     assert code == 2
     lines = (tmp_path / "all.csv").read_text().splitlines()
-    assert lines[0] == "image,x,y,response,size"
-    images = {ln.split(",")[0] for ln in lines[1:]}
-    assert images == {good1, good2}
+    assert lines[1] == "image,x,y,response,size"
+    images = {ln.split(",")[0] for ln in lines[2:]}
+    assert images == {"g1.png", "g2.png"}  # relative to the inputs' common folder
     assert "bad.png" in capsys.readouterr().err
 
 
@@ -68,3 +70,52 @@ def test_demo(tmp_path, capsys):
     assert main(["demo", "--out", str(out)]) == 0
     text = capsys.readouterr().out
     assert "recall" in text and cv2.imread(str(out)) is not None
+
+
+def test_version_and_python_m(capsys):
+    import subprocess
+    import sys
+
+    import sogdd
+
+    with pytest.raises(SystemExit) as e:
+        main(["--version"])
+    assert e.value.code == 0 and capsys.readouterr().out.strip() == f"sogdd {sogdd.__version__}"
+    r = subprocess.run([sys.executable, "-m", "sogdd", "--version"], capture_output=True, text=True,
+                       timeout=120)
+    assert r.returncode == 0 and r.stdout.strip() == f"sogdd {sogdd.__version__}"
+
+
+def test_help_imports_no_command_module():
+    import subprocess
+    import sys
+
+    code = ("import sys, contextlib, io\nfrom sogdd.cli.main import main\n"
+            "with contextlib.redirect_stdout(io.StringIO()) as out:\n"
+            "    try:\n        main(['--help'])\n    except SystemExit:\n        pass\n"
+            "assert 'COMMAND' in out.getvalue() and 'report' in out.getvalue()\n"
+            "print(sorted(m for m in sys.modules if m.startswith(('sogdd.cli.', 'sogdd.evaluation', "
+            "'sogdd.report', 'matplotlib'))))")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip() == "['sogdd.cli._common', 'sogdd.cli.main']"
+
+
+def test_help_shows_defaults_without_markup(capsys):
+    for argv, want in ((["eval", "gt", "--help"], "match radius in px [default: 2.0]"),
+                       (["eval", "repeatability", "--help"], "[default: $SOGDD_DATA/repeatability]"),
+                       (["demo", "--help"], "overlay PNG [default: sogdd_demo.png]"),
+                       (["colmap", "export", "--help"], "[default: auto]")):
+        with pytest.raises(SystemExit):
+            main(argv)
+        text = " ".join(capsys.readouterr().out.split())
+        assert want in text, argv
+        assert "``" not in text and ":mod:" not in text and ":func:" not in text
+
+
+def test_eval_without_subcommand_and_unknown_command(capsys):
+    assert main(["eval"]) == 2
+    assert "EVALUATION" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as e:
+        main(["nope"])
+    assert e.value.code == 2

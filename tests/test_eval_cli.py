@@ -1,5 +1,6 @@
 """End-to-end runs of the ``sogdd eval`` commands and the GT data format."""
 
+import csv
 import json
 
 import numpy as np
@@ -87,6 +88,25 @@ def test_eval_repeatability_quick(tmp_path, capsys):
     assert set(fam) == {"rotation", "noise", "overall"}
     assert 0.3 < fam["rotation"] <= 1 and 0.3 < fam["noise"] <= 1
     assert (tmp_path / "out" / "repeatability.csv").exists()
+    # the per-pair records agree with eq. 27 and with the JSON averages
+    with open(tmp_path / "out" / "repeatability_records.csv", newline="") as fh:
+        recs = list(csv.DictReader(fh))
+    assert len(recs) == 2 * (5 + 4)  # 2 images x (5 rotations + 4 noise levels) in the quick grid
+    for r in recs:
+        lb, ld, lr = int(r["lb"]), int(r["ld"]), int(r["lr"])
+        assert lr <= min(lb, ld)
+        assert float(r["r"]) == pytest.approx(0.5 * lr * (1 / lb + 1 / ld), abs=1e-6)
+    for f in ("rotation", "noise"):
+        assert fam[f] == pytest.approx(np.mean([float(r["r"]) for r in recs if r["family"] == f]), abs=1e-5)
+    assert fam["overall"] == pytest.approx((fam["rotation"] + fam["noise"]) / 2)
+    by = {(r["image"], r["family"], r["param"]): r for r in recs}
+    for im in ("im1.png", "im2.png"):
+        # a quarter turn maps pixel centres onto pixel centres and K = 8 orientations onto
+        # themselves: every corner comes back, and nothing else
+        q = by[(im, "rotation", "90")]
+        assert int(q["lb"]) == int(q["ld"]) == int(q["lr"]) > 0
+        # more noise, more false corners: repeatability falls
+        assert float(by[(im, "noise", "15")]["r"]) < float(by[(im, "noise", "2")]["r"])
 
 
 def test_eval_resolution_quick(tmp_path, capsys):
@@ -97,6 +117,19 @@ def test_eval_resolution_quick(tmp_path, capsys):
     rate = obj["detectors"]["sogdd"]["rate"]
     assert set(rate) == {"2", "3", "4", "6", "8", "12"}
     assert all(0 <= v <= 1 for v in rate.values())
+    # 8 configurations per d in the quick grid (2 kinds x 2 noise levels x 2 poses)
+    assert all(v * 8 == pytest.approx(round(v * 8)) for v in rate.values())
+    assert obj["detectors"]["sogdd"]["mean_rate"] == pytest.approx(np.mean(list(rate.values())))
+    row = (tmp_path / "resolution.csv").read_text().splitlines()[1].split(",")
+    assert row[0] == "sogdd" and [float(v) for v in row[1:7]] == pytest.approx(list(rate.values()), abs=1e-3)
+
+    assert main(["eval", "resolution", "--quick", "--detectors", "sogdd", "--mode", "oracle", "--json",
+                 "--quiet"]) == 0
+    oracle = json.loads(capsys.readouterr().out)["detectors"]["sogdd"]
+    # at the best threshold per configuration, a clean pair 12 px apart is always resolved,
+    # and no threshold does worse than the default one on average
+    assert oracle["rate"]["12"] == 1.0
+    assert oracle["mean_rate"] >= obj["detectors"]["sogdd"]["mean_rate"]
 
 
 def test_resolution_scoring():

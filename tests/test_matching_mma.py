@@ -246,8 +246,6 @@ def test_synthetic_pair_end_to_end(synthetic_root, tmp_path):
 def test_cli_matching_json(synthetic_root, tmp_path, capsys):
     rc = main(["eval", "matching", "--root", str(synthetic_root), "--detectors", "sogdd,sift",
                "--out", str(tmp_path), "--json", "--quiet"])
-    if rc == 2 and "matching" not in capsys.readouterr().err:
-        pytest.skip("`sogdd eval` is not wired yet")
     assert rc == 0
     obj = json.loads(capsys.readouterr().out)
     assert set(obj) == {"sogdd", "sift"}

@@ -198,8 +198,6 @@ def test_cli_sfm_json(data_dir, tmp_path, capsys):
         (sub / y.name).write_bytes(y.read_bytes())
     rc = main(["eval", "sfm", "--images", str(sub), "--detectors", "sogdd", "--matcher", "mnn",
                "--out", str(tmp_path / "out"), "--json", "--quiet", "--no-dense"])
-    if rc == 2 and "sfm" not in capsys.readouterr().err:
-        pytest.skip("`sogdd eval` is not wired yet")
     assert rc == 0
     obj = json.loads(capsys.readouterr().out)
     r = obj["sogdd"]

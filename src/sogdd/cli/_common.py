@@ -23,13 +23,19 @@ __all__ = [
 ]
 
 
-class HelpFormatter(argparse.RawDescriptionHelpFormatter):
-    """Descriptions as written; every option's default shown where it has a meaningful one.
+class HelpFormatter(argparse.HelpFormatter):
+    """Every option's default shown where it has a meaningful one; descriptions with line
+    breaks (module docstrings) kept as written, one-line ones wrapped.
 
     An option whose help already says ``[default: ...]`` (defaults found at run
     time, such as ``$SOGDD_DATA/...``), or whose default is ``None``/``False``,
     is left as it is.
     """
+
+    def _fill_text(self, text: str, width: int, indent: str) -> str:
+        if "\n" in text.strip():
+            return "".join(indent + line for line in text.splitlines(keepends=True))
+        return super()._fill_text(text, width, indent)
 
     def _get_help_string(self, action: argparse.Action) -> str:
         text = action.help or ""
