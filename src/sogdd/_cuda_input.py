@@ -116,23 +116,28 @@ def _launch_3d(shape) -> tuple[tuple[int, int, int], tuple[int, int, int]]:
     return (math.ceil(w / 32), math.ceil(h / 8), n), (32, 8, 1)
 
 
-def _grey_on_device(view):
+def _grey_on_device(view, value_range):
     """float64 0-255 copy of a validated device view, converted on the device (sogdd.io.to_gray255)."""
     kind = np.dtype(view.dtype)
     if kind.kind == "f":
         stats = cuda.to_device(np.array([np.inf, -np.inf, 0.0]))
-        ck.range_kernel[256, 256](view, stats)
+        ck.range_kernel[min(256, math.ceil(view.size / 256)), 256](view, stats)
         lo, hi, bad = stats.copy_to_host()
         if bad:
             raise ValueError("image contains NaN or inf")
-        if lo < -_FLOAT_TOL or hi > 1 + _FLOAT_TOL:
+        if value_range is None and (lo < -_FLOAT_TOL or hi > 1 + _FLOAT_TOL):
             raise ValueError(
                 f"float images must be on [0, 1] (got [{lo:g}, {hi:g}]); divide by 255 or pass uint8"
             )
-    scale = {"uint8": 1.0, "uint16": 255.0 / 65535.0}.get(kind.name, 255.0)
+    if value_range is not None:
+        lo, hi = value_range
+        off, scale, unit, full = float(lo), 255.0 / (hi - lo), False, True
+    else:
+        off, scale = 0.0, {"uint8": 1.0, "uint16": 255.0 / 65535.0}.get(kind.name, 255.0)
+        unit, full = kind.kind == "f", False
     out = cuda.device_array(view.shape, dtype=np.float64)
     grid, block = _launch_3d(view.shape)
-    ck.to_grey_kernel[grid, block](view, out, scale, kind.kind == "f")
+    ck.to_grey_kernel[grid, block](view, out, off, scale, unit, full)
     return out
 
 
@@ -162,7 +167,7 @@ def to_grey_stacks(images, params, *, batch: bool) -> list[GreyStack]:
         items = [images]
     elif is_device_array(images):
         view = _device_view(images)
-        return [GreyStack(_grey_on_device(view), list(range(view.shape[0])), None, True)]
+        return [GreyStack(_grey_on_device(view, params.value_range), list(range(view.shape[0])), None, True)]
     else:
         items = list(images)
         if not items:
@@ -174,10 +179,11 @@ def to_grey_stacks(images, params, *, batch: bool) -> list[GreyStack]:
             view = _device_view(img)
             if view.shape[0] != 1:
                 raise ValueError(f"item {i}: a (N, H, W) stack inside a list; pass the stack itself")
-            stacks.append(GreyStack(_grey_on_device(view), [i], None, True))
+            stacks.append(GreyStack(_grey_on_device(view, params.value_range), [i], None, True))
             continue
-        grey = to_gray255(validate_image(img), weights=params.gray_weights, round_integer=params.gray_round,
-                          channel_order=params.channel_order)
+        grey = to_gray255(validate_image(img, value_range=params.value_range), weights=params.gray_weights,
+                          round_integer=params.gray_round, channel_order=params.channel_order,
+                          value_range=params.value_range)
         host_groups.setdefault(grey.shape, []).append((i, grey))
     for group in host_groups.values():
         host = np.ascontiguousarray(np.stack([g for _, g in group]))

@@ -227,14 +227,21 @@ def measure_kernel(K: int, R: int, rk: int, nf: int, T: int, image_mode: bool, p
 
 
 @cuda.jit
-def to_grey_kernel(src, dst, scale, clip):  # pragma: no cover - device code
-    """dst = src on the 0-255 scale, as sogdd.io.to_gray255 (floats clipped to [0, 1] first)."""
+def to_grey_kernel(src, dst, lo, scale, unit, full):  # pragma: no cover - device code
+    """dst = (src - lo) * scale on the 0-255 scale, as sogdd.io.to_gray255.
+
+    ``unit``: clip to [0, 1] before scaling (float images); ``full``: clip to
+    [0, 255] after (``value_range``).
+    """
     x, y, n = cuda.grid(3)
     if n < dst.shape[0] and y < dst.shape[1] and x < dst.shape[2]:
-        v = float64(src[n, y, x])
-        if clip:
+        v = float64(src[n, y, x]) - lo
+        if unit:
             v = min(max(v, 0.0), 1.0)
-        dst[n, y, x] = v * scale
+        v *= scale
+        if full:
+            v = min(max(v, 0.0), 255.0)
+        dst[n, y, x] = v
 
 
 @cuda.jit
@@ -280,7 +287,7 @@ def abs_max_kernel(a, res):  # pragma: no cover - device code
 
 @cuda.jit
 def authors_kernel(det, tr, big, eps, out):  # pragma: no cover - device code
-    """The authors' post-processing (sogdd.response.authors_measure): small negative det -> 0, else -inf."""
+    """The authors' post-processing (authors_measure): det in [-eps max|det|, 0) -> 0, non-finite -> -inf."""
     x, y, n = cuda.grid(3)
     if n < out.shape[0] and y < out.shape[1] and x < out.shape[2]:
         d = det[n, y, x]

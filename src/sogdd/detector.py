@@ -29,7 +29,7 @@ def _prepare(image, p: Params) -> np.ndarray:
 
 
 
-def corner_response(image, *, preset: str = "paper", **params) -> np.ndarray:
+def corner_response(image, *, preset: str = "paper", device: str = "cpu", **params) -> np.ndarray:
     """The corner measure Upsilon (eq. 25) of an image: an H x W float64 map.
 
     Parameters
@@ -39,6 +39,8 @@ def corner_response(image, *, preset: str = "paper", **params) -> np.ndarray:
         or bool. Converted to grey on the 0-255 scale (see :mod:`sogdd.io`).
     preset : {"paper", "authors"}
         Starting parameter set; keyword arguments override it.
+    device : {"cpu", "cuda"}
+        ``"cuda"`` runs on an NVIDIA GPU (:mod:`sogdd.gpu`); a device input gives a device map.
 
     Returns
     -------
@@ -57,6 +59,8 @@ def corner_response(image, *, preset: str = "paper", **params) -> np.ndarray:
     >>> bool(R.max() > 1e9)  # strong corners pass the paper's T_h
     True
     """
+    if (gpu := _gpu(device)) is not None:
+        return gpu.corner_response(image, preset=preset, **params)
     p = resolve_params(preset, **params)
     return soddc_measure(_prepare(image, p), p.measure_spec())
 
@@ -105,7 +109,19 @@ def _allowed(xy: np.ndarray, mask: np.ndarray | None, border: int, shape: tuple[
     return ok
 
 
-def detect_corners(image, *, preset: str = "paper", mask=None, **params) -> Corners:
+def _gpu(device: str):
+    """The GPU module for ``device="cuda"``; ``device="cpu"`` gives None."""
+    if device == "cpu":
+        return None
+    if device != "cuda":
+        raise ValueError(f"device must be 'cpu' or 'cuda', got {device!r}")
+    # the one lazy import of the core: CPU users never load numba.cuda or need the gpu extra
+    from . import gpu
+
+    return gpu
+
+
+def detect_corners(image, *, preset: str = "paper", mask=None, device: str = "cpu", **params) -> Corners:
     """Detect corners: local maxima of Upsilon above a threshold.
 
     Parameters
@@ -121,6 +137,9 @@ def detect_corners(image, *, preset: str = "paper", mask=None, **params) -> Corn
         Same height and width as the image; corners are kept where it is non-zero.
         Mask and ``border`` hold for the final positions: a point that sub-pixel
         refinement or a pyramid level moves outside them is dropped.
+    device : {"cpu", "cuda"}
+        ``"cuda"`` runs on an NVIDIA GPU (:mod:`sogdd.gpu`, ``pip install 'sogdd[gpu]'``);
+        it also takes grey torch/CuPy device arrays.
 
     Returns
     -------
@@ -147,6 +166,8 @@ def detect_corners(image, *, preset: str = "paper", mask=None, **params) -> Corn
     >>> bool(np.median(d) < 0.5)  # sub-pixel: on the rendered vertices
     True
     """
+    if (gpu := _gpu(device)) is not None:
+        return gpu.detect_corners(image, preset=preset, mask=mask, **params)
     p = resolve_params(preset, **params)
     grey = _prepare(image, p)
     m = check_mask(mask, grey.shape)

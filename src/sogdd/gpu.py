@@ -89,7 +89,7 @@ def _measure(dev, spec):
     if not parts:
         return out
     big = cuda.to_device(np.zeros(N))
-    ck.abs_max_kernel[(64, 1, N), 256](out, big)
+    ck.abs_max_kernel[(min(64, math.ceil(H * W / 256)), 1, N), 256](out, big)
     ups = cuda.device_array((N, H, W))
     ck.authors_kernel[(math.ceil(W / 32), math.ceil(H / 8), N), (32, 8, 1)](out, tr, big, _EPS, ups)
     return ups
@@ -161,7 +161,7 @@ def _gradient_on_device(dev, j: int, rows, cols, xy) -> np.ndarray:
     d_rows = cuda.to_device(rows.astype(np.int64))
     d_cols = cuda.to_device(cols.astype(np.int64))
     out = cuda.device_array((n, S, S))
-    ck.gather_patches_kernel[(math.ceil(S / 32), math.ceil(S / 8), n), (32, 8, 1)](
+    ck.gather_patches_kernel[(1, S, n), (S, 1, 1)](
         dev, j, d_rows, d_cols, _PATCH, out)
     patches = out.copy_to_host()
     g = math.ceil(math.sqrt(n))
@@ -191,7 +191,8 @@ def _detect_stack(s: GreyStack, p: Params, masks: list) -> list[Corners]:
     N, H, W = resp.shape
     if p.threshold_rel is not None or p.quantile is not None or H < 3 or W < 3:
         grey = s.host if s.host is not None else s.dev.copy_to_host()
-        return [_detect_map(resp[j].copy_to_host(), grey[j], p, masks[j]) for j in range(N)]
+        out = [_detect_map(resp[j].copy_to_host(), grey[j], p, masks[j]) for j in range(N)]
+        return [c.subset(_allowed(c.xy, masks[j], p.border, (H, W))) for j, c in enumerate(out)]
     thr = 0.0 if p.threshold is None else float(p.threshold)  # as sogdd.peaks.resolve_threshold
     out = []
     for j, (rows, cols, vals, patches) in enumerate(_device_peaks(resp, thr, int(p.nms_radius))):
@@ -203,7 +204,17 @@ def _detect_stack(s: GreyStack, p: Params, masks: list) -> list[Corners]:
                 xy = refine_gradient(s.host[j], xy) if s.host is not None else \
                     _gradient_on_device(s.dev, j, rows, cols, xy)
         out.append(Corners(xy, vals, np.full(len(rows), p.keypoint_size())))
-    return out
+    return [c.subset(_allowed(c.xy, masks[j], p.border, (H, W))) for j, c in enumerate(out)]
+
+
+def _allowed(xy: np.ndarray, mask, border: int, shape: tuple[int, int]) -> np.ndarray:
+    """Final positions inside the mask and border, as sogdd.detector drops refined points that left them."""
+    h, w = shape
+    col, row = np.rint(xy[:, 0]).astype(np.int64), np.rint(xy[:, 1]).astype(np.int64)
+    ok = (col >= border) & (col <= w - 1 - border) & (row >= border) & (row <= h - 1 - border)
+    if mask is not None:
+        ok[ok] = mask[row[ok], col[ok]]
+    return ok
 
 
 def _params(preset: str, params: dict) -> Params:

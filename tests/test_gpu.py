@@ -1,0 +1,138 @@
+"""The GPU path (sogdd.gpu) against the CPU path, run on numba's CUDA simulator.
+
+CI has no GPU. numba's CUDA simulator runs the same kernel source (shared memory,
+barriers, atomics) in Python threads; it must be switched on before numba.cuda
+is first imported, so the GPU side runs in one subprocess with
+NUMBA_ENABLE_CUDASIM=1 that saves its results, and the tests compare them with
+the CPU path here. The simulator is slow: images are tiny.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+
+import sogdd
+from sogdd.synthetic import Polygon, regular_polygon, render_polygons
+
+
+def shapes_image(shape=(24, 31), seed=0) -> np.ndarray:
+    """Two polygons with sub-pixel vertices plus mild noise, float on [0, 1]."""
+    rng = np.random.default_rng(seed)
+    h, w = shape
+    polys = [Polygon(regular_polygon((w * 0.3, h * 0.4), h * 0.3, 3, 0.3), 210.0),
+             Polygon(regular_polygon((w * 0.72, h * 0.6), h * 0.3, 4, 0.2), 140.0)]
+    img = render_polygons(shape, polys, background=30.0) + rng.normal(0, 2.0, shape)
+    return np.clip(img, 0, 255) / 255.0
+
+
+# (name, image shape, preset, overrides): the kernel's specialisations (K, window
+# shape and size, kernel radius, zero-mean kernels, both border paddings, tile edges)
+RESPONSE_CASES = [
+    ("paper_k8", (24, 31), "paper", {}),
+    ("k4_s2_w5", (24, 31), "paper", {"n_orientations": 4, "sigma2": 2.0, "window": 5}),
+    ("image_pad_zero_mean", (20, 18), "paper", {"sigma2": 0.8, "window": 3, "padding": "image",
+                                                "zero_mean": True}),
+    ("authors_disk", (21, 23), "authors", {}),
+    ("tiny_reflect", (5, 7), "paper", {"n_orientations": 4}),
+]
+
+_SCRIPT = textwrap.dedent(
+    """
+    import sys, numpy as np
+    from numba import cuda
+    from sogdd import gpu
+    sys.path.insert(0, sys.argv[2])
+    from test_gpu import RESPONSE_CASES, shapes_image
+    out = {}
+    for name, shape, preset, kw in RESPONSE_CASES:
+        out["resp_" + name] = gpu.corner_response(shapes_image(shape), preset=preset, **kw)
+    img = shapes_image((24, 31))
+    c = gpu.detect_corners(img, threshold=1e8)  # host input: refinement reads the host image
+    out["det_xy"], out["det_resp"] = c.xy, c.response
+    u8 = np.round(img * 255).astype(np.uint8)
+    c = gpu.detect_corners(cuda.to_device(u8), threshold=1e8)  # device input: patches from the device
+    out["dev_xy"], out["dev_resp"] = c.xy, c.response
+    b = gpu.corner_response_batch(cuda.to_device(np.stack([u8[:, :16], u8[:, 15:]])), preset="paper",
+                                  n_orientations=2, window=3)
+    out["batch"] = b.copy_to_host()
+    np.savez(sys.argv[1], **out)
+    """
+)
+
+
+@pytest.fixture(scope="module")
+def sim(tmp_path_factory):
+    path = tmp_path_factory.mktemp("gpu") / "sim.npz"
+    env = dict(os.environ, NUMBA_ENABLE_CUDASIM="1")
+    proc = subprocess.run([sys.executable, "-c", _SCRIPT, str(path), os.path.dirname(__file__)],
+                          env=env, capture_output=True, text=True, timeout=300)
+    if proc.returncode != 0 and "simulator" in proc.stderr.lower() and "Error" in proc.stderr:
+        pytest.skip("numba's CUDA simulator is unavailable: " + proc.stderr.strip().splitlines()[-1])
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return dict(np.load(path))
+
+
+def _rel_err(gpu: np.ndarray, cpu: np.ndarray) -> np.ndarray:
+    """|gpu - cpu| relative to |cpu|, where the measure is well conditioned (above 1e-6 of its maximum)."""
+    big = np.abs(cpu) > 1e-6 * np.abs(cpu).max()
+    return np.abs(gpu - cpu)[big] / np.abs(cpu)[big]
+
+
+@pytest.mark.parametrize("name,shape,preset,kw", RESPONSE_CASES, ids=[c[0] for c in RESPONSE_CASES])
+def test_response_matches_cpu(sim, name, shape, preset, kw):
+    cpu = sogdd.corner_response(shapes_image(shape), preset=preset, **kw)
+    gpu = sim["resp_" + name]
+    assert gpu.shape == cpu.shape and gpu.dtype == np.float64
+    fin = np.isfinite(cpu)
+    assert np.array_equal(np.isfinite(gpu), fin)
+    rel = _rel_err(gpu[fin], cpu[fin])
+    assert rel.size >= 10
+    assert np.quantile(rel, 0.99) < 1e-9 and rel.max() < 1e-7
+    # below the well-conditioned range the map agrees to rounding of its largest values
+    assert np.abs(gpu[fin] - cpu[fin]).max() <= 1e-10 * np.abs(cpu[fin]).max()
+
+
+def test_detection_matches_cpu(sim):
+    img = shapes_image((24, 31))
+    for key, im in (("det", img), ("dev", np.round(img * 255).astype(np.uint8))):
+        cpu = sogdd.detect_corners(im, threshold=1e8)
+        assert len(cpu) >= 3  # the vertices are found at all
+        xy, resp = sim[key + "_xy"], sim[key + "_resp"]
+        assert len(resp) == len(cpu)
+        # the same peaks (same order, strongest first) with the same values to rounding
+        assert np.allclose(resp, cpu.response, rtol=1e-10, atol=0)
+        # host refinement is identical; refinement on device patches differs in float32 coordinates only
+        assert np.abs(xy - cpu.xy).max() < (1e-6 if key == "det" else 1e-3)
+
+
+def test_device_stack_batch(sim):
+    u8 = np.round(shapes_image((24, 31)) * 255).astype(np.uint8)
+    for j, part in enumerate([u8[:, :16], u8[:, 15:]]):
+        cpu = sogdd.corner_response(part, n_orientations=2, window=3)
+        assert np.abs(sim["batch"][j] - cpu).max() <= 1e-10 * np.abs(cpu).max()
+
+
+def test_cuda_absent_is_a_clear_error():
+    from sogdd._cuda_input import cuda_runtime_available
+
+    if cuda_runtime_available():
+        pytest.skip("a CUDA device is present")
+    img = shapes_image((12, 12))
+    for f in (sogdd.corner_response, sogdd.detect_corners):
+        with pytest.raises(ValueError, match="device='cuda' needs an NVIDIA GPU"):
+            f(img, device="cuda")
+    with pytest.raises(ValueError, match="device must be"):
+        sogdd.corner_response(img, device="tpu")
+
+
+def test_cpu_users_never_import_the_gpu_module():
+    code = ("import sys, numpy as np, sogdd; sogdd.detect_corners(np.zeros((16, 16), np.uint8)); "
+            "print('sogdd.gpu' in sys.modules, 'numba.cuda' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.stdout.split() == ["False", "False"], out.stderr[-2000:]
