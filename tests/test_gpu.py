@@ -136,3 +136,21 @@ def test_cpu_users_never_import_the_gpu_module():
             "print('sogdd.gpu' in sys.modules, 'numba.cuda' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.stdout.split() == ["False", "False"], out.stderr[-2000:]
+
+
+def test_cli_device_cuda_without_cuda(tmp_path, capsys):
+    from sogdd._cuda_input import cuda_runtime_available
+    from sogdd.cli.main import main
+
+    if cuda_runtime_available():
+        pytest.skip("a CUDA device is present")
+    import cv2
+
+    f = str(tmp_path / "img.png")
+    cv2.imwrite(f, np.round(shapes_image((24, 31)) * 255).astype(np.uint8))
+    npy = str(tmp_path / "r.npy")
+    for args in (["detect", f, "--device", "cuda"], ["response", f, "-o", npy, "--device", "cuda"]):
+        capsys.readouterr()
+        assert main(args) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and err[0].startswith("sogdd: error:") and "device='cuda'" in err[0]

@@ -64,6 +64,8 @@ def run(args: argparse.Namespace) -> int:
     paths = expand_inputs(args.images)
     if not paths:
         raise ValueError("no input images")
+    if args.out and args.device != "cpu":
+        raise ValueError("--device cuda works without --out DIR for now")
     if args.out:
         return _run_folder(args, paths, params)
     if args.resume or args.jobs != 1 or args.scheduler:
@@ -75,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
     for path in tqdm(paths, desc="detect", unit="img", file=sys.stderr, disable=not many):
         try:
             img = read_image(path)
-            c = detect_corners(img, preset=args.preset, **params)
+            c = detect_corners(img, preset=args.preset, device=args.device, **params)
         except (ValueError, OSError) as exc:
             failures += 1
             msg = str(exc) if str(path) in str(exc) else f"{path}: {exc}"
@@ -124,6 +126,8 @@ def configure(p: argparse.ArgumentParser) -> None:
     p.description = __doc__
     p.add_argument("images", nargs="+", help="image files, folders or glob patterns")
     add_detector_arguments(p)
+    p.add_argument("--device", choices=["cpu", "cuda"], default="cpu",
+                   help="cuda: run on an NVIDIA GPU (pip install 'sogdd[gpu]')")
     p.add_argument("--output", "-o", default="-", help="one output file for all images, or - for stdout")
     p.add_argument("--format", choices=["csv", "json", "npz"], default=None,
                    help="csv, json or npz [default: csv; npz with --out]")
