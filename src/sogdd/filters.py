@@ -123,7 +123,7 @@ def steerable_basis(sigma2: float, radius: int, *, zero_mean: bool = False) -> S
 
 
 @numba.njit(**JIT)
-def _basis_tile(img, r0, nrows, M, ext, fx, fy, odd, means, out):  # pragma: no cover - jit
+def _basis_tile(img, r0, nrows, M, ext, fx, fy, odd, means, out, cblock):  # pragma: no cover - jit
     """Separable correlation of ``img`` with the basis pairs, rows ``r0 - M ..`` of a tile.
 
     ``out[i, pr, x]`` holds filter pair i (row filter ``fy[i]``, column filter
@@ -133,79 +133,83 @@ def _basis_tile(img, r0, nrows, M, ext, fx, fy, odd, means, out):  # pragma: no 
     code); with ``ext == 0`` the responses are computed inside the image and
     reflected themselves (scipy ``mode="reflect"`` at both stages). A fourth pair,
     if present, is the box sum that makes zero-mean kernels (``out[i] -= means[i] * box``).
-    Horizontal passes are kept for the last ``2r + 1`` image rows in a ring.
+    Horizontal passes are kept for the last ``2r + 1`` image rows in a ring, one
+    strip of ``cblock`` columns at a time so that the ring stays in cache on wide
+    images (each value is computed the same way whatever the strip).
     """
     H, W = img.shape
     nf, T = fx.shape
     rk = (T - 1) // 2
     Wo = W + 2 * ext  # columns filtered, -ext .. W + ext
     rs = T + 1
-    ring = np.empty((nf, rs, Wo))
-    ring_id = np.full(rs, -(1 << 62), np.int64)
-    rowbuf = np.empty(Wo + 2 * rk)
-    vert = np.empty((nf, Wo))
-    for pr in range(nrows + 2 * M):
-        y = r0 - M + pr
-        yc = y if ext > 0 else reflect1(y, H)  # the row whose response this is
-        for a in range(T):
-            ri = reflect1(yc - rk + a, H)
-            slot = ri % rs
-            if ring_id[slot] != ri:  # horizontal passes of image row ri
-                ring_id[slot] = ri
-                src = img[ri]
-                c0 = ext + rk
-                for x in range(W):
-                    rowbuf[c0 + x] = src[x]
-                for x in range(c0):
-                    rowbuf[x] = src[reflect1(x - c0, W)]
-                for x in range(c0 + W, Wo + 2 * rk):
-                    rowbuf[x] = src[reflect1(x - c0, W)]
-                # every factor is even or odd, so taps b and T-1-b share one multiply
-                for i in range(nf):
-                    h = ring[i, slot]
-                    w = fx[i, rk]
-                    rc = rowbuf[rk : rk + Wo]
-                    for x in range(Wo):
-                        h[x] = w * rc[x]
-                    for b in range(rk):
-                        w = fx[i, b]
-                        lo = rowbuf[b : b + Wo]
-                        hi = rowbuf[T - 1 - b : T - 1 - b + Wo]
-                        if odd[i]:
-                            for x in range(Wo):
-                                h[x] += w * (lo[x] - hi[x])
-                        else:
-                            for x in range(Wo):
-                                h[x] += w * (lo[x] + hi[x])
-        for i in range(nf):
-            v = vert[i]
-            w = fy[i, rk]
-            hc = ring[i, reflect1(yc, H) % rs]
-            for x in range(Wo):
-                v[x] = w * hc[x]
-            for a in range(rk):
-                w = fy[i, a]
-                top = ring[i, reflect1(yc - rk + a, H) % rs]
-                bot = ring[i, reflect1(yc + rk - a, H) % rs]
-                if odd[nf + i]:
-                    for x in range(Wo):
-                        v[x] += w * (top[x] - bot[x])
-                else:
-                    for x in range(Wo):
-                        v[x] += w * (top[x] + bot[x])
-        if nf == 4:
-            box = vert[3]
-            for i in range(3):
+    ring = np.empty((nf, rs, cblock))
+    ring_id = np.empty(rs, np.int64)
+    rowbuf = np.empty(cblock + 2 * rk)
+    vert = np.empty((nf, cblock))
+    c0 = ext + rk  # position of image column 0 in padded coordinates
+    for xs in range(0, Wo, cblock):
+        cw = min(cblock, Wo - xs)
+        ring_id[:] = -(1 << 62)
+        for pr in range(nrows + 2 * M):
+            y = r0 - M + pr
+            yc = y if ext > 0 else reflect1(y, H)  # the row whose response this is
+            for a in range(T):
+                ri = reflect1(yc - rk + a, H)
+                slot = ri % rs
+                if ring_id[slot] != ri:  # horizontal passes of image row ri, this strip
+                    ring_id[slot] = ri
+                    src = img[ri]
+                    for x in range(cw + 2 * rk):
+                        xx = xs + x - c0
+                        rowbuf[x] = src[xx] if 0 <= xx < W else src[reflect1(xx, W)]
+                    # every factor is even or odd, so taps b and T-1-b share one multiply
+                    for i in range(nf):
+                        h = ring[i, slot]
+                        w = fx[i, rk]
+                        rc = rowbuf[rk : rk + cw]
+                        for x in range(cw):
+                            h[x] = w * rc[x]
+                        for b in range(rk):
+                            w = fx[i, b]
+                            lo = rowbuf[b : b + cw]
+                            hi = rowbuf[T - 1 - b : T - 1 - b + cw]
+                            if odd[i]:
+                                for x in range(cw):
+                                    h[x] += w * (lo[x] - hi[x])
+                            else:
+                                for x in range(cw):
+                                    h[x] += w * (lo[x] + hi[x])
+            for i in range(nf):
                 v = vert[i]
-                mi = means[i]
-                for x in range(Wo):
-                    v[x] -= mi * box[x]
+                w = fy[i, rk]
+                hc = ring[i, reflect1(yc, H) % rs]
+                for x in range(cw):
+                    v[x] = w * hc[x]
+                for a in range(rk):
+                    w = fy[i, a]
+                    top = ring[i, reflect1(yc - rk + a, H) % rs]
+                    bot = ring[i, reflect1(yc + rk - a, H) % rs]
+                    if odd[nf + i]:
+                        for x in range(cw):
+                            v[x] += w * (top[x] - bot[x])
+                    else:
+                        for x in range(cw):
+                            v[x] += w * (top[x] + bot[x])
+            if nf == 4:
+                box = vert[3]
+                for i in range(3):
+                    v = vert[i]
+                    mi = means[i]
+                    for x in range(cw):
+                        v[x] -= mi * box[x]
+            for i in range(3):
+                dst = out[i, pr, M - ext + xs : M - ext + xs + cw]
+                v = vert[i]
+                for x in range(cw):
+                    dst[x] = v[x]
+    if ext < M:  # reflect the responses into the column margin
         for i in range(3):
-            dst = out[i, pr, M - ext : M + W + ext]
-            v = vert[i]
-            for x in range(Wo):
-                dst[x] = v[x]
-            if ext < M:  # reflect the responses into the column margin
+            for pr in range(nrows + 2 * M):
                 row = out[i, pr]
                 for x in range(M - ext):
                     row[x] = row[M + reflect1(x - M, W)]
@@ -246,7 +250,7 @@ def basis_tile(
     out = np.empty((3, r1 - r0 + 2 * M, W + 2 * M))
     fx, fy = np.array(fx), np.array(fy)
     odd = np.array([_parity(f) for f in [*fx, *fy]])
-    _basis_tile(img, int(r0), int(r1 - r0), M, M if reflect_image else 0, fx, fy, odd, basis.means, out)
+    _basis_tile(img, int(r0), int(r1 - r0), M, M if reflect_image else 0, fx, fy, odd, basis.means, out, 512)
     return out
 
 
