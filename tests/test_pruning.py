@@ -162,3 +162,40 @@ def test_peak_scan_equals_the_dilation_definition(h, w, radius, border, levels, 
     # every candidate is kept or lies within the radius of a kept one of equal value
     for r, c in zip(*np.nonzero(cand)):
         assert any(max(abs(r - r2), abs(c - c2)) <= radius and resp[r2, c2] == resp[r, c] for r2, c2 in got)
+
+
+@pytest.mark.parametrize("params", [{"threshold_rel": 0.05}, {"threshold_rel": 0.02, "threshold": None},
+                                    {"threshold_rel": 0.01, "border": 20}])
+def test_relative_threshold_prunes_and_detects_as_the_full_map(pattern, rng, monkeypatch, params):
+    from sogdd import _relative_floor
+
+    img = np.clip(pattern[0] + rng.normal(0, 4, pattern[0].shape), 0, 255).astype(np.uint8)
+    p = sogdd.resolve_params("paper", **params)
+    grey = img.astype(np.float64)
+    spec = p.measure_spec()
+    full = soddc_measure(grey, spec)
+    lo = _relative_floor.max_lower_bound(grey, spec, p.border)
+    b = p.border
+    assert 0 < lo <= full[b : full.shape[0] - b, b : full.shape[1] - b].max()
+    floor = _relative_floor.relative_floor(grey, p, spec, threshold=p.threshold)
+    assert floor is not None and floor >= p.threshold_rel * lo * 0.999
+    assert np.isinf(soddc_measure(grey, spec, floor=floor)).any()  # it prunes
+    pruned = sogdd.detect_corners(img, **params)
+    monkeypatch.setattr(detector, "relative_floor", lambda *a, **k: None)
+    unpruned = sogdd.detect_corners(img, **params)
+    assert len(pruned) > 5
+    np.testing.assert_array_equal(pruned.xy, unpruned.xy)
+    np.testing.assert_array_equal(pruned.response, unpruned.response)
+
+
+def test_max_lower_bound_respects_mask_and_border(rng):
+    img = _photo_like(90, 120, rng)
+    spec = sogdd.resolve_params("paper").measure_spec()
+    full = soddc_measure(img, spec)
+    mask = np.zeros(img.shape, bool)
+    mask[40:70, 50:100] = True
+    from sogdd._relative_floor import max_lower_bound
+
+    lo = max_lower_bound(img, spec, 5, mask)
+    assert lo <= full[mask].max()
+    assert max_lower_bound(img, spec, 60) == -np.inf  # no valid pixel
