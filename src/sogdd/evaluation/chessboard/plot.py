@@ -20,13 +20,16 @@ def chessboard_figure(rep: ChessboardReport, path: str | os.PathLike) -> Path:
     import matplotlib.pyplot as plt
 
     fig, (ax_e, ax_r) = plt.subplots(1, 2, figsize=(11, 4.2))
-    for lab in rep.labels:
+    colours = plt.get_cmap("tab20").colors  # distinct up to 20 rows (the default cycle has 10)
+    markers = "os^vDPX*<>"
+    for k, lab in enumerate(rep.labels):
+        style = {"color": colours[(2 * k) % 20 + (k // 10) % 2], "marker": markers[k % len(markers)]}
         pc = rep.per_cell(lab)
         cs = [c for c in rep.cells if f"{c:g}" in pc]
         err = [pc[f"{c:g}"]["mean_error"] for c in cs]
         ce = [c for c, e in zip(cs, err) if e is not None]
-        ax_e.plot(ce, [e for e in err if e is not None], marker="o", label=lab)
-        ax_r.plot(cs, [pc[f"{c:g}"]["recall"] for c in cs], marker="o", label=lab)
+        ax_e.plot(ce, [e for e in err if e is not None], label=lab, **style)
+        ax_r.plot(cs, [pc[f"{c:g}"]["recall"] for c in cs], label=lab, **style)
     ax_e.set(xlabel="cell size (px)", ylabel="mean error of located corners (px)", yscale="log",
              title="error (corners located within cell/2)")
     ax_r.set(xlabel="cell size (px)", ylabel="recall (detection within 1 px)", ylim=(-0.02, 1.02),
