@@ -1,49 +1,129 @@
 """Detection over image collections: one feature file per image, resumable, in
-local processes or on a Dask cluster.
+local processes or on a Dask cluster; every good result is kept.
 
-Feature files are named ``<image file name>.<format>`` (``0001.jpg.npz``) so
-images that differ only in extension never collide, and are written atomically
-(a temporary file in the same folder, then ``os.replace``), so an interrupted
-run never leaves a half-written file that ``resume`` would mistake for done.
+Names. Each image's feature file is ``<out>/<path relative to the inputs'
+common folder>.<format>`` (``photos/a/0001.jpg`` and ``photos/b/0001.jpg`` give
+``a/0001.jpg.npz`` and ``b/0001.jpg.npz``), so two inputs never write the same
+file; the same file given twice is processed once.
 
-The file formats are those of :mod:`sogdd.features`.
+Resume. A feature file counts as done only if it loads, and records the same
+resolved parameters, the same sogdd version, and the size and modification
+time of the image file it was made from; anything else is redone. Temporary
+files an interrupted run left behind are removed when the next run starts.
+Files are written atomically (:func:`sogdd.features.write_features`).
+
+Failures. A bad image is reported and the others complete. A worker process
+that dies (``SIGKILL`` from the out-of-memory killer) takes down the process
+pool, and with it every image in flight: those are retried, each alone in a
+fresh single-worker pool, and an image whose worker dies again is recorded as
+failed; the pool is replaced and the rest of the batch continues.
+
+Signals. ``SIGINT`` (Ctrl-C) or ``SIGTERM`` stops the batch within a fraction of a
+second: workers are killed, their partial files removed, finished files kept,
+and :class:`BatchInterrupted` is raised (a ``KeyboardInterrupt`` carrying the
+signal number and the finished items). Workers die with their parent (Linux
+``PR_SET_PDEATHSIG``), so killing the parent never leaves orphans.
 """
 
 from __future__ import annotations
 
+import ctypes
 import glob
 import os
+import signal
+import sys
+import threading
+from collections import deque
 from collections.abc import Callable, Iterable
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from pathlib import Path
 
+import cv2
+
 from .detector import detect_corners
-from .features import FORMATS, write_features
+from .features import FORMATS, make_record, params_dict, read_features, remove_stale_temporaries, write_features
 from .io import list_images, read_image
 from .params import resolve_params
+from .response import _n_threads
 
-__all__ = ["BatchItem", "expand_inputs", "feature_path", "run_batch"]
+__all__ = [
+    "BatchInterrupted", "BatchItem", "expand_inputs", "feature_path", "relative_names", "run_batch",
+]
+
+_DIED = "worker process died (killed by the system, e.g. out of memory)"
 
 
-def expand_inputs(items: Iterable[str]) -> list[Path]:
-    """Files as given; folders expand to their image files; glob patterns expand (sorted)."""
+class BatchInterrupted(KeyboardInterrupt):
+    """A batch stopped by a signal; ``signum`` says which, ``items`` holds what finished."""
+
+    def __init__(self, signum: int, items: list | None = None):
+        super().__init__(f"interrupted by {signal.Signals(signum).name}")
+        self.signum = int(signum)
+        self.items = list(items or [])
+
+
+def expand_inputs(items: Iterable[str], *, recursive: bool = False) -> list[Path]:
+    """Files as given; folders expand to their image files (``recursive``: and their
+    sub-folders'); glob patterns expand (sorted). The same path twice is kept once."""
     out: list[Path] = []
     for item in items:
         p = Path(item)
         if p.is_dir():
-            out.extend(list_images(p))
-        elif not p.exists() and any(ch in item for ch in "*?["):
+            out.extend(list_images(p, recursive=recursive))
+        elif not os.path.lexists(p) and any(ch in item for ch in "*?["):
             matches = sorted(Path(m) for m in glob.glob(item, recursive=True))
-            if not matches:
+            matches = [m for m in matches if m.is_file()]
+            if not matches and not _is_frame(item):
                 raise ValueError(f"{item}: no files match")
-            out.extend(m for m in matches if m.is_file())
+            out.extend(matches or [p])
         else:
             out.append(p)
-    return out
+    seen: set[str] = set()
+    unique = []
+    for p in out:
+        key = os.path.realpath(p) if os.path.lexists(p) else str(p)
+        if key not in seen:
+            seen.add(key)
+            unique.append(p)
+    return unique
 
 
-def feature_path(out_dir: str | os.PathLike, image: str | os.PathLike, fmt: str) -> Path:
-    return Path(out_dir) / f"{Path(image).name}.{fmt}"
+def _is_frame(item: str) -> bool:
+    """``photo.tif[2]``: a frame of an existing file, not a glob pattern."""
+    base, _, rest = item.rpartition("[")
+    return bool(base) and rest[:-1].isdigit() and rest.endswith("]") and os.path.isfile(base)
+
+
+def relative_names(paths: list[str | os.PathLike]) -> list[str]:
+    """Each path relative to the folder common to all of them, as a POSIX string.
+
+    Raises ``ValueError`` naming both files if two of them still map to the same name.
+
+    Examples
+    --------
+    >>> relative_names(["/data/a/0001.jpg", "/data/b/0001.jpg"])
+    ['a/0001.jpg', 'b/0001.jpg']
+    >>> relative_names(["/data/a/0001.jpg"])
+    ['0001.jpg']
+    """
+    absolute = [os.path.abspath(os.fspath(p)) for p in paths]
+    if not absolute:
+        return []
+    root = os.path.commonpath([os.path.dirname(a) for a in absolute])
+    names = [Path(os.path.relpath(a, root)).as_posix() for a in absolute]
+    first: dict[str, int] = {}
+    for i, n in enumerate(names):
+        j = first.setdefault(n.lower(), i)  # lower: case-insensitive file systems collide too
+        if j != i:
+            raise ValueError(f"{paths[j]} and {paths[i]} would both be written as {n!r}")
+    return names
+
+
+def feature_path(out_dir: str | os.PathLike, name: str, fmt: str) -> Path:
+    """``out_dir/<name>.<fmt>``, ``name`` from :func:`relative_names`."""
+    return Path(out_dir) / f"{name}.{fmt}"
 
 
 @dataclass(frozen=True)
@@ -56,18 +136,39 @@ class BatchItem:
     message: str = ""
 
 
-def detect_to_file(image: str, out_dir: str, fmt: str, preset: str, params: dict, resume: bool) -> BatchItem:
+def _current(target: Path, image: str, params: dict) -> bool:
+    """Whether ``target`` loads and was made from this image file, unchanged, with these parameters."""
+    from . import __version__
+
+    try:
+        recs = read_features(target)
+        st = os.stat(image)
+    except (ValueError, OSError):
+        return False
+    if len(recs) != 1:
+        return False
+    r = recs[0]
+    return (r.params == params and r.sogdd_version == __version__ and r.source_size == st.st_size
+            and r.source_mtime_ns == st.st_mtime_ns)
+
+
+def detect_to_file(image: str, target: str, fmt: str, preset: str, params: dict, resume: bool,
+                   read_options: dict | None = None) -> BatchItem:
     """Detect on one image and write its feature file (the unit of work, picklable)."""
-    target = feature_path(out_dir, image, fmt)
-    if resume and target.exists():
+    p = resolve_params(preset, **params)
+    out = Path(target)
+    if resume and _current(out, image, params_dict(preset, p)):
         return BatchItem(image, "skipped")
     try:
-        img = read_image(image)
+        img = read_image(image, **(read_options or {}))
         c = detect_corners(img, preset=preset, **params)
-        write_features(target, c, fmt, image, img.shape)
-    except (ValueError, OSError) as exc:
-        msg = str(exc) if str(image) in str(exc) else f"{image}: {exc}"
-        return BatchItem(image, "failed", message=msg)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        write_features(out, make_record(image, c, img.shape, preset, p), fmt)
+    except (ValueError, OSError, cv2.error) as exc:
+        msg = str(exc).strip().splitlines()[-1] if isinstance(exc, cv2.error) else str(exc)
+        return BatchItem(image, "failed", message=msg if str(image) in msg else f"{image}: {msg}")
+    except MemoryError:
+        return BatchItem(image, "failed", message=f"{image}: out of memory")
     return BatchItem(image, "done", len(c))
 
 
@@ -82,23 +183,30 @@ def run_batch(
     jobs: int = 1,
     scheduler: str | None = None,
     progress: Callable[[BatchItem], None] | None = None,
+    read_options: dict | None = None,
 ) -> list[BatchItem]:
     """Detect on every image, one feature file each; a bad image never stops the others.
 
     ``jobs`` local processes (the default path), or a Dask distributed cluster at
-    ``scheduler`` (``pip install 'sogdd[distributed]'``). Returns one
-    :class:`BatchItem` per image, in input order.
+    ``scheduler`` (``pip install 'sogdd[distributed]'``). ``read_options`` go to
+    :func:`sogdd.read_image` (``max_pixels``, ``allow_corrupt``,
+    ``ignore_orientation``). Returns one :class:`BatchItem` per image, in input
+    order. Raises :class:`BatchInterrupted` on ``SIGINT``/``SIGTERM``.
     """
     params = dict(params or {})
-    resolve_params(preset, **params)  # bad parameters fail before any work
+    resolve_params(preset, **params)  # bad parameters (and environment) fail before any work
+    _n_threads()
     if fmt not in FORMATS:
         raise ValueError(f"unknown format {fmt!r}")
     if jobs < 1:
         raise ValueError(f"jobs must be >= 1, got {jobs}")
+    names = [str(p) for p in images]
+    rel = relative_names(names)  # collisions fail before any work
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    names = [str(p) for p in images]
-    args = [(n, str(out), fmt, preset, params, resume) for n in names]
+    remove_stale_temporaries(out)
+    args = [(n, str(feature_path(out, r, fmt)), fmt, preset, params, resume, read_options)
+            for n, r in zip(names, rel)]
     results: dict[str, BatchItem] = {}
 
     def done(item: BatchItem) -> None:
@@ -106,22 +214,95 @@ def run_batch(
         if progress:
             progress(item)
 
-    if scheduler:
-        _run_dask(args, scheduler, done)
-    elif jobs == 1:
-        for a in args:
-            done(detect_to_file(*a))
-    else:
-        from concurrent.futures import ProcessPoolExecutor, as_completed
-
-        with ProcessPoolExecutor(max_workers=jobs, initializer=_one_thread_per_worker) as pool:
-            futures = [pool.submit(detect_to_file, *a) for a in args]
-            for f in as_completed(futures):
-                done(f.result())
+    try:
+        with _signals_raise():
+            if scheduler:
+                _run_dask(args, scheduler, done)
+            elif jobs == 1:
+                for a in args:
+                    done(detect_to_file(*a))
+            else:
+                _run_local(args, jobs, done)
+    except KeyboardInterrupt as exc:
+        remove_stale_temporaries(out)
+        signum = exc.signum if isinstance(exc, BatchInterrupted) else int(signal.SIGINT)
+        raise BatchInterrupted(signum, [results[n] for n in names if n in results]) from None
     return [results[n] for n in names]
 
 
-def _one_thread_per_worker() -> None:
+class _signals_raise:
+    """While active (main thread only), ``SIGTERM`` raises :class:`BatchInterrupted` like Ctrl-C."""
+
+    def __enter__(self):
+        self.old = None
+        if threading.current_thread() is threading.main_thread():
+            self.old = signal.signal(signal.SIGTERM, _raise_interrupted)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self.old is not None:
+            signal.signal(signal.SIGTERM, self.old)
+
+
+def _raise_interrupted(signum, _frame) -> None:
+    raise BatchInterrupted(signum)
+
+
+def _run_local(args: list[tuple], jobs: int, done: Callable[[BatchItem], None]) -> None:
+    """``jobs`` worker processes, at most ``jobs`` images in flight; a broken pool is replaced."""
+    pending = deque(args)
+    while pending:
+        lost = _run_pool(pending, jobs, done)
+        for a in lost:  # each alone: only an image that kills its own worker fails
+            if _run_pool(deque([a]), 1, done):
+                done(BatchItem(a[0], "failed", message=f"{a[0]}: {_DIED}"))
+
+
+def _run_pool(queue: deque, width: int, done: Callable[[BatchItem], None]) -> list[tuple]:
+    """Run tasks from ``queue`` until it is empty or the pool breaks; return the tasks lost in a break."""
+    pool = ProcessPoolExecutor(width, initializer=_worker_init, initargs=(os.getpid(),))
+    inflight: dict = {}
+    lost: list[tuple] = []
+    try:
+        while queue or inflight:
+            while queue and len(inflight) < width and not lost:
+                a = queue.popleft()
+                inflight[pool.submit(detect_to_file, *a)] = a
+            if not inflight:
+                break
+            finished, _ = wait(list(inflight), timeout=0.25, return_when=FIRST_COMPLETED)
+            for f in finished:
+                a = inflight.pop(f)
+                try:
+                    done(f.result())
+                except BrokenProcessPool:
+                    lost.append(a)
+        pool.shutdown(wait=True)
+    except BaseException:
+        _kill_workers(pool)
+        raise
+    return lost
+
+
+def _kill_workers(pool: ProcessPoolExecutor) -> None:
+    for proc in list((getattr(pool, "_processes", None) or {}).values()):
+        try:
+            proc.kill()
+        except (OSError, ValueError, AttributeError):
+            pass
+    pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _worker_init(parent: int) -> None:
+    # the parent handles Ctrl-C (and kills the workers); a worker must not die on it mid-write
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if sys.platform.startswith("linux"):
+        try:  # die with the parent: PR_SET_PDEATHSIG = 1
+            ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL), 0, 0, 0)
+        except (OSError, AttributeError):  # pragma: no cover
+            pass
+    if os.getppid() != parent:  # the parent died before prctl took effect
+        os._exit(1)
     # the processes already fill the cores; threads inside each would oversubscribe them
     os.environ["SOGDD_NUM_THREADS"] = "1"
 

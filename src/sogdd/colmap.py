@@ -24,7 +24,10 @@ pycolmap is imported lazily so that the rest of sogdd never needs it.
 
 from __future__ import annotations
 
+import os
 import re
+import shutil
+import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -217,25 +220,33 @@ def write_features(db, image_id: int, xy: np.ndarray, size: np.ndarray | None = 
 
 # ----------------------------------------------------------------- export
 def _feature_files(folder: Path) -> dict[str, Path]:
+    """``{image name: file}``: the name is the file's path under ``folder`` without ``.npz``
+    (``sogdd detect --out`` mirrors the inputs' sub-folders)."""
     if not folder.is_dir():
         raise ValueError(f"{folder}: not a folder")
-    files = {p.name[: -len(".npz")]: p for p in sorted(folder.glob("*.npz"))}
+    files = {p.relative_to(folder).as_posix()[: -len(".npz")]: p for p in sorted(folder.rglob("*.npz"))}
     if not files:
         raise ValueError(f"{folder}: no .npz feature files")
     return files
 
 
 def _read_feature_file(path: Path) -> tuple[Corners, np.ndarray | None, np.ndarray | None]:
-    """A ``sogdd detect --format npz`` file: corners, the stored sizes (``None`` when the file has
-    none: COLMAP then gets scale 1) and the optional ``descriptors`` (N, 128)."""
-    with np.load(path) as z:
-        if "xy" not in z:
-            raise ValueError(f"{path}: no 'xy' array (not a sogdd feature file)")
-        xy = np.asarray(z["xy"], dtype=np.float64).reshape(-1, 2)
-        size = np.asarray(z["size"], dtype=np.float64) if "size" in z else None
-        c = Corners(xy, z["response"] if "response" in z else None, size, z["level"] if "level" in z else None)
-        desc = np.asarray(z["descriptors"]) if "descriptors" in z else None
-    return c, size, desc
+    """A ``sogdd detect --format npz`` file (:mod:`sogdd.features`): corners, the stored sizes and the
+    optional ``descriptors`` (N, 128). A bad file is a one-line ``ValueError`` naming it."""
+    from .features import read_features
+
+    recs = read_features(path)
+    if len(recs) != 1:
+        raise ValueError(f"{path}: holds {len(recs)} images; export takes one feature file per image")
+    c = recs[0].corners
+    try:
+        with np.load(path) as z:
+            desc = np.asarray(z["descriptors"]) if "descriptors" in z.files else None
+    except Exception as exc:  # noqa: BLE001 - read_features has read it; any failure here is a bad file
+        raise ValueError(f"{path}: not a valid feature file ({type(exc).__name__}: {exc})") from None
+    if desc is not None and (desc.ndim != 2 or len(desc) != len(c)):
+        raise ValueError(f"{path}: descriptors of shape {desc.shape} for {len(c)} keypoints")
+    return c, c.size, desc
 
 
 def export_features(feature_dir: str | Path, database: str | Path, images: str | Path | None = None,
@@ -261,15 +272,35 @@ def export_features(feature_dir: str | Path, database: str | Path, images: str |
     -------
     dict
         ``images``, ``keypoints``, ``descriptors`` (counts) and ``database``.
-    """
-    from .evaluation.features import descriptor_sizes
 
+    A bad feature file is a one-line ``ValueError`` naming it, and the database
+    is then left as it was: everything is written to a copy that replaces it
+    only when the whole export has succeeded.
+    """
     pycolmap = require_pycolmap()
     files = _feature_files(Path(feature_dir))
     db_path = Path(database)
+    # all or nothing: the work happens on a copy that replaces the database only when everything is written
+    fd, tmp = tempfile.mkstemp(prefix=f".{db_path.name}.", suffix=".sogdd.tmp", dir=db_path.parent or ".")
+    os.close(fd)
+    work = Path(tmp)
+    try:
+        if db_path.exists():
+            shutil.copy2(db_path, work)
+        else:
+            work.unlink()
+        result = _export(pycolmap, files, db_path, work, images, describe_method, progress)
+        os.replace(work, db_path)
+    finally:
+        work.unlink(missing_ok=True)
+    return result
+
+
+def _known_images(pycolmap, files: dict[str, Path], db_path: Path, work: Path, images) -> dict[str, int]:
+    """``{name: image_id}`` of the database copy ``work``, after importing the images it lacks."""
     known: dict[str, int] = {}
-    if db_path.exists():
-        with pycolmap.Database.open(str(db_path)) as db:
+    if work.exists():
+        with pycolmap.Database.open(str(work)) as db:
             known = {im.name: im.image_id for im in db.read_all_images()}
     missing = [n for n in files if n not in known]
     if missing:
@@ -279,16 +310,28 @@ def export_features(feature_dir: str | Path, database: str | Path, images: str |
         absent = [n for n in missing if not (img_dir / n).is_file()]
         if absent:
             raise ValueError(f"{img_dir / absent[0]}: no such image (feature file {files[absent[0]].name})")
-        known = import_images(db_path, img_dir, missing)
+        known = import_images(work, img_dir, missing)
+    return known
+
+
+def _export(pycolmap, files: dict[str, Path], db_path: Path, work: Path, images, describe_method,
+            progress) -> dict:
+    from .evaluation.features import descriptor_sizes
+
+    known = _known_images(pycolmap, files, db_path, work, images)
     if describe_method == "auto":
         describe_method = "sift" if images is not None else None
+    # read and check everything before the database is touched
+    loaded = {}
+    for name, f in files.items():
+        c, size, desc = _read_feature_file(f)
+        if desc is None and describe_method and images is not None:
+            sized = Corners(c.xy, c.response, descriptor_sizes(c, "auto"), c.level)
+            desc = describe(read_image(Path(images) / name), sized, describe_method)
+        loaded[name] = (c, size, desc)
     n_kp = n_desc = 0
-    with pycolmap.Database.open(str(db_path)) as db:
-        for name, f in files.items():
-            c, size, desc = _read_feature_file(f)
-            if desc is None and describe_method and images is not None:
-                sized = Corners(c.xy, c.response, descriptor_sizes(c, "auto"), c.level)
-                desc = describe(read_image(Path(images) / name), sized, describe_method)
+    with pycolmap.Database.open(str(work)) as db:
+        for name, (c, size, desc) in loaded.items():
             iid = known[name]
             if desc is not None and db.exists_descriptors(iid):
                 raise ValueError(f"{name} already has descriptors in {db_path}; use a fresh database")

@@ -8,92 +8,136 @@ local worker processes or a Dask cluster, resumable.
 from __future__ import annotations
 
 import argparse
-import json
+import dataclasses
+import os
 import sys
 from pathlib import Path
 
 import numpy as np
 from tqdm import tqdm
 
-from ..collection import expand_inputs, run_batch
-from ..corners import Corners
+from ..collection import BatchInterrupted, expand_inputs, relative_names, run_batch
 from ..detector import detect_corners
-from ..features import csv_rows, json_object
-from ..io import read_image
+from ..features import FeatureRecord, encode_features, make_record, write_features
+from ..io import intensity_hint, read_image
 from ..params import resolve_params
-from .overlay import save_overlay
-from .params import add_detector_arguments, detector_overrides
+from .overlay import check_overlay_path, save_overlay
+from .params import add_detector_arguments, add_read_arguments, detector_overrides, read_options
+
+# fewer corners than this from an absolute threshold on a structured image earns a hint
+_FEW = 5
 
 
-def corners_table(c: Corners) -> np.ndarray:
-    return np.column_stack([c.xy, c.response, c.size]) if len(c) else np.zeros((0, 4))
-
-
-def _csv(results: list[tuple[str, Corners]], with_image: bool) -> str:
-    lines = [("image," if with_image else "") + "x,y,response,size"]
-    for name, c in results:
-        lines += csv_rows(c, f"{name}," if with_image else "")
-    return "\n".join(lines) + "\n"
-
-
-def _json(results: list[tuple[str, Corners]]) -> str:
-    objs = [json_object(c, name) for name, c in results]
-    return json.dumps(objs[0] if len(objs) == 1 else objs)
-
-
-def write_results(results: list[tuple[str, Corners]], fmt: str, output: str, many: bool) -> None:
-    if fmt == "npz":
-        if output == "-":
-            raise ValueError("--format npz needs --output FILE")
-        arrays = {}
-        for name, c in results:
-            key = Path(name).name if many else "corners"
-            arrays[key] = corners_table(c)
-        np.savez(output, **arrays)
-        return
-    text = _csv(results, many) if fmt == "csv" else _json(results) + "\n"
+def write_results(records: list[FeatureRecord], fmt: str, output: str) -> None:
+    """All images' records into one output (stdout as ``-``), in the schema of :mod:`sogdd.features`."""
     if output == "-":
-        sys.stdout.write(text)
+        sys.stdout.write(encode_features(records, fmt).decode())
     else:
-        Path(output).write_text(text)
+        write_features(output, records, fmt)
+
+
+def _check_options(args: argparse.Namespace, n_images: int) -> str:
+    """Refuse option combinations that cannot work, before any image is read; return the format."""
+    if args.out and args.output != "-":
+        raise ValueError("--out DIR (one file per image) and --output FILE (one file) exclude each other")
+    if not args.out and (args.resume or args.jobs != 1 or args.scheduler):
+        raise ValueError("--resume, --jobs and --scheduler need --out DIR")
+    if args.jobs < 1:
+        raise ValueError(f"--jobs must be >= 1, got {args.jobs}")
+    fmt = args.format or ("npz" if args.out else "csv")
+    if fmt == "npz" and not args.out and args.output == "-":
+        raise ValueError("--format npz needs --output FILE (binary output does not go to stdout)")
+    if args.output != "-" and not args.out:
+        suffix = Path(args.output).suffix.lower().lstrip(".")
+        if suffix != fmt and not (args.format is None and suffix in ("csv", "json", "npz")):
+            raise ValueError(f"--output {args.output}: the file name should end in .{fmt}")
+        if args.format is None and suffix in ("csv", "json", "npz"):
+            fmt = suffix
+        _check_writable(Path(args.output))
+    if args.overlay:
+        if n_images != 1 or args.out:
+            raise ValueError("--overlay draws one image: give a single image (without --out)")
+        check_overlay_path(args.overlay)
+    return fmt
+
+
+def _check_writable(path: Path) -> None:
+    folder = path.parent if str(path.parent) else Path(".")
+    if not folder.is_dir():
+        raise ValueError(f"{path}: folder {folder} does not exist")
+    if not os.access(folder, os.W_OK):
+        raise ValueError(f"{path}: folder {folder} is not writable")
+
+
+def _hint_few(img: np.ndarray, n: int, params) -> str | None:
+    """A one-time hint when the paper's absolute threshold leaves (almost) nothing on a structured image."""
+    if n >= _FEW or params.threshold is None or params.threshold_rel is not None or params.quantile is not None:
+        return None
+    hint = intensity_hint(img)
+    if hint:
+        return hint
+    if float(np.std(img[:: max(1, img.shape[0] // 256), :: max(1, img.shape[1] // 256)])) < 1e-3 * _scale(img):
+        return None  # a flat image: nothing to find
+    return (f"the absolute threshold {params.threshold:g} left {n} corner(s); for a relative selection try "
+            "--threshold none --max-corners N")
+
+
+def _scale(img: np.ndarray) -> float:
+    return {"uint8": 255.0, "uint16": 65535.0, "bool": 1.0}.get(img.dtype.name, 1.0)
 
 
 def run(args: argparse.Namespace) -> int:
     params = detector_overrides(args)
-    resolve_params(args.preset, **params)  # bad parameters fail before any work
-    paths = expand_inputs(args.images)
+    p = resolve_params(args.preset, **params)  # bad parameters fail before any work
+    reading = read_options(args)
+    paths = expand_inputs(args.images, recursive=args.recursive)
     if not paths:
         raise ValueError("no input images")
+    fmt = _check_options(args, len(paths))
+    names = relative_names(paths)  # collisions fail before any work
     if args.out and args.device != "cpu":
         raise ValueError("--device cuda works without --out DIR for now")
     if args.out:
-        return _run_folder(args, paths, params)
-    if args.resume or args.jobs != 1 or args.scheduler:
-        raise ValueError("--resume, --jobs and --scheduler need --out DIR")
-    fmt = args.format or "csv"
+        return _run_folder(args, paths, params, fmt, reading)
     many = len(paths) > 1 or Path(args.images[0]).is_dir()
-    results: list[tuple[str, Corners]] = []
-    failures = 0
-    for path in tqdm(paths, desc="detect", unit="img", file=sys.stderr, disable=not many):
-        try:
-            img = read_image(path)
-            c = detect_corners(img, preset=args.preset, device=args.device, **params)
-        except (ValueError, OSError) as exc:
-            failures += 1
-            msg = str(exc) if str(path) in str(exc) else f"{path}: {exc}"
-            print(f"sogdd: error: {msg}", file=sys.stderr)
-            continue
-        results.append((str(path), c))
-        if args.overlay and not many:
-            save_overlay(img, c, args.overlay)
-    if results or not failures:
-        write_results(results, fmt, args.output, many)
+    records: list[FeatureRecord] = []
+    failures, hinted = 0, False
+    try:
+        for path, name in tqdm(list(zip(paths, names)), desc="detect", unit="img", file=sys.stderr,
+                               disable=not many):
+            rec, hint = _detect_one(path, args, params, p, reading)
+            if rec is None:
+                failures += 1
+                continue
+            records.append(dataclasses.replace(rec, image=name) if many else rec)  # unique names
+            if hint and not hinted:
+                print(f"sogdd: note: {path}: {hint}", file=sys.stderr)
+                hinted = True
+    except KeyboardInterrupt:
+        print(f"sogdd: interrupted after {len(records)} image(s); nothing written", file=sys.stderr)
+        raise
+    if records or not failures:
+        write_results(records, fmt, args.output)
     if many:
-        print(f"sogdd: {len(results)} image(s) done, {failures} failed", file=sys.stderr)
+        print(f"sogdd: {len(records)} image(s) done, {failures} failed", file=sys.stderr)
     return 2 if failures else 0
 
 
-def _run_folder(args: argparse.Namespace, paths: list[Path], params: dict) -> int:
+def _detect_one(path: Path, args, params: dict, p, reading: dict) -> tuple[FeatureRecord | None, str | None]:
+    """One image's record and hint; a failure is reported on stderr and gives ``(None, None)``."""
+    try:
+        img = read_image(path, **reading)
+        c = detect_corners(img, preset=args.preset, device=args.device, **params)
+    except (ValueError, OSError, MemoryError) as exc:
+        text = "out of memory" if isinstance(exc, MemoryError) else str(exc)
+        print(f"sogdd: error: {text if str(path) in text else f'{path}: {text}'}", file=sys.stderr)
+        return None, None
+    if args.overlay:
+        save_overlay(img, c, args.overlay)
+    return make_record(path, c, img.shape, args.preset, p), _hint_few(img, len(c), p)
+
+
+def _run_folder(args: argparse.Namespace, paths: list[Path], params: dict, fmt: str, reading: dict) -> int:
     """One feature file per image in ``--out``; resumable; processes or Dask."""
     bar = tqdm(total=len(paths), desc="detect", unit="img", file=sys.stderr)
 
@@ -104,9 +148,15 @@ def _run_folder(args: argparse.Namespace, paths: list[Path], params: dict) -> in
 
     try:
         items = run_batch(
-            paths, args.out, fmt=args.format or "npz", preset=args.preset, params=params,
-            resume=args.resume, jobs=args.jobs, scheduler=args.scheduler, progress=progress,
+            paths, args.out, fmt=fmt, preset=args.preset, params=params, resume=args.resume,
+            jobs=args.jobs, scheduler=args.scheduler, progress=progress, read_options=reading,
         )
+    except BatchInterrupted as exc:
+        bar.close()
+        done = sum(i.status == "done" for i in exc.items)
+        print(f"sogdd: interrupted ({signal_name(exc.signum)}); {done} finished feature file(s) kept in "
+              f"{args.out}; --resume continues", file=sys.stderr)
+        raise
     finally:
         bar.close()
     counts = {s: sum(i.status == s for i in items) for s in ("done", "skipped", "failed")}
@@ -121,6 +171,12 @@ def _run_folder(args: argparse.Namespace, paths: list[Path], params: dict) -> in
     return 2 if counts["failed"] else 0
 
 
+def signal_name(signum: int) -> str:
+    import signal
+
+    return signal.Signals(signum).name
+
+
 def configure(p: argparse.ArgumentParser) -> None:
     """The ``detect`` command's arguments."""
     p.description = __doc__
@@ -128,13 +184,17 @@ def configure(p: argparse.ArgumentParser) -> None:
     add_detector_arguments(p)
     p.add_argument("--device", choices=["cpu", "cuda"], default="cpu",
                    help="cuda: run on an NVIDIA GPU (pip install 'sogdd[gpu]')")
+    add_read_arguments(p)
     p.add_argument("--output", "-o", default="-", help="one output file for all images, or - for stdout")
     p.add_argument("--format", choices=["csv", "json", "npz"], default=None,
                    help="csv, json or npz [default: csv; npz with --out]")
     p.add_argument("--overlay", metavar="PNG", help="write an overlay image (single image only)")
     g = p.add_argument_group("image collections")
-    g.add_argument("--out", metavar="DIR", help="write one feature file per image into DIR")
-    g.add_argument("--resume", action="store_true", help="skip images whose feature file exists")
+    g.add_argument("--recursive", "-r", action="store_true", help="folders: include their sub-folders")
+    g.add_argument("--out", metavar="DIR", help="write one feature file per image into DIR, named by its "
+                   "path relative to the inputs' common folder")
+    g.add_argument("--resume", action="store_true", help="skip images whose feature file is complete and "
+                   "was made from the same image file with the same parameters and sogdd version")
     g.add_argument("--jobs", type=int, default=1, help="local worker processes")
     g.add_argument("--scheduler", metavar="ADDRESS", help="run on a Dask distributed scheduler")
     p.set_defaults(func=run)

@@ -40,13 +40,23 @@ def _command_of(argv: Sequence[str]) -> str | None:
     return None
 
 
+class _Parser(argparse.ArgumentParser):
+    """Usage errors as one line, ``sogdd: error: <command>: ...``, exit code 2 (sub-parsers inherit it)."""
+
+    def error(self, message: str):
+        where = self.prog.removeprefix("sogdd").strip()
+        print(f"sogdd: error: {where + ': ' if where else ''}{message} (see {self.prog} --help)",
+              file=sys.stderr)
+        sys.exit(2)
+
+
 def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     """The ``sogdd`` parser: every command listed, only the one in ``argv`` configured.
 
     With ``argv=None`` every command is configured (all modules imported).
     """
-    parser = argparse.ArgumentParser(prog="sogdd", description="High-resolution corner detection with SOGDD "
-                                     "filters.", formatter_class=HelpFormatter)
+    parser = _Parser(prog="sogdd", description="High-resolution corner detection with SOGDD "
+                     "filters.", formatter_class=HelpFormatter)
     parser.add_argument("--version", action="version", version=f"sogdd {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     wanted = None if argv is None else _command_of(argv)
@@ -70,8 +80,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (ValueError, OSError) as exc:
         print(f"sogdd: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        return 130
+    except KeyboardInterrupt as exc:  # Ctrl-C: 130; a batch stopped by SIGTERM: 143 (128 + signal)
+        return 128 + int(getattr(exc, "signum", 2))
 
 
 if __name__ == "__main__":  # pragma: no cover

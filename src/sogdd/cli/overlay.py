@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import cv2
@@ -9,6 +10,16 @@ import numpy as np
 
 from ..corners import Corners
 from ..io import to_gray255, validate_image
+
+
+def check_overlay_path(path: str | Path) -> None:
+    """Refuse an overlay path that cannot be written (no image extension, missing or read-only folder)."""
+    p = Path(path)
+    if not p.suffix or not cv2.haveImageWriter(str(p)):
+        raise ValueError(f"--overlay {p}: give an image file name, e.g. {p.with_suffix('.png').name}")
+    folder = p.parent if str(p.parent) else Path(".")
+    if not folder.is_dir() or not os.access(folder, os.W_OK):
+        raise ValueError(f"--overlay {p}: folder {folder} does not exist or is not writable")
 
 
 def save_overlay(image: np.ndarray, corners: Corners, path: str | Path, gt: np.ndarray | None = None) -> None:

@@ -7,12 +7,45 @@ import argparse
 from ..params import PRESETS
 
 
+def _number(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+
+
+def _integer(text: str) -> int:
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+
+
 def _opt_float(text: str) -> float | None:
-    return None if text.lower() == "none" else float(text)
+    if text.lower() == "none":
+        return None
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number or 'none', got {text!r}") from None
 
 
 def _opt_int(text: str) -> int | None:
-    return None if text.lower() == "none" else int(text)
+    if text.lower() == "none":
+        return None
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer or 'none', got {text!r}") from None
+
+
+def _value_range(text: str) -> tuple[float, float]:
+    parts = text.split(",")
+    try:
+        lo, hi = (float(v) for v in parts)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected LO,HI (two numbers), got {text!r}") from None
+    return lo, hi
 
 
 def _subpixel(text: str) -> bool | str:
@@ -26,20 +59,27 @@ def _subpixel(text: str) -> bool | str:
 
 # flag -> (Params field, type, help)
 _FLAGS = {
-    "--sigma2": ("sigma2", float, "Gaussian scale sigma^2 (paper: 1.2)"),
-    "--n-orientations": ("n_orientations", int, "number of filter orientations K"),
-    "--window": ("window", int, "window size (odd)"),
+    "--sigma2": ("sigma2", _number, "Gaussian scale sigma^2 (paper: 1.2)"),
+    "--n-orientations": ("n_orientations", _integer, "number of filter orientations K"),
+    "--window": ("window", _integer, "window size (odd)"),
     "--window-shape": ("window_shape", str, "square or disk"),
     "--threshold": ("threshold", _opt_float, "absolute threshold on Upsilon ('none' to disable)"),
     "--threshold-rel": ("threshold_rel", _opt_float, "threshold as a fraction of the max response"),
     "--quantile": ("quantile", _opt_float, "threshold at this quantile of positive responses"),
-    "--nms-radius": ("nms_radius", int, "non-maximum suppression radius (1 = 3x3)"),
+    "--nms-radius": ("nms_radius", _integer, "non-maximum suppression radius (1 = 3x3)"),
     "--max-corners": ("max_corners", _opt_int, "keep the strongest N corners"),
     "--subpixel": ("subpixel", _subpixel, "on|off|gradient|quadratic (default: on = gradient)"),
-    "--border": ("border", int, "exclude corners this many pixels from the edge"),
-    "--levels": ("levels", int, "pyramid levels (1 = single scale)"),
-    "--scale-factor": ("scale_factor", float, "pyramid scale factor between levels"),
+    "--border": ("border", _integer, "exclude corners this many pixels from the edge"),
+    "--levels": ("levels", _integer, "pyramid levels (1 = single scale)"),
+    "--scale-factor": ("scale_factor", _number, "pyramid scale factor between levels"),
+    "--value-range": ("value_range", _value_range,
+                      "LO,HI: input values mapped onto 0-255 (e.g. 0,4095 for 12-bit data in uint16)"),
 }
+
+
+#: parameters that choose points from the map (not the map itself)
+SELECTION = frozenset({"threshold", "threshold_rel", "quantile", "nms_radius", "max_corners", "subpixel",
+                       "border", "levels", "scale_factor"})
 
 
 def add_detector_arguments(parser: argparse.ArgumentParser) -> None:
@@ -53,3 +93,24 @@ def add_detector_arguments(parser: argparse.ArgumentParser) -> None:
 def detector_overrides(args: argparse.Namespace) -> dict:
     """The parameters given on the command line, as keyword arguments."""
     return {dest: getattr(args, dest) for dest, _, _ in _FLAGS.values() if hasattr(args, dest)}
+
+
+def add_read_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of :func:`sogdd.read_image`: pixel limit, corrupt data, EXIF orientation."""
+    g = parser.add_argument_group("reading images")
+    g.add_argument("--max-pixels", type=_integer, default=None, metavar="N",
+                   help="refuse images larger than N pixels, from the file header before decoding "
+                   "[default: $SOGDD_MAX_PIXELS or 2^28]")
+    g.add_argument("--allow-corrupt", action="store_true",
+                   help="use images whose decoder reports corrupt or truncated data")
+    g.add_argument("--ignore-orientation", action="store_true",
+                   help="ignore the EXIF orientation (default: applied, as cv2.imread does)")
+
+
+def read_options(args: argparse.Namespace) -> dict:
+    """The keyword arguments of :func:`sogdd.read_image` given on the command line (checked now)."""
+    from ..io import max_pixels_limit
+
+    max_pixels_limit(args.max_pixels)  # a bad limit (or $SOGDD_MAX_PIXELS) fails before any work
+    return {"max_pixels": args.max_pixels, "allow_corrupt": args.allow_corrupt,
+            "ignore_orientation": args.ignore_orientation}

@@ -8,14 +8,19 @@ import numpy as np
 
 from ..detector import corner_response
 from ..io import read_image
-from .params import add_detector_arguments, detector_overrides
+from .params import SELECTION, add_detector_arguments, add_read_arguments, detector_overrides, read_options
 
 
 def run(args: argparse.Namespace) -> int:
     if not args.output.endswith(".npy"):
         raise ValueError("--output must be a .npy file")
-    resp = corner_response(read_image(args.image), preset=args.preset, device=args.device,
-                           **detector_overrides(args))
+    params = detector_overrides(args)
+    unused = [name for name in params if name in SELECTION]
+    if unused:  # they choose points; the map does not depend on them
+        flags = ", ".join("--" + n.replace("_", "-") for n in unused)
+        raise ValueError(f"{flags}: point selection, does not apply to sogdd response (use sogdd detect)")
+    reading = read_options(args)
+    resp = corner_response(read_image(args.image, **reading), preset=args.preset, device=args.device, **params)
     np.save(args.output, resp)
     print(f"wrote {args.output}: {resp.shape[0]}x{resp.shape[1]} float64, max {resp.max():.4g}")
     return 0
@@ -28,5 +33,6 @@ def configure(p: argparse.ArgumentParser) -> None:
     add_detector_arguments(p)
     p.add_argument("--device", choices=["cpu", "cuda"], default="cpu",
                    help="cuda: run on an NVIDIA GPU (pip install 'sogdd[gpu]')")
+    add_read_arguments(p)
     p.add_argument("--output", "-o", required=True, metavar="R.npy", help="the map, float64 (H, W)")
     p.set_defaults(func=run)
