@@ -69,6 +69,8 @@ def _interface(obj) -> dict:
             "a DLPack array without __cuda_array_interface__ needs cuda-core (pip install 'sogdd[gpu]'); "
             "or pass a torch/CuPy array"
         ) from exc
+    # -1: no stream handshake. numba launches on the legacy default stream, which waits for work on
+    # blocking streams (torch's and CuPy's defaults); a producer on a non-blocking stream must sync first.
     smv = StridedMemoryView.from_dlpack(obj, stream_ptr=-1)
     dt = np.dtype(smv.dtype)
     strides = None if smv.strides is None else tuple(s * dt.itemsize for s in smv.strides)

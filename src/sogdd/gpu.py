@@ -45,6 +45,7 @@ from .peaks import _break_ties, refine_gradient, refine_quadratic, select_peaks
 __all__ = ["available", "corner_response", "corner_response_batch", "detect_corners", "detect_corners_batch"]
 
 _EPS = float(np.finfo(np.float64).eps)  # the authors' varsigma (sogdd.response.authors_measure)
+_CPU_ONLY = {"x_junctions": False, "threshold_units": "measure"}  # Params fields, with their default
 _PATCH = 16  # half-size of the image patches the gradient refinement reads around a device corner
 
 
@@ -295,6 +296,9 @@ def _detect(images, preset: str, masks, params: dict, *, batch: bool) -> list[Co
     p = _params(preset, params)
     if p.levels > 1:
         raise ValueError("levels > 1 is not supported on device='cuda'; use device='cpu'")
+    for name, default in _CPU_ONLY.items():  # detection options the device path does not implement
+        if getattr(p, name, default) != default:
+            raise ValueError(f"{name}={getattr(p, name)!r} is not supported on device='cuda'; use device='cpu'")
     stacks = to_grey_stacks(images, p, batch=batch)
     n = sum(len(s.index) for s in stacks)
     if masks is None:
