@@ -63,16 +63,42 @@ def resolve_threshold(
     """
     levels = [] if threshold is None else [float(threshold)]
     if threshold_rel is not None or quantile is not None:
-        # only these need the values themselves: a full copy is costly on large images
-        vals = response[valid]
-        vals = vals[np.isfinite(vals)]
-        if threshold_rel is not None and vals.size:
-            levels.append(float(threshold_rel) * float(vals.max()))
-        if quantile is not None:
-            pos = vals[vals > 0]
-            if pos.size:
-                levels.append(float(np.quantile(pos, quantile)))
+        # only these need the values themselves: one compiled pass, no image-sized masks
+        use = valid is not None
+        vmask = np.ascontiguousarray(valid, dtype=np.bool_) if use else np.ones((1, 1), np.bool_)
+        resp = np.ascontiguousarray(response, dtype=np.float64)
+        nfin, vmax, pos = _valid_values(resp, vmask, use, quantile is not None)
+        if threshold_rel is not None and nfin:
+            levels.append(float(threshold_rel) * vmax)
+        if quantile is not None and pos.size:
+            # numpy's quantile selects (introselect), it does not sort; pos is ours to overwrite
+            levels.append(float(np.quantile(pos, quantile, overwrite_input=True)))
     return max(levels) if levels else 0.0
+
+
+@numba.njit(cache=True, nogil=True)
+def _valid_values(response, valid, use_valid, want_pos):  # pragma: no cover - jit
+    """Count and maximum of the finite responses in the valid area, and its positive ones."""
+    H, W = response.shape
+    pos = np.empty(H * W if want_pos else 0)
+    n = 0
+    nfin = 0
+    vmax = -np.inf
+    for y in range(H):
+        row = response[y]
+        for x in range(W):
+            if use_valid and not valid[y, x]:
+                continue
+            v = row[x]
+            if not np.isfinite(v):
+                continue
+            nfin += 1
+            if v > vmax:
+                vmax = v
+            if want_pos and v > 0:
+                pos[n] = v
+                n += 1
+    return nfin, vmax, pos[:n]
 
 
 @numba.njit(cache=True, nogil=True)
