@@ -30,8 +30,10 @@ import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
+import numba
 import numpy as np
 
+from ._jit import JIT
 from ._kernels import VARSIGMA, det_trace, pair_index, tile_general, tile_square
 from ._pruning import bound_mask, bound_tables, dilate_masks
 from .filters import basis_tile, kernel_radius, orientations, steerable_basis, steering_coefficients
@@ -294,10 +296,32 @@ def soddc_at(responses: np.ndarray, halfwidths, rows: np.ndarray, cols: np.ndarr
 
 
 def authors_measure(det: np.ndarray, tr: np.ndarray) -> np.ndarray:
-    """The authors' post-processing: tiny negative det -> 0, non-finite -> -inf."""
-    big = np.max(np.abs(det)) if det.size else 0.0
-    det = np.where((det < 0) & (det >= -_EPS * big), 0.0, det)
-    with np.errstate(all="ignore"):
-        ups = det / (tr + _EPS)
-    ups[~np.isfinite(ups)] = -np.inf
-    return ups
+    """The authors' post-processing: tiny negative det -> 0, non-finite -> -inf.
+
+    ``det`` in ``[-eps * max|det|, 0)`` becomes 0 (``max|det|`` is NaN if any det
+    is), then ``Upsilon = det / (tr + eps)``, ``-inf`` where that is not finite.
+    Two compiled passes instead of numpy temporaries, with the same values.
+    """
+    d = np.ascontiguousarray(det, dtype=np.float64)
+    out = np.empty(d.shape)
+    _authors_post(d.reshape(-1), np.ascontiguousarray(tr, dtype=np.float64).reshape(-1), _EPS, out.reshape(-1))
+    return out
+
+
+@numba.njit(**JIT)
+def _authors_post(det, tr, eps, out):  # pragma: no cover - jit
+    big = 0.0
+    nan = False
+    for i in range(det.shape[0]):
+        a = abs(det[i])
+        if a != a:
+            nan = True
+        elif a > big:
+            big = a
+    lim = -eps * (np.nan if nan else big)
+    for i in range(det.shape[0]):
+        d = det[i]
+        if d < 0 and d >= lim:
+            d = 0.0
+        u = d / (tr[i] + eps)
+        out[i] = u if np.isfinite(u) else -np.inf
