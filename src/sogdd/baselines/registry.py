@@ -10,7 +10,9 @@ Every detector is a :class:`BaselineDetector` subclass registered under a name.
   integers), strongest first where the detector has a strength,
 * raise ``ValueError`` with a one-line message on bad input or parameters,
 * expose one sweepable strength parameter (:attr:`BaselineDetector.strength_param`,
-  ``threshold`` wherever the method has a threshold), and
+  ``threshold`` wherever the method has a threshold),
+* give their ``n`` strongest points with that threshold off through one call,
+  :meth:`BaselineDetector.top_n` (fixed-count evaluations), and
 * say where their defaults come from in :meth:`BaselineDetector.provenance`.
 """
 
@@ -52,6 +54,9 @@ class BaselineDetector:
     permissive_value: ClassVar[Any] = 0.0
     #: the strength parameter's scale, for provenance()
     strength_doc: ClassVar[str] = ""
+    #: whether ``Corners.response`` ranks the points; without one, :meth:`top_n` keeps the
+    #: detector's first ``n`` points in its own output order (documented per detector)
+    has_strength: ClassVar[bool] = True
     #: where the method and its defaults come from
     source: ClassVar[str] = ""
     #: what was reimplemented or approximated
@@ -91,6 +96,31 @@ class BaselineDetector:
     def permissive(self) -> BaselineDetector:
         """The same detector with its strength threshold (nearly) switched off."""
         return self.with_params(**{self.strength_param: self.permissive_value})
+
+    def top_n(self, image: Any, n: int, mask: Any = None) -> Corners:
+        """The ``n`` strongest points with the strength threshold off: the fixed-count mode.
+
+        Runs :meth:`permissive` and keeps the ``n`` largest ``response`` values
+        (NaN last; among equal responses the detector's own order decides, e.g.
+        raster order for FAST's integer scores). Every detector of the registry
+        takes part, whatever its own parameters (AKAZE has no top-k of its own).
+        Fewer than ``n`` points come back only where the permissive run has fewer.
+        A detector with ``has_strength = False`` keeps its first ``n`` points in
+        its own output order instead.
+
+        Examples
+        --------
+        >>> from sogdd import baselines
+        >>> from sogdd.synthetic import pattern_image
+        >>> img, _ = pattern_image((120, 160))
+        >>> len(baselines.get("akaze").top_n(img, 10))
+        10
+        """
+        check_int("n", n, 1)
+        c = self.permissive().detect_corners(image, mask)
+        if self.has_strength:
+            c = sort_strongest_first(c)
+        return c.subset(np.arange(min(int(n), len(c))))
 
     def prepare(self, image: Any) -> np.ndarray:
         """Validate an image and convert it to grey float64 on the 0-255 scale."""

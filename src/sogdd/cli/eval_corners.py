@@ -2,9 +2,10 @@
 
 gt: Table 1's protocol (missed, false, Le, F1 against ground-truth corners);
 repeatability: Fig. 9's protocol (average repeatability under six transform
-families); resolution: adjacent END- and L-type corner pairs rendered with
-exact ground truth. The protocols are in sogdd.evaluation.gt, .repeatability
-and .resolution; the tables and figures in sogdd.report.
+families, plus blur beyond the paper; --top-n N adds the fixed-count mode);
+resolution: adjacent END- and L-type corner pairs rendered with exact ground truth.
+The protocols are in sogdd.evaluation.gt, .repeatability and .resolution;
+the tables and figures in sogdd.report.
 """
 
 from __future__ import annotations
@@ -57,26 +58,41 @@ def run_gt(args: argparse.Namespace) -> int:
 
 
 def run_repeatability(args: argparse.Namespace) -> int:
-    from ..evaluation.repeatability import FAMILIES, evaluate_repeatability, load_images
+    from ..evaluation.repeatability import (
+        ALL_FAMILIES,
+        FAMILIES,
+        evaluate_repeatability,
+        load_images,
+        top_n_label,
+    )
     from ..evaluation.specs import default_fast_specs, parse_specs
     from ..report.plots import repeatability_figure
-    from ..report.tables import repeatability_table
+    from ..report.tables import repeatability_modes_table, repeatability_table
 
     if args.jobs < 1:
         raise ValueError("--jobs must be >= 1")
+    if args.top_n is not None and args.top_n < 1:
+        raise ValueError("--top-n must be >= 1")
     folder = data_path(args.images, "repeatability", what="repeatability images", flag="--images DIR")
     images = load_images(folder, limit=args.limit)
     specs = parse_specs(args.detectors, default_fast_specs())
-    fams = tuple(f.strip() for f in args.families.split(",")) if args.families else FAMILIES
+    fams = tuple(f.strip() for f in args.families.split(",")) if args.families else ALL_FAMILIES
     rep = evaluate_repeatability(images, specs, families=fams, quick=args.quick, jobs=args.jobs,
-                                 margin=args.margin, progress=not args.quiet)
+                                 margin=args.margin, progress=not args.quiet, top_n=args.top_n)
     if args.out:
         rep.write(args.out)
-        repeatability_figure(rep, Path(args.out) / "repeatability.png")
+        repeatability_figure(rep, Path(args.out) / "repeatability.png", rep.specs)
+        if rep.top_n is not None:
+            repeatability_figure(rep, Path(args.out) / f"repeatability_top{rep.top_n}.png",
+                                 [top_n_label(s, rep.top_n) for s in rep.specs])
     if args.json:
-        print_json({"images": rep.images, "quick": rep.quick, "seconds": rep.seconds,
-                    "detectors": rep.summary()})
+        print_json({"images": rep.images, "quick": rep.quick, "seconds": rep.seconds, "top_n": rep.top_n,
+                    "beyond_paper": [f for f in rep.families if f not in FAMILIES],
+                    "detectors": rep.summary(), "points": rep.points()})
     else:
+        if rep.top_n is not None:
+            sys.stdout.write(f"Both modes (default thresholds; threshold off, the {rep.top_n} strongest "
+                             "points per image):\n\n" + repeatability_modes_table(rep) + "\n")
         sys.stdout.write(repeatability_table(rep))
         print(f"{len(images)} images, {'quick' if rep.quick else 'full'} grid, "
               f"{rep.seconds:.1f} s", file=sys.stderr)
@@ -136,7 +152,10 @@ def register(eval_subparsers) -> None:
     r.add_argument("--quick", action="store_true", help="a few transforms per family")
     r.add_argument("--jobs", type=int, default=min(2, os.cpu_count() or 1), help="worker processes")
     r.add_argument("--families", metavar="F,G", help="subset of: rotation,scale,anisotropic,shear,jpeg,noise "
-                   "[default: all six]")
+                   "(the paper's six) and blur (Gaussian and motion, beyond the paper) [default: all seven]")
+    r.add_argument("--top-n", type=int, default=None, metavar="N",
+                   help="also run every detector with its threshold off, keeping its N strongest points "
+                   "per image (ranked by response), and report both modes side by side")
     r.add_argument("--limit", type=int, default=None, help="use the first N images only")
     r.add_argument("--margin", type=float, default=0.0,
                    help="border margin (reference px) of the common region")

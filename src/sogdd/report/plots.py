@@ -17,10 +17,12 @@ from ..evaluation.resolution.protocol import ResolutionReport  # noqa: E402
 __all__ = ["repeatability_figure", "resolution_figure", "sigma2_figure"]
 
 _XLABEL = {"rotation": "angle (deg)", "scale": "scale factor", "anisotropic": "sy (mean over sx)",
-           "shear": "shear c", "jpeg": "JPEG quality", "noise": "noise std (0-255)"}
+           "shear": "shear c", "jpeg": "JPEG quality", "noise": "noise std (0-255)",
+           "gaussian": "Gaussian blur sigma (px)", "motion": "motion blur length (px), seeded angle"}
 _TITLE = {"rotation": "(a) rotation", "scale": "(b) uniform scaling",
           "anisotropic": "(c) non-uniform scaling", "shear": "(d) shear", "jpeg": "(e) JPEG",
-          "noise": "(f) Gaussian noise"}
+          "noise": "(f) Gaussian noise", "gaussian": "(g) Gaussian blur (beyond the paper)",
+          "motion": "(h) motion blur (beyond the paper)"}
 
 
 def _style(label: str, i: int) -> dict:
@@ -37,23 +39,24 @@ def _save(fig, path: str | os.PathLike) -> Path:
     return p
 
 
-def repeatability_figure(rep: RepeatabilityReport, path: str | os.PathLike) -> Path:
-    """R_avg against each family's parameter, one line per detector."""
-    fams = rep.families
+def repeatability_figure(rep: RepeatabilityReport, path: str | os.PathLike,
+                         detectors: list[str] | None = None) -> Path:
+    """R_avg against each family's parameter, one line per detector (blur: two panels)."""
+    panels = [(f, k) for f in rep.families for k in ((None,) if f != "blur" else ("gaussian", "motion"))]
     cols = 3
-    rows = (len(fams) + cols - 1) // cols
+    rows = (len(panels) + cols - 1) // cols
     fig, axes = plt.subplots(rows, cols, figsize=(11, 3.2 * rows), squeeze=False)
-    for ax, fam in zip(axes.flat, fams):
-        for i, d in enumerate(rep.detectors):
-            x, y = rep.curve(d, fam)
+    for ax, (fam, kind) in zip(axes.flat, panels):
+        for i, d in enumerate(detectors or rep.detectors):
+            x, y = rep.curve(d, fam, kind)
             ax.plot(x, y, marker=".", ms=3, label=d, **_style(d, i))
-        ax.set_title(_TITLE.get(fam, fam), fontsize=9)
-        ax.set_xlabel(_XLABEL.get(fam, fam), fontsize=8)
+        ax.set_title(_TITLE.get(kind or fam, fam), fontsize=9)
+        ax.set_xlabel(_XLABEL.get(kind or fam, fam), fontsize=8)
         ax.set_ylabel("R_avg", fontsize=8)
         ax.set_ylim(0, 1)
         ax.tick_params(labelsize=7)
         ax.grid(alpha=0.3)
-    for ax in list(axes.flat)[len(fams):]:
+    for ax in list(axes.flat)[len(panels):]:
         ax.axis("off")
     axes.flat[0].legend(fontsize=6, ncol=2)
     fig.tight_layout()

@@ -9,11 +9,12 @@ import os
 from pathlib import Path
 
 from ..evaluation.gt.protocol import GTReport
-from ..evaluation.repeatability.protocol import RepeatabilityReport
+from ..evaluation.repeatability.protocol import RepeatabilityReport, top_n_label
+from ..evaluation.repeatability.transforms import FAMILIES as PAPER_FAMILIES
 from ..evaluation.resolution.protocol import ResolutionReport
 
 __all__ = ["markdown_table", "gt_table", "gt_summary_table", "gt_csv", "paper_table1", "repeatability_table",
-           "resolution_table", "fmt"]
+           "repeatability_modes_table", "resolution_table", "fmt"]
 
 
 def fmt(v, digits: int = 3) -> str:
@@ -94,14 +95,46 @@ def paper_table1(path: str | os.PathLike) -> list[dict]:
     return list(csv.DictReader(lines))
 
 
-def repeatability_table(rep: RepeatabilityReport) -> str:
-    """Family averages of R_avg (rows: detectors, best overall first)."""
+def _family_header(f: str) -> str:
+    return f if f in PAPER_FAMILIES else f"{f} (beyond the paper)"
+
+
+def repeatability_table(rep: RepeatabilityReport, detectors: list[str] | None = None) -> str:
+    """Family averages of R_avg (rows: detectors, best overall first).
+
+    ``overall`` is the mean of the paper's families; a family beyond the paper
+    (``blur``) has its own column, marked, outside that mean.
+    """
     summ = rep.summary()
-    order = sorted(rep.detectors, key=lambda d: -summ[d]["overall"])
-    header = ["rank", "detector"] + list(rep.families) + ["overall"]
+    order = sorted(detectors or rep.detectors, key=lambda d: -summ[d]["overall"])
+    header = ["rank", "detector"] + [_family_header(f) for f in rep.families] + ["overall (paper families)"]
     rows = [[i + 1, d] + [summ[d][f] for f in rep.families] + [summ[d]["overall"]]
             for i, d in enumerate(order)]
     return markdown_table(header, rows, "rl" + "r" * (len(rep.families) + 1))
+
+
+def repeatability_modes_table(rep: RepeatabilityReport) -> str:
+    """Both modes side by side: at defaults and with the N strongest points (``rep.top_n``).
+
+    Per spec: mean points per image, overall R_avg (paper families) and each
+    family beyond the paper, in each mode; rows by the fixed-count overall.
+    """
+    if rep.top_n is None:
+        return repeatability_table(rep)
+    n, summ, points = rep.top_n, rep.summary(), rep.points()
+    extra = [f for f in rep.families if f not in PAPER_FAMILIES]
+    top = {s: top_n_label(s, n) for s in rep.specs}
+    order = sorted(rep.specs, key=lambda s: -summ[top[s]]["overall"])
+    header = ["detector", "default: points", "default: overall"] + [f"default: {f}†" for f in extra] \
+        + [f"top-{n}: points", f"top-{n}: overall"] + [f"top-{n}: {f}†" for f in extra]
+    rows = []
+    for s in order:
+        d, t = summ[s], summ[top[s]]
+        pts = [round(points[x]) if points[x] == points[x] else None for x in (s, top[s])]
+        rows.append([s, pts[0], d["overall"]] + [d[f] for f in extra]
+                    + [pts[1], t["overall"]] + [t[f] for f in extra])
+    note = ("\n† beyond the paper: not in the overall mean.\n" if extra else "")
+    return markdown_table(header, rows) + note
 
 
 def resolution_table(rep: ResolutionReport) -> str:

@@ -18,7 +18,18 @@ detections ``F`` (reference) and ``D`` (transformed):
 
 Each detector runs with its default parameters, as in the paper. Family
 averages are means over images and parameters; the overall figure is the
-mean of the six family averages.
+mean of the paper's six family averages (``blur``, beyond the paper, is
+reported beside it, not in it).
+
+**Fixed-count mode** (``top_n=N``). At defaults R_avg rewards a detector for
+how many points its threshold happens to return. With ``top_n`` every detector
+also runs with its threshold off (the registry's ``permissive()``) and keeps
+its ``N`` strongest points on both images
+(:meth:`sogdd.baselines.registry.BaselineDetector.top_n`: ranked by
+``response``; a detector without a strength keeps its first ``N`` in its own
+order; one whose permissive run finds fewer than ``N`` keeps them all, and the
+mean point count in the tables shows it). Its rows are labelled
+``"<spec> [top-N]"`` beside the default rows (Oxford / SuperPoint practice).
 
 Work is split into (image, family) tasks run in worker processes; within a
 task each transformed image is generated once and shared by all detectors.
@@ -41,9 +52,10 @@ from tqdm import tqdm
 
 from ..points import match_points
 from ..specs import DetectorSpec, build_detector, detect
-from .transforms import FAMILIES, apply_transform, family_grid, map_points
+from .transforms import ALL_FAMILIES, FAMILIES, apply_transform, family_grid, map_points
 
-__all__ = ["RepeatabilityReport", "repeatability_score", "pair_repeatability", "evaluate_repeatability"]
+__all__ = ["RepeatabilityReport", "evaluate_repeatability", "pair_repeatability", "repeatability_score",
+           "top_n_label"]
 
 def repeatability_score(lr: int, lb: int, ld: int) -> float:
     """Eq. 27: ``(L_r / 2) (1/L_b + 1/L_d)``; 0 when nothing matched."""
@@ -73,26 +85,46 @@ def pair_repeatability(ref_xy: np.ndarray, det_xy: np.ndarray, affine: np.ndarra
     return lb, ld, lr, repeatability_score(lr, lb, ld)
 
 
+def top_n_label(label: str, n: int) -> str:
+    """The row label of a spec in the fixed-count mode."""
+    return f"{label} [top-{n}]"
+
+
+def _points(spec: DetectorSpec, det, image: np.ndarray, top_n: int | None) -> np.ndarray:
+    """The spec's points: as configured, or its ``top_n`` strongest with the threshold off."""
+    if top_n is None:
+        return detect(spec, image, det).xy
+    mask = None
+    if spec.remove_border > 0:  # the pipeline's border removal, before the count is taken
+        b, (h, w) = spec.remove_border, image.shape[:2]
+        mask = np.zeros((h, w), bool)
+        mask[b : h - b, b : w - b] = True
+    return det.top_n(image, top_n, mask).xy
+
+
 def _task(name: str, image: np.ndarray, family: str, specs: list[DetectorSpec], quick: bool,
-          radius: float, margin: float, seed: int) -> tuple[list[dict], dict[str, float]]:
-    dets = [build_detector(s) for s in specs]
+          radius: float, margin: float, seed: int, top_n: int | None = None
+          ) -> tuple[list[dict], dict[str, float]]:
+    runs = [(s, build_detector(s), s.label, None) for s in specs]
+    if top_n is not None:
+        runs += [(s, det, top_n_label(s.label, top_n), top_n) for s, det, _, _ in list(runs)]
     secs: dict[str, float] = defaultdict(float)
     refs = []
-    for s, det in zip(specs, dets):
+    for s, det, label, n in runs:
         t0 = time.perf_counter()
-        refs.append(detect(s, image, det).xy)
-        secs[s.label] += time.perf_counter() - t0
+        refs.append(_points(s, det, image, n))
+        secs[label] += time.perf_counter() - t0
     recs = []
     for tr in family_grid(family, quick):
         timg, a, _ = apply_transform(image, tr, seed=seed)  # once, shared by all detectors
-        for s, det, ref in zip(specs, dets, refs):
+        for (s, det, label, n), ref in zip(runs, refs):
             t0 = time.perf_counter()
-            xy = detect(s, timg, det).xy
-            secs[s.label] += time.perf_counter() - t0
+            xy = _points(s, det, timg, n)
+            secs[label] += time.perf_counter() - t0
             lb, ld, lr, r = pair_repeatability(ref, xy, a, image.shape, radius=radius,
                                                margin=margin)
             recs.append({"image": name, "family": family, "param": tr.param, "label": tr.label,
-                         "detector": s.label, "lb": lb, "ld": ld, "lr": lr, "r": r})
+                         "detector": label, "lb": lb, "ld": ld, "lr": lr, "r": r})
     return recs, dict(secs)
 
 
@@ -109,38 +141,59 @@ class RepeatabilityReport:
     margin: float
     seconds: float = 0.0
     detector_seconds: dict[str, float] = field(default_factory=dict)
+    top_n: int | None = None
+    #: the spec labels (default-mode rows); with ``top_n`` each also has a ``[top-N]`` row
+    specs: list[str] = field(default_factory=list)
 
     def family_average(self, detector: str, family: str) -> float:
         rs = [r["r"] for r in self.records if r["detector"] == detector and r["family"] == family]
         return float(np.mean(rs)) if rs else math.nan
 
     def overall(self, detector: str) -> float:
-        vals = [self.family_average(detector, f) for f in self.families]
+        """Mean of the paper's family averages present (of all present when none is a paper family)."""
+        fams = [f for f in self.families if f in FAMILIES] or list(self.families)
+        vals = [self.family_average(detector, f) for f in fams]
         vals = [v for v in vals if math.isfinite(v)]
         return float(np.mean(vals)) if vals else math.nan
 
-    def curve(self, detector: str, family: str) -> tuple[np.ndarray, np.ndarray]:
-        """``(x, mean R)`` over images. Anisotropic: x is sy, averaged over sx too."""
+    def mean_points(self, detector: str) -> float:
+        """Mean number of points per image in the common region, ``(L_b + L_d) / 2`` over all pairs."""
+        v = [(r["lb"] + r["ld"]) / 2 for r in self.records if r["detector"] == detector]
+        return float(np.mean(v)) if v else math.nan
+
+    def curve(self, detector: str, family: str, kind: str | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """``(x, mean R)`` over images. Anisotropic: x is sy, averaged over sx too.
+
+        Blur: x is sigma or the length, for ``kind`` ``"gaussian"`` or ``"motion"`` only.
+        """
         acc: dict[float, list[float]] = defaultdict(list)
         for r in self.records:
             if r["detector"] == detector and r["family"] == family:
                 p = r["param"]
+                if kind is not None and (not isinstance(p, (tuple, list)) or p[0] != kind):
+                    continue
                 acc[float(p[1] if isinstance(p, (tuple, list)) else p)].append(r["r"])
         xs = np.array(sorted(acc))
         return xs, np.array([np.mean(acc[x]) for x in xs])
 
     def summary(self) -> dict:
-        """Per detector: the average per family and overall (the ``--json`` output)."""
+        """Per detector: the average per family and overall (paper families) (the ``--json`` output)."""
         return {d: {**{f: self.family_average(d, f) for f in self.families},
                     "overall": self.overall(d)} for d in self.detectors}
+
+    def points(self) -> dict[str, float]:
+        """Per detector: :meth:`mean_points`."""
+        return {d: self.mean_points(d) for d in self.detectors}
 
     def to_json(self) -> dict:
         return {
             "protocol": {"radius": self.radius, "margin": self.margin, "quick": self.quick,
-                         "families": self.families, "images": self.images},
+                         "families": self.families, "images": self.images, "top_n": self.top_n,
+                         "beyond_paper": [f for f in self.families if f not in FAMILIES]},
             "seconds": self.seconds,
             "detector_seconds": self.detector_seconds,
             "detectors": self.summary(),
+            "points": self.points(),
         }
 
     def write(self, out: str | os.PathLike) -> list[Path]:
@@ -166,21 +219,27 @@ def evaluate_repeatability(
     images: list[tuple[str, np.ndarray]],
     specs: list[DetectorSpec],
     *,
-    families: tuple[str, ...] | list[str] = FAMILIES,
+    families: tuple[str, ...] | list[str] = ALL_FAMILIES,
     quick: bool = False,
     jobs: int = 1,
     radius: float = 4.0,
     margin: float = 0.0,
     seed: int = 0,
     progress: bool = True,
+    top_n: int | None = None,
 ) -> RepeatabilityReport:
-    """Run the Fig. 9 protocol (module doc) on ``images`` for every detector in ``specs``."""
+    """Run the Fig. 9 protocol (module doc) on ``images`` for every detector in ``specs``.
+
+    With ``top_n`` the fixed-count mode runs beside the default one (module doc).
+    """
     for f in families:
         family_grid(f)  # validates the name
     if not images:
         raise ValueError("no images")
+    if top_n is not None and (isinstance(top_n, bool) or not isinstance(top_n, int) or top_n < 1):
+        raise ValueError(f"top_n must be a positive integer, got {top_n!r}")
     # seed per image, so results do not depend on the task order
-    tasks = [(name, img, fam, specs, quick, radius, margin, seed * 100003 + i)
+    tasks = [(name, img, fam, specs, quick, radius, margin, seed * 100003 + i, top_n)
              for i, (name, img) in enumerate(images) for fam in families]
     t0 = time.perf_counter()
     records: list[dict] = []
@@ -205,6 +264,8 @@ def evaluate_repeatability(
     bar.close()
     order = {(n, f): i for i, (n, _, f, *_r) in enumerate(tasks)}
     records.sort(key=lambda r: order[(r["image"], r["family"])])
-    return RepeatabilityReport(records, [s.label for s in specs], list(families),
+    labels = [s.label for s in specs]
+    rows = labels + ([top_n_label(x, top_n) for x in labels] if top_n is not None else [])
+    return RepeatabilityReport(records, rows, list(families),
                                [n for n, _ in images], quick, radius, margin,
-                               time.perf_counter() - t0, dict(secs))
+                               time.perf_counter() - t0, dict(secs), top_n, labels)

@@ -11,7 +11,13 @@ anisotropic    sx in [0.7, 1.5], sy in [0.5, 1.8], step 0.1, without
 shear          x' = x + c*y, c in [-1, 1], step 0.1, without 0 (20 values)
 jpeg           quality 5 to 100, step 5 (20 values)
 noise          Gaussian, standard deviation 1 to 15 (0-255 scale), seeded
+blur           beyond the paper (:mod:`.blur`): Gaussian sigma 0.5 to 5.0,
+               step 0.5, then motion blur of length 3 to 15 px, step 2,
+               at a seeded random angle (17 members)
 =============  ============================================================
+
+``FAMILIES`` are the paper's six, unchanged; ``ALL_FAMILIES`` adds ``blur``
+as the seventh (``BEYOND_PAPER``), which tables mark as beyond the paper.
 
 Geometric transforms act about the image centre, with bilinear resampling
 (``cv2.warpAffine``, ``INTER_LINEAR``). The output canvas is the bounding box
@@ -29,9 +35,15 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-__all__ = ["FAMILIES", "Transform", "family_grid", "apply_transform", "map_points", "affine_for"]
+from .blur import GAUSSIAN_SIGMAS, MOTION_LENGTHS, apply_blur
+
+__all__ = ["ALL_FAMILIES", "BEYOND_PAPER", "FAMILIES", "Transform", "family_grid", "apply_transform",
+           "map_points", "affine_for"]
 
 FAMILIES = ("rotation", "scale", "anisotropic", "shear", "jpeg", "noise")
+#: families this package adds to the paper's six
+BEYOND_PAPER = ("blur",)
+ALL_FAMILIES = FAMILIES + BEYOND_PAPER
 
 
 @dataclass(frozen=True)
@@ -39,12 +51,15 @@ class Transform:
     """One member of a family: ``param`` is the family's parameter (a tuple for anisotropic)."""
 
     family: str
-    param: float | tuple[float, float]
+    param: float | tuple[float, float] | tuple[str, float]
 
     @property
     def label(self) -> str:
         if self.family == "anisotropic":
             return f"sx={self.param[0]:.1f},sy={self.param[1]:.1f}"
+        if self.family == "blur":
+            kind, v = self.param
+            return f"gaussian sigma={v:g}" if kind == "gaussian" else f"motion L={v:g}"
         return f"{self.param:g}"
 
     @property
@@ -68,6 +83,8 @@ def _full_grid(family: str) -> list:
         return [v for v in _r(np.arange(-10, 11) / 10) if v != 0.0]
     if family == "jpeg":
         return list(range(5, 101, 5))
+    if family == "blur":
+        return [("gaussian", s) for s in GAUSSIAN_SIGMAS] + [("motion", n) for n in MOTION_LENGTHS]
     return list(range(1, 16))  # noise
 
 
@@ -79,6 +96,8 @@ _QUICK = {
     "shear": [-1.0, -0.5, 0.5, 1.0],
     "jpeg": [5, 20, 50, 90],
     "noise": [2, 5, 10, 15],
+    "blur": [("gaussian", 1.0), ("gaussian", 2.5), ("gaussian", 4.0),
+             ("motion", 5), ("motion", 9), ("motion", 15)],
 }
 
 
@@ -90,8 +109,8 @@ def family_grid(family: str, quick: bool = False) -> list[Transform]:
     >>> len(family_grid("rotation")), len(family_grid("anisotropic")), family_grid("jpeg", quick=True)[0]
     (18, 117, Transform(family='jpeg', param=5))
     """
-    if family not in FAMILIES:
-        raise ValueError(f"unknown transform family {family!r}; choose from {', '.join(FAMILIES)}")
+    if family not in ALL_FAMILIES:
+        raise ValueError(f"unknown transform family {family!r}; choose from {', '.join(ALL_FAMILIES)}")
     return [Transform(family, v) for v in (_QUICK[family] if quick else _full_grid(family))]
 
 
@@ -155,4 +174,6 @@ def apply_transform(image: np.ndarray, t: Transform, seed: int = 0
         rng = np.random.default_rng([int(seed), int(round(float(t.param) * 1000))])
         noisy = img.astype(np.float64) + rng.normal(0.0, float(t.param), size=img.shape)
         return np.clip(np.round(noisy), 0, 255).astype(np.uint8), a, valid
+    if t.family == "blur":
+        return apply_blur(img, t.param[0], t.param[1], seed=seed), a, valid
     raise ValueError(f"unknown transform family {t.family!r}")
