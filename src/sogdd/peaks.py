@@ -147,8 +147,17 @@ def maxima_above(response: np.ndarray, threshold: float, radius: int = 1) -> tup
     above = int(np.count_nonzero(response > threshold))
     if above * 64 < response.size:
         return _maxima_above(response, float(threshold), int(radius))
-    rows, cols = np.nonzero((response > threshold) & local_maxima(response, radius))
-    return rows.astype(np.int64), cols.astype(np.int64)
+    # in bands of rows (with the radius as overlap), so no image-sized float copy is made
+    H, r, band = response.shape[0], int(radius), 512
+    rows, cols = [], []
+    for r0 in range(0, H, band):
+        r1 = min(H, r0 + band)
+        a, b = max(0, r0 - r), min(H, r1 + r)
+        blk = response[a:b]
+        rr, cc = np.nonzero(((blk > threshold) & local_maxima(blk, r))[r0 - a : r1 - a])
+        rows.append(rr + r0)
+        cols.append(cc)
+    return np.concatenate(rows).astype(np.int64), np.concatenate(cols).astype(np.int64)
 
 
 def select_peaks(

@@ -139,7 +139,8 @@ def _tiled(
     nr = 2 * R + 1
     square = is_square(halfw)
     coef = np.ascontiguousarray(coef, dtype=np.float64)
-    out = np.empty((H, W), dtype=np.float64)
+    # with ``parts`` the caller wants det and trace only: Upsilon goes to per-tile scratch, not a third map
+    out = None if parts else np.empty((H, W), dtype=np.float64)
     det = np.empty((H, W)) if parts else np.empty((1, 1))
     tr = np.empty((H, W)) if parts else np.empty((1, 1))
     starts = list(range(0, H, tile_rows))
@@ -149,7 +150,8 @@ def _tiled(
     def run(r0: int) -> None:
         r1 = min(H, r0 + tile_rows)
         planes = domain(r0, r1)
-        o, d, t = out[r0:r1], det[r0:r1] if parts else det, tr[r0:r1] if parts else tr
+        o = np.empty((r1 - r0, W)) if out is None else out[r0:r1]
+        d, t = (det[r0:r1], tr[r0:r1]) if parts else (det, tr)
         if not square:
             tile_general(planes, margin - R, coef, halfw, parts, o, d, t, 256)
             return
@@ -231,7 +233,7 @@ def soddc_measure(
         H, W, domain, M, spec.coef, np.asarray(spec.halfwidths),
         parts=spec.authors_measure, floor=floor, tile_rows=tile_rows, threads=threads,
     )
-    return authors_measure(res[1], res[2]) if spec.authors_measure else res
+    return authors_measure(res[1], res[2], out=res[1]) if spec.authors_measure else res
 
 
 def soddc_from_responses(
@@ -295,15 +297,17 @@ def soddc_at(responses: np.ndarray, halfwidths, rows: np.ndarray, cols: np.ndarr
     return det / (tr + VARSIGMA)
 
 
-def authors_measure(det: np.ndarray, tr: np.ndarray) -> np.ndarray:
+def authors_measure(det: np.ndarray, tr: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
     """The authors' post-processing: tiny negative det -> 0, non-finite -> -inf.
 
     ``det`` in ``[-eps * max|det|, 0)`` becomes 0 (``max|det|`` is NaN if any det
     is), then ``Upsilon = det / (tr + eps)``, ``-inf`` where that is not finite.
     Two compiled passes instead of numpy temporaries, with the same values.
+    ``out`` may be ``det`` itself (element-wise, in place: no extra map).
     """
     d = np.ascontiguousarray(det, dtype=np.float64)
-    out = np.empty(d.shape)
+    if out is None or out.shape != d.shape or out.dtype != np.float64 or not out.flags.c_contiguous:
+        out = np.empty(d.shape)
     _authors_post(d.reshape(-1), np.ascontiguousarray(tr, dtype=np.float64).reshape(-1), _EPS, out.reshape(-1))
     return out
 
