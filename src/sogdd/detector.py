@@ -11,6 +11,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from ._relative_floor import relative_floor
 from .corners import Corners
 from .io import check_mask, to_gray255, validate_image
 from .params import Params, resolve_params
@@ -76,7 +77,10 @@ def _detect_level(grey: np.ndarray, p: Params, mask: np.ndarray | None) -> Corne
     # Exact wherever a peak above the threshold or its 3x3 neighbourhood can be, -inf
     # where a bound proves the measure below it: the same corners as the full map.
     spec = p.measure_spec()
-    resp = soddc_measure(grey, spec, floor=_floor(p, spec))
+    floor = _floor(p, spec)
+    if floor is None:  # a relative threshold prunes too (sogdd._relative_floor)
+        floor = relative_floor(grey, p, spec, mask, threshold=p.threshold)
+    resp = soddc_measure(grey, spec, floor=floor)
     rows, cols = select_peaks(
         resp,
         threshold=p.threshold,
