@@ -241,7 +241,7 @@ def read_image(
     if _CORRUPT_RE.search(log) and not allow_corrupt:
         raise ValueError(f"{p}: corrupt or truncated image data ({first}); --allow-corrupt to use it anyway")
     if img.ndim == 3 and img.shape[2] == 3:
-        img = cv2.cvtColor(img, cv2.COLOR_BGR2RGB)
+        img = cv2.cvtColor(img, cv2.COLOR_BGR2RGB, dst=img)  # in place: no second copy of a large photo
     elif img.ndim == 3 and img.shape[2] == 4:
         img = cv2.cvtColor(img, cv2.COLOR_BGRA2RGB)
     return img
