@@ -10,13 +10,25 @@ detector; everything else (theory, baselines, evaluation, report, cli,
 collection) is its client.
 """
 
-from .corners import Corners
-from .describe import describe
-from .detector import corner_response, detect_corners
-from .feature2d import SOGDD
-from .features import load_features
-from .io import read_image
-from .params import PRESETS, resolve_params
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING
+
+# Public names and the module that holds each. They load on first use (PEP 562),
+# so that `sogdd --help` and `import sogdd.cli` do not pay for numba, OpenCV and
+# scipy, which the core's modules import.
+_EXPORTS = {
+    "Corners": "corners",
+    "describe": "describe",
+    "corner_response": "detector",
+    "detect_corners": "detector",
+    "SOGDD": "feature2d",
+    "load_features": "features",
+    "read_image": "io",
+    "PRESETS": "params",
+    "resolve_params": "params",
+}
 
 __all__ = [
     "PRESETS",
@@ -30,3 +42,24 @@ __all__ = [
     "resolve_params",
 ]
 __version__ = "0.1.0"
+
+if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs
+    from .corners import Corners
+    from .describe import describe
+    from .detector import corner_response, detect_corners
+    from .feature2d import SOGDD
+    from .features import load_features
+    from .io import read_image
+    from .params import PRESETS, resolve_params
+
+
+def __getattr__(name: str):
+    if name in _EXPORTS:
+        value = getattr(importlib.import_module(f".{_EXPORTS[name]}", __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'sogdd' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_EXPORTS))

@@ -42,6 +42,7 @@ from pathlib import Path
 
 import cv2
 
+from . import __version__
 from .detector import detect_corners
 from .features import FORMATS, make_record, params_dict, read_features, remove_stale_temporaries, write_features
 from .io import list_images, read_image
@@ -138,7 +139,6 @@ class BatchItem:
 
 def _current(target: Path, image: str, params: dict) -> bool:
     """Whether ``target`` loads and was made from this image file, unchanged, with these parameters."""
-    from . import __version__
 
     try:
         recs = read_features(target)

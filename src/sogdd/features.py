@@ -43,6 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import __version__
 from .corners import Corners
 
 __all__ = [
@@ -89,7 +90,6 @@ def params_dict(preset: str, params) -> dict:
 def make_record(image: str | os.PathLike, corners: Corners, shape: tuple[int, ...], preset: str,
                 params) -> FeatureRecord:
     """A record for ``corners`` detected on the file ``image`` with resolved ``params``."""
-    from . import __version__  # the package is initialised by the time this runs
 
     try:
         st = os.stat(image)
