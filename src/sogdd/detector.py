@@ -17,6 +17,7 @@ from .io import check_mask, to_gray255, validate_image
 from .params import Params, resolve_params
 from .peaks import refine_gradient, refine_quadratic, select_peaks
 from .response import MeasureSpec, soddc_measure, supports_floor
+from .saddles import X_RING_RADIUS, add_x_junctions, grey_strength, measure_threshold
 
 __all__ = ["corner_response", "detect_corners"]
 
@@ -66,37 +67,48 @@ def corner_response(image, *, preset: str = "paper", device: str = "cpu", **para
     return soddc_measure(_prepare(image, p), p.measure_spec())
 
 
-def _floor(p: Params, spec: MeasureSpec) -> float | None:
+def _floor(p: Params, spec: MeasureSpec, threshold: float | None) -> float | None:
     """The absolute threshold, when it alone decides which peaks pass (no relative or quantile one)."""
-    if p.threshold is None or p.threshold <= 0 or p.threshold_rel is not None or p.quantile is not None:
+    if threshold is None or threshold <= 0 or p.threshold_rel is not None or p.quantile is not None:
         return None
-    return float(p.threshold) if supports_floor(spec) else None
+    return float(threshold) if supports_floor(spec) else None
 
 
 def _detect_level(grey: np.ndarray, p: Params, mask: np.ndarray | None) -> Corners:
     # Exact wherever a peak above the threshold or its 3x3 neighbourhood can be, -inf
     # where a bound proves the measure below it: the same corners as the full map.
     spec = p.measure_spec()
-    floor = _floor(p, spec)
+    grey_units = p.threshold_units == "grey"
+    thr = p.threshold
+    if grey_units and thr is not None:  # grey levels of corner contrast -> Upsilon (sogdd.saddles)
+        thr = measure_threshold(thr, spec)
+    floor = _floor(p, spec, thr)
     if floor is None:  # a relative threshold prunes too (sogdd._relative_floor)
-        floor = relative_floor(grey, p, spec, mask, threshold=p.threshold)
+        floor = relative_floor(grey, p, spec, mask, threshold=thr)
     resp = soddc_measure(grey, spec, floor=floor)
     rows, cols = select_peaks(
         resp,
-        threshold=p.threshold,
+        threshold=thr,
         threshold_rel=p.threshold_rel,
         quantile=p.quantile,
         nms_radius=p.nms_radius,
         border=p.border,
         mask=mask,
-        max_corners=p.max_corners,
+        max_corners=None if p.x_junctions else p.max_corners,
     )
     xy = np.stack([cols, rows], axis=1).astype(np.float64)
     if p.subpixel != "none" and len(rows):
         xy += refine_quadratic(resp, rows, cols)
         if p.subpixel == "gradient":
             xy = refine_gradient(grey, xy)
-    return Corners(xy, resp[rows, cols], np.full(len(rows), p.keypoint_size()))
+    strength = grey_strength(resp[rows, cols], spec) if grey_units else resp[rows, cols]
+    out = Corners(xy, strength, np.full(len(rows), p.keypoint_size()))
+    if p.x_junctions:
+        out = add_x_junctions(out, grey, spec, threshold=p.threshold, rho=X_RING_RADIUS,
+                              size=p.keypoint_size(), border=p.border, mask=mask)
+        if p.max_corners is not None:
+            out = out.subset(np.arange(min(len(out), p.max_corners)))
+    return out
 
 
 def _allowed(xy: np.ndarray, mask: np.ndarray | None, border: int, shape: tuple[int, int]) -> np.ndarray:

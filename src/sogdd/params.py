@@ -47,6 +47,11 @@ class Params:
     gray_weights: tuple[float, float, float] = BT601
     gray_round: bool = False
     channel_order: str = "rgb"
+    # "measure": threshold and response on Upsilon itself; "grey": in grey levels of corner
+    # contrast (sogdd.saddles), so a threshold means the same on a dim and a bright image
+    threshold_units: str = "measure"
+    # report each X-junction once, on its saddle point (sogdd.saddles); needs threshold_units="grey"
+    x_junctions: bool = False
     value_range: tuple[float, float] | None = None  # input values mapped onto 0-255 (None: by dtype)
 
     def measure_spec(self) -> MeasureSpec:
@@ -175,6 +180,14 @@ def resolve_params(preset: str = "paper", **params) -> Params:
            and all(isinstance(v, (int, float, np.number)) and math.isfinite(v) and v >= 0 for v in w)
            and sum(w) > 0, f"gray_weights must be three finite non-negative numbers, got {w!r}")
     _check(p.channel_order in ("rgb", "bgr"), "channel_order must be 'rgb' or 'bgr'")
+    _check(p.threshold_units in ("measure", "grey"),
+           f"threshold_units must be 'measure' or 'grey', got {p.threshold_units!r}")
+    _check(isinstance(p.x_junctions, (bool, np.bool_)),
+           f"x_junctions must be True or False, got {p.x_junctions!r}")
+    _check(not p.x_junctions or p.threshold_units == "grey",
+           "x_junctions needs threshold_units='grey' (corners and junctions share that scale)")
+    _check(p.threshold_units == "measure" or not p.authors_measure,
+           "threshold_units='grey' needs the paper's measure (authors_measure=False)")
     if p.value_range is not None:
         p = replace(p, value_range=check_value_range(p.value_range))
     return p

@@ -1,0 +1,214 @@
+"""X-junctions as saddle points, and one grey-level scale for corners and X-junctions.
+
+Why a second stage
+------------------
+On an X-junction (a checkerboard's inner corner) the four wedges cancel:
+``g_xx = g_yy = 0`` at the junction, so the absolute SOGDD responses there are
+``|l_k| = |sin 2 theta_k| |g_xy|``, one pattern over the K orientations, and
+the SODDC matrix is nearly of rank one. Upsilon has a *local minimum* on the
+junction with a ring of maxima about 2 px around it, and the reported corners
+land off the junction. The junction is instead the saddle point of the smoothed
+image ``G_sigma * I``: the gradient vanishes and ``det H < 0``.
+
+The stage (Chen and Zhang 2005, "A new sub-pixel detector for X-corners in
+camera calibration targets"; a Foerstner-style saddle fit):
+
+1. ``g_x, g_y, g_xx, g_xy, g_yy`` of ``G_sigma * I`` at the detector's scale;
+2. candidates: 3x3 maxima of the saddle strength
+   ``s = sigma^2 sqrt(max(0, g_xy^2 - g_xx g_yy))`` (a scale-normalised second
+   derivative, linear in the image contrast);
+3. the saddle point: Newton steps ``delta = -H^{-1} grad`` on bilinearly
+   interpolated derivative maps. A candidate is kept only when the iteration
+   stays within one pixel of it: an L-corner's apex also has ``det H < 0``
+   but a large gradient, so its step leaves the pixel.
+
+Grey-level units
+----------------
+Both measures are put on the scale of *grey levels of corner contrast*: an
+ideal right-angle L-corner of contrast ``c`` (rendered at 16x supersampling)
+has corner strength ``c``, and an ideal X-junction of contrast ``c`` has
+saddle strength ``c``. Upsilon grows as ``contrast^(2K-2)``, so its strength
+is ``100 (Upsilon / Upsilon_L100)^(1 / (2K - 2))`` with ``Upsilon_L100`` the
+L-corner's peak at contrast 100. A threshold ``T`` then keeps corners at
+least as strong as a right-angle corner of contrast ``T``, on a dim photo as on
+a bright one, and scaling an image's contrast by ``a`` scales every strength
+by ``a`` exactly.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import cv2
+import numpy as np
+
+from .filters import kernel_radius, steerable_basis
+from .response import MeasureSpec, soddc_measure
+from .synthetic import Polygon, render_polygons
+
+__all__ = [
+    "CALIBRATION_CONTRAST",
+    "X_RING_RADIUS",
+    "add_x_junctions",
+    "corner_unit",
+    "derivatives",
+    "find_saddles",
+    "grey_strength",
+    "measure_threshold",
+    "near_any",
+    "saddle_unit",
+]
+
+#: the contrast (grey levels) of the calibration corner and junction
+CALIBRATION_CONTRAST = 100.0
+#: Upsilon peaks closer than this (px) to a reported X-junction belong to its ring and are dropped
+#: (the hr study's choice, docs/hr.md)
+X_RING_RADIUS = 3.0
+_BORDER = cv2.BORDER_REFLECT  # half-sample symmetric, as every other stage
+
+
+def derivatives(grey: np.ndarray, sigma2: float, radius: int) -> tuple[np.ndarray, ...]:
+    """``(g_x, g_y, g_xx, g_xy, g_yy)`` of ``G_sigma * I``: sampled Gaussian derivatives, reflect border.
+
+    The second derivatives are the steerable basis of :mod:`sogdd.filters`
+    (``l_theta = c^2 g_xx + 2 s c g_xy + s^2 g_yy``).
+    """
+    b = steerable_basis(sigma2, radius)
+    img = np.ascontiguousarray(grey, dtype=np.float64)
+
+    def f(kx: np.ndarray, ky: np.ndarray) -> np.ndarray:
+        return cv2.sepFilter2D(img, cv2.CV_64F, kx, ky, borderType=_BORDER)
+
+    return f(b.d1, b.gauss), f(b.gauss, b.d1), f(b.d2, b.gauss), f(b.d1, b.d1), f(b.gauss, b.d2)
+
+
+def _bilinear(m: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """``m`` at sub-pixel points (bilinear, reflect border), float64 arithmetic."""
+    h, w = m.shape
+    x = np.clip(x, 0.0, w - 1.0)
+    y = np.clip(y, 0.0, h - 1.0)
+    x0 = np.minimum(np.floor(x).astype(np.int64), w - 2 if w > 1 else 0)
+    y0 = np.minimum(np.floor(y).astype(np.int64), h - 2 if h > 1 else 0)
+    x1, y1 = np.minimum(x0 + 1, w - 1), np.minimum(y0 + 1, h - 1)
+    fx, fy = x - x0, y - y0
+    return ((m[y0, x0] * (1 - fx) + m[y0, x1] * fx) * (1 - fy)
+            + (m[y1, x0] * (1 - fx) + m[y1, x1] * fx) * fy)
+
+
+def find_saddles(grey: np.ndarray, sigma2: float, radius: int | None = None, *, iterations: int = 4
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """Saddle points of the smoothed image: ``(xy (N, 2), strength (N,))``, strength ``s`` (module doc).
+
+    Examples
+    --------
+    >>> from sogdd.synthetic import Polygon, render_polygons
+    >>> q = np.array([[20.3, 20.6], [60, 20.6], [60, 60], [20.3, 60]])
+    >>> img = render_polygons((41, 41), [Polygon(q, 200.0), Polygon(2 * q[0] - q, 200.0)], background=50.0)
+    >>> xy, s = find_saddles(img, 1.2)
+    >>> np.round(xy[np.argmax(s)], 1).tolist()  # within 0.02 px of the junction
+    [20.3, 20.6]
+    """
+    r = kernel_radius(sigma2) if radius is None else int(radius)
+    gx, gy, gxx, gxy, gyy = derivatives(grey, sigma2, r)
+    neg = gxy * gxy - gxx * gyy
+    s = sigma2 * np.sqrt(np.maximum(neg, 0.0))
+    dil = cv2.dilate(s, np.ones((3, 3), np.uint8), borderType=cv2.BORDER_REPLICATE)
+    rows, cols = np.nonzero((s >= dil) & (s > 0))
+    if len(rows) == 0:
+        return np.zeros((0, 2)), np.zeros(0)
+    x0, y0 = cols.astype(np.float64), rows.astype(np.float64)
+    x, y = x0.copy(), y0.copy()
+    for _ in range(int(iterations)):
+        a, b, c = _bilinear(gxx, x, y), _bilinear(gxy, x, y), _bilinear(gyy, x, y)
+        px, py = _bilinear(gx, x, y), _bilinear(gy, x, y)
+        det = a * c - b * b
+        with np.errstate(divide="ignore", invalid="ignore"):
+            dx = -(c * px - b * py) / det
+            dy = -(a * py - b * px) / det
+        # a singular Hessian is no saddle: send the point away so it is refused below
+        x = x + np.where(np.isfinite(dx), dx, 9.0)
+        y = y + np.where(np.isfinite(dy), dy, 9.0)
+    ok = (np.abs(x - x0) <= 1.0) & (np.abs(y - y0) <= 1.0)
+    return np.stack([x[ok], y[ok]], axis=1), s[rows, cols][ok]
+
+
+def _calibration_images() -> tuple[np.ndarray, np.ndarray]:
+    n, c, big = 64, 31.5, 200.0
+    quad = np.array([[c, c], [c + big, c], [c + big, c + big], [c, c + big]])
+    lo, hi = 50.0, 50.0 + CALIBRATION_CONTRAST
+    L = render_polygons((n, n), [Polygon(quad, hi)], background=lo)
+    X = render_polygons((n, n), [Polygon(quad, hi), Polygon(2 * c - quad, hi)], background=lo)
+    return L, X
+
+
+@lru_cache(maxsize=32)
+def corner_unit(spec: MeasureSpec) -> float:
+    """Peak Upsilon of an ideal right-angle L-corner of contrast 100 under ``spec``."""
+    L, _ = _calibration_images()
+    return float(soddc_measure(L, spec).max())
+
+
+@lru_cache(maxsize=32)
+def saddle_unit(sigma2: float, radius: int) -> float:
+    """Peak saddle strength ``s`` of an ideal X-junction of contrast 100."""
+    _, X = _calibration_images()
+    _, s = find_saddles(X, sigma2, radius)
+    return float(s.max())
+
+
+def grey_strength(upsilon: np.ndarray, spec: MeasureSpec) -> np.ndarray:
+    """Upsilon in grey levels of corner contrast: ``100 (Upsilon / Upsilon_L100)^(1/(2K-2))``.
+
+    Examples
+    --------
+    >>> from sogdd.window import window_halfwidths
+    >>> spec = MeasureSpec(1.2, 4, window_halfwidths("square", 7))
+    >>> float(np.round(grey_strength(np.array([corner_unit(spec)]), spec)[0], 9))
+    100.0
+    """
+    k = 2 * spec.n_orientations - 2
+    u = np.maximum(np.asarray(upsilon, dtype=np.float64), 0.0) / corner_unit(spec)
+    return CALIBRATION_CONTRAST * u ** (1.0 / k) if k > 0 else CALIBRATION_CONTRAST * u
+
+
+def measure_threshold(grey_threshold: float, spec: MeasureSpec) -> float:
+    """The Upsilon value whose grey-level strength is ``grey_threshold`` (inverse of :func:`grey_strength`)."""
+    k = 2 * spec.n_orientations - 2
+    t = max(float(grey_threshold), 0.0) / CALIBRATION_CONTRAST
+    return corner_unit(spec) * (t**k if k > 0 else t)
+
+
+def near_any(xy: np.ndarray, centres: np.ndarray, radius: float) -> np.ndarray:
+    """Mask of the points of ``xy`` within ``radius`` of some point of ``centres``."""
+    if len(xy) == 0 or len(centres) == 0:
+        return np.zeros(len(xy), dtype=bool)
+    from scipy.spatial import cKDTree
+
+    d, _ = cKDTree(centres).query(xy, k=1, distance_upper_bound=radius + 1e-9)
+    return np.isfinite(d) & (d <= radius)
+
+
+def add_x_junctions(corners, grey: np.ndarray, spec: MeasureSpec, *, threshold: float | None,
+                    rho: float, size: float, border: int = 0, mask: np.ndarray | None = None):
+    """Replace the ring of Upsilon peaks around each X-junction by the junction's saddle point.
+
+    ``corners`` carry grey-level strengths (:func:`grey_strength`). Saddles of
+    strength ``>= threshold`` (grey levels, :func:`saddle_unit` scale) are added;
+    corners within ``rho`` px of one are dropped. Returns ``Corners``, strongest first.
+    """
+    from .corners import Corners
+
+    r = kernel_radius(spec.sigma2, spec.radius_rule)
+    xy, s = find_saddles(grey, spec.sigma2, r)
+    s = CALIBRATION_CONTRAST * s / saddle_unit(spec.sigma2, r)
+    h, w = grey.shape
+    col, row = np.rint(xy[:, 0]).astype(np.int64), np.rint(xy[:, 1]).astype(np.int64)
+    keep = (col >= border) & (col <= w - 1 - border) & (row >= border) & (row <= h - 1 - border)
+    if threshold is not None:
+        keep &= s >= threshold
+    if mask is not None:
+        keep[keep] = mask[row[keep], col[keep]]
+    xy, s = xy[keep], s[keep]
+    c = corners.subset(~near_any(corners.xy, xy, rho))
+    out = Corners.concatenate([c, Corners(xy, s, np.full(len(s), float(size)))])
+    return out.subset(np.argsort(-out.response, kind="stable"))

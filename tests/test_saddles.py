@@ -1,0 +1,61 @@
+"""X-junction stage and grey-level units (sogdd.saddles), with explicit parameters."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import sogdd
+from sogdd.params import resolve_params
+from sogdd.reference import reference_measure
+from sogdd.saddles import corner_unit, find_saddles, grey_strength, measure_threshold
+from sogdd.synthetic import Polygon, pattern_image, render_polygons
+
+GREY = dict(n_orientations=4, threshold_units="grey")
+
+
+def test_grey_units_round_trip():
+    spec = resolve_params("paper", **GREY).measure_spec()
+    for t in (1.0, 17.0, 100.0):
+        assert grey_strength(np.array([measure_threshold(t, spec)]), spec)[0] == pytest.approx(t, rel=1e-12)
+
+
+def test_corner_unit_is_the_l_corner_peak_by_the_definition():
+    """The calibration constant against the direct eq. 22-25 computation (sogdd.reference)."""
+    from sogdd.saddles import _calibration_images
+
+    spec = resolve_params("paper", **GREY).measure_spec()
+    L, _ = _calibration_images()
+    assert corner_unit(spec) == pytest.approx(float(reference_measure(L, spec).max()), rel=1e-9)
+
+
+def test_grey_threshold_scales_with_contrast():
+    """Contrast x a scales every strength by a: threshold a*T keeps exactly the same corners."""
+    img, _ = pattern_image((160, 200))
+    base = img.astype(np.float64)
+    dim = base * 0.4 / 255.0  # dim copy; an offset would leak through the kernels' ~1e-5 mean
+    a = sogdd.detect_corners(base / 255.0, threshold=40.0, x_junctions=True, **GREY)
+    b = sogdd.detect_corners(dim, threshold=16.0, x_junctions=True, **GREY)
+    assert len(a) > 10 and len(a) == len(b)
+    # float32 inside cv2.cornerSubPix: positions agree to ~1e-5 px, not bit for bit
+    np.testing.assert_allclose(b.xy, a.xy, atol=1e-4)
+    np.testing.assert_allclose(b.response, 0.4 * a.response, rtol=1e-9)
+
+
+def test_saddle_on_an_x_junction_and_none_on_an_l_apex():
+    q = np.array([[30.4, 30.7], [90, 30.7], [90, 90], [30.4, 90]])
+    x_img = render_polygons((61, 61), [Polygon(q, 200.0), Polygon(2 * q[0] - q, 200.0)], background=50.0)
+    xy, s = find_saddles(x_img, 1.2)
+    best = xy[np.argmax(s)]
+    assert np.hypot(*(best - q[0])) < 0.05
+    l_img = render_polygons((61, 61), [Polygon(q, 200.0)], background=50.0)
+    xy, s = find_saddles(l_img, 1.2)
+    strong = xy[s > 0.05 * 4 * 1.2 * 150]
+    assert len(strong) == 0 or np.hypot(*(strong - q[0]).T).min() > 1.5
+
+
+def test_x_junctions_need_grey_units():
+    with pytest.raises(ValueError, match="x_junctions needs threshold_units='grey'"):
+        resolve_params("paper", x_junctions=True)
+    with pytest.raises(ValueError, match="threshold_units must be"):
+        resolve_params("paper", threshold_units="volts")
