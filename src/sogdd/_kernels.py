@@ -228,10 +228,6 @@ def tile_general(planes, off, coef, halfw, want_parts, out, det_out, tr_out, blo
                     tr_out[yo, x0 + x] = tr[x]
 
 
-# Safety margins of the pruning bound, far above the rounding they cover: the
-# bound's own (~50 eps relative to the Cauchy-Schwarz scale u_i u_j) and that of
-
-
 @numba.njit(**JIT)
 def next_run(mask, start, stop, gap):  # pragma: no cover - jit
     """The next run [a, b) of ``mask[j]`` (start <= a, b <= stop), bridging gaps shorter than ``gap``.
@@ -256,7 +252,7 @@ def next_run(mask, start, stop, gap):  # pragma: no cover - jit
 
 @numba.njit(**JIT)
 def tile_square(planes, off, coef, nr, need, colneed, rowneed, want_parts, out, det_out, tr_out,
-                       block, gap):  # pragma: no cover - jit
+                block, gap, y0, y1, clear):  # pragma: no cover - jit
     """Fill ``out`` (Ht, W) with det/(tr + varsigma) for an ``nr x nr`` square window.
 
     ``planes`` as in :func:`tile_general`. Products of the K absolute
@@ -265,9 +261,11 @@ def tile_square(planes, off, coef, nr, need, colneed, rowneed, want_parts, out, 
     pair-wise order (no running sums: the result must not depend on where a
     tile starts, and must not cancel). ``need``, ``colneed`` and ``rowneed``
     (:func:`dilate_masks`) say which pixels, column sums and products to compute;
-    pixels outside the (gap-merged) runs of ``need`` get ``-inf``. An empty
-    ``need`` (shape (0, 0)) means all. Evaluated pixels get the same value, bit
-    for bit, whatever the masks.
+    with ``clear``, pixels outside the (gap-merged) runs of ``need`` get ``-inf``
+    (without it they keep their value: a second pass adds pixels). An empty
+    ``need`` (shape (0, 0)) means all. Only output rows ``y0 .. y1 - 1`` are
+    touched. Evaluated pixels get the same value, bit for bit, whatever the
+    masks and rows.
     """
     K = coef.shape[0]
     P = K * (K + 1) // 2
@@ -292,7 +290,7 @@ def tile_square(planes, off, coef, nr, need, colneed, rowneed, want_parts, out, 
     for x0 in range(0, W, block):
         n = min(block, W - x0)
         m = n + 2 * R
-        for y in range(Ht + 2 * R):
+        for y in range(y0, y1 + 2 * R):
             slot = y % nr
             xp = x0 + off
             a, b = 0, m
@@ -310,7 +308,7 @@ def tile_square(planes, off, coef, nr, need, colneed, rowneed, want_parts, out, 
                 if dense:
                     break
                 a, b = next_run(rowneed[y, x0:], b, m, gap)
-            if y < 2 * R:
+            if y < y0 + 2 * R:
                 continue
             yo = y - 2 * R
             a, b = 0, m
@@ -323,9 +321,10 @@ def tile_square(planes, off, coef, nr, need, colneed, rowneed, want_parts, out, 
                     break
                 a, b = next_run(colneed[yo, x0:], b, m, gap)
             if not dense:
-                orow = out[yo, x0 : x0 + n]
-                for c in range(n):
-                    orow[c] = -np.inf
+                if clear:
+                    orow = out[yo, x0 : x0 + n]
+                    for c in range(n):
+                        orow[c] = -np.inf
                 a, b = next_run(need[yo, x0:], 0, n, gap)
             else:
                 a, b = 0, n

@@ -4,8 +4,11 @@ Detection with an absolute threshold ``T`` needs Upsilon only where it can
 reach ``T``. Fischer's inequality on the 2 x 2 diagonal blocks of adjacent
 orientations bounds det(Lambda) from six window sums of products of the basis
 responses, for any K (:func:`fischer_row`). Pixels whose bound is below ``T``
-are provably below it; the exact kernel runs only near the others
-(:func:`dilate_masks`).
+are provably below it; the exact kernel runs on the others
+(:func:`need_from_keep`), then on the 3 x 3 neighbourhoods of those found at
+or above ``T`` that sub-pixel refinement reads (:func:`neighbour_need`).
+Non-maximum suppression needs nothing more: a pixel left out is below ``T``,
+so below every peak, whatever the radius.
 """
 
 from __future__ import annotations
@@ -16,7 +19,7 @@ import numpy as np
 from ._jit import JIT
 from ._kernels import VARSIGMA, column_sum, row_sum
 
-__all__ = ["bound_mask", "bound_tables", "dilate_masks", "fischer_row"]
+__all__ = ["bound_mask", "bound_tables", "fischer_row", "need_from_keep", "neighbour_need", "spread_masks"]
 
 # Safety margins of the pruning bound, far above the rounding they cover: the
 # bound's own (~50 eps relative to the Cauchy-Schwarz scale u_i u_j) and that of
@@ -82,27 +85,75 @@ def fischer_row(srow, quad, pair, pi2, pj2, floor, keep, nb, work):  # pragma: n
 
 
 @numba.njit(**JIT)
-def dilate_masks(keep, R, need, colneed, rowneed):  # pragma: no cover - jit
-    """From the bound mask to what the square kernel must compute.
+def need_from_keep(keep, need):  # pragma: no cover - jit
+    """The pixels the first exact pass evaluates: those whose bound reaches the floor.
 
-    ``keep`` (Ht + 2, W + 2) covers tile rows -1..Ht and columns -1..W. ``need``
-    (Ht, W): pixels to evaluate (a 3 x 3 neighbour kept). ``colneed`` (Ht, W + 2R):
-    columns -R..W+R-1 whose column sums those pixels use. ``rowneed``
-    (Ht + 2R, W + 2R): window rows and columns whose products those sums use.
+    ``keep`` (Ht + 2, W + 2) covers tile rows -1..Ht and columns -1..W; ``need``
+    is (Ht, W). A pixel of a neighbouring tile (rows -1 and Ht) whose bound
+    reaches the floor may be above it, and only that tile knows: its 3 x 3
+    neighbours in this tile's first and last rows are evaluated too (needs W >= 3).
     """
     Ht, W = need.shape
-    nr = 2 * R + 1
-    hk = np.empty(W, np.uint8)
+    for y in range(Ht):
+        kr = keep[y + 1]
+        nd = need[y]
+        for x in range(W):
+            nd[x] = kr[x + 1]
+    for y, h in ((0, 0), (Ht - 1, Ht + 1)):
+        kr = keep[h]
+        nd = need[y]
+        for x in range(W):
+            nd[x] |= kr[x] | kr[x + 1] | kr[x + 2]
+        nd[2] |= kr[1]  # a patch at the image edge is moved inside it (columns 0..2, W-3..W-1)
+        nd[W - 3] |= kr[W]
+
+
+@numba.njit(**JIT)
+def neighbour_need(out, floor, r0, H, need):  # pragma: no cover - jit
+    """need = pixels not yet evaluated (-inf) in the 3 x 3 patch of a pixel at or above ``floor``.
+
+    The patch is the one :func:`sogdd.peaks.refine_quadratic` reads: centred on
+    the pixel, moved inside the image at its edges (image rows ``r0 + y``, ``H``
+    rows; needs H, W >= 3 and tiles of >= 3 rows, so an edge patch lies in its
+    tile). Returns the range ``lo, hi`` of tile rows with a needed pixel (``lo
+    >= hi``: none).
+    """
+    Ht, W = out.shape
+    lo, hi = Ht, 0
     for y in range(Ht):
         nd = need[y]
         for x in range(W):
             nd[x] = 0
-        for dy in range(3):
-            kr = keep[y + dy]
-            for x in range(W):
-                hk[x] = kr[x] | kr[x + 1] | kr[x + 2]
-            for x in range(W):
-                nd[x] |= hk[x]
+    for y in range(Ht):
+        row = out[y]
+        for x in range(W):
+            if not row[x] >= floor:
+                continue
+            cy = min(max(r0 + y, 1), H - 2) - r0
+            cx = min(max(x, 1), W - 2)
+            for yy in range(max(cy - 1, 0), min(cy + 2, Ht)):
+                orow = out[yy]
+                for xx in range(cx - 1, cx + 2):
+                    if orow[xx] == -np.inf:
+                        need[yy, xx] = 1
+                        lo = min(lo, yy)
+                        hi = max(hi, yy + 1)
+    return lo, hi
+
+
+@numba.njit(**JIT)
+def spread_masks(need, R, colneed, rowneed, lo, hi):  # pragma: no cover - jit
+    """From the pixels to evaluate (rows ``lo .. hi - 1`` of ``need``) to what the square kernel computes.
+
+    ``colneed`` (Ht, W + 2R): columns -R..W+R-1 whose column sums those pixels
+    use; ``rowneed`` (Ht + 2R, W + 2R): window rows and columns whose products
+    those sums use. Only rows ``lo .. hi - 1`` of ``colneed`` and ``lo .. hi + 2R - 1``
+    of ``rowneed`` are written.
+    """
+    W = need.shape[1]
+    nr = 2 * R + 1
+    for y in range(lo, hi):
+        nd = need[y]
         cn = colneed[y]
         for j in range(W + 2 * R):
             cn[j] = 0
@@ -110,15 +161,14 @@ def dilate_masks(keep, R, need, colneed, rowneed):  # pragma: no cover - jit
             dst = cn[t : t + W]
             for x in range(W):
                 dst[x] |= nd[x]
-    for y in range(Ht + 2 * R):
+    for y in range(lo, hi + 2 * R):
         rn = rowneed[y]
         for j in range(W + 2 * R):
             rn[j] = 0
-        for yo in range(max(0, y - 2 * R), min(Ht, y + 1)):
+        for yo in range(max(lo, y - 2 * R), min(hi, y + 1)):
             cn = colneed[yo]
             for j in range(W + 2 * R):
                 rn[j] |= cn[j]
-
 
 
 @numba.njit(**JIT)

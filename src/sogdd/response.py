@@ -35,7 +35,7 @@ import numpy as np
 
 from ._jit import JIT
 from ._kernels import VARSIGMA, det_trace, pair_index, tile_general, tile_square
-from ._pruning import bound_mask, bound_tables, dilate_masks
+from ._pruning import bound_mask, bound_tables, need_from_keep, neighbour_need, spread_masks
 from .filters import basis_tile, kernel_radius, orientations, steerable_basis, steering_coefficients
 from .window import is_square, take_reflected, window_offsets
 
@@ -143,36 +143,49 @@ def _tiled(
     out = None if parts else np.empty((H, W), dtype=np.float64)
     det = np.empty((H, W)) if parts else np.empty((1, 1))
     tr = np.empty((H, W)) if parts else np.empty((1, 1))
+    if floor is not None:  # tiles of >= 3 rows, so an edge pixel's 3 x 3 patch lies in its tile
+        tile_rows = max(tile_rows, 3)
     starts = list(range(0, H, tile_rows))
+    if floor is not None and len(starts) > 1 and H - starts[-1] < 3:
+        starts.pop()
+    ends = starts[1:] + [H]
     tables = bound_tables(coef) if floor is not None else None
     none = np.zeros((0, 0), np.uint8)
 
-    def run(r0: int) -> None:
-        r1 = min(H, r0 + tile_rows)
+    def run(r0: int, r1: int) -> None:
         planes = domain(r0, r1)
         o = np.empty((r1 - r0, W)) if out is None else out[r0:r1]
         d, t = (det[r0:r1], tr[r0:r1]) if parts else (det, tr)
         if not square:
             tile_general(planes, margin - R, coef, halfw, parts, o, d, t, 256)
             return
-        need = colneed = rowneed = none
-        if tables is not None:
-            h = r1 - r0
-            keep = np.empty((h + 2, W + 2), np.uint8)
-            bound_mask(planes, nr, *tables, float(floor), keep, 256)
-            need = np.empty((h, W), np.uint8)
-            colneed = np.empty((h, W + 2 * R), np.uint8)
-            rowneed = np.empty((h + 2 * R, W + 2 * R), np.uint8)
-            dilate_masks(keep, R, need, colneed, rowneed)
-        tile_square(planes, margin - R, coef, nr, need, colneed, rowneed, parts, o, d, t, 256, 32)
+        h = r1 - r0
+        if tables is None:
+            tile_square(planes, margin - R, coef, nr, none, none, none, parts, o, d, t, 256, 32, 0, h, True)
+            return
+        # pass 1: the pixels whose bound reaches the floor; pass 2: the 3 x 3 patches around
+        # those found at or above it (sub-pixel refinement reads them), when not evaluated yet
+        keep = np.empty((h + 2, W + 2), np.uint8)
+        bound_mask(planes, nr, *tables, float(floor), keep, 256)
+        need = np.empty((h, W), np.uint8)
+        colneed = np.empty((h, W + 2 * R), np.uint8)
+        rowneed = np.empty((h + 2 * R, W + 2 * R), np.uint8)
+        need_from_keep(keep, need)
+        spread_masks(need, R, colneed, rowneed, 0, h)
+        tile_square(planes, margin - R, coef, nr, need, colneed, rowneed, parts, o, d, t, 256, 32, 0, h, True)
+        lo, hi = neighbour_need(o, float(floor), r0, H, need)
+        if lo < hi:
+            spread_masks(need, R, colneed, rowneed, lo, hi)
+            tile_square(planes, margin - R, coef, nr, need, colneed, rowneed, parts, o, d, t, 256, 32,
+                        lo, hi, False)
 
     n = threads or _n_threads()
     if n == 1 or len(starts) == 1:
-        for r0 in starts:
-            run(r0)
+        for r0, r1 in zip(starts, ends):
+            run(r0, r1)
     else:
         with ThreadPoolExecutor(n) as pool:
-            list(pool.map(run, starts))
+            list(pool.map(run, starts, ends))
     return (out, det, tr) if parts else out
 
 
@@ -196,13 +209,15 @@ def soddc_measure(
 
     With ``floor`` (> 0, square windows, see :func:`supports_floor`) only what
     peak selection above ``floor`` needs is computed: Upsilon is exact, bit for
-    bit as without ``floor``, at every pixel that has a 3 x 3 neighbour where a
-    Fischer bound on det(Lambda) reaches ``floor`` (and at a few more, where
-    nearby runs are merged); every pixel that holds ``-inf`` is provably below
-    ``floor``. Local maxima above ``floor``,
-    their values and their 3 x 3 neighbourhoods are then those of the full map,
-    at a fraction of the cost on photographs (most pixels are proven below
-    ``T_h`` by six window sums instead of K(K+1)/2 and an elimination).
+    bit as without ``floor``, at every pixel where a Fischer bound on
+    det(Lambda) reaches ``floor`` (so at every pixel at or above it), in the
+    3 x 3 patch that :func:`sogdd.peaks.refine_quadratic` reads around each
+    pixel at or above ``floor``, and at a few more (where nearby runs are
+    merged); every pixel that holds ``-inf`` is provably below ``floor``. Local
+    maxima above ``floor`` (any radius: a pixel left out is below every peak),
+    their values and their 3 x 3 patches are then those of the full map, at a
+    fraction of the cost on photographs (most pixels are proven below ``T_h``
+    by six window sums instead of K(K+1)/2 and an elimination).
 
     Examples
     --------
@@ -222,6 +237,8 @@ def soddc_measure(
     R = spec.window_radius
     if floor is not None and not (floor > 0 and supports_floor(spec)):
         raise ValueError("floor needs a positive value, a square window and the paper's measure")
+    if min(H, W) < 3:  # too small for 3 x 3 patches: the full map is the pruned one
+        floor = None
     basis = steerable_basis(spec.sigma2, spec.radius, zero_mean=spec.zero_mean)
     # one margin for both kernels, so the filter responses are computed identically
     M = R + 1
