@@ -11,6 +11,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from ._banded import peaks_in_bands
 from ._relative_floor import relative_floor
 from .corners import Corners
 from .io import check_mask, to_gray255, validate_image
@@ -83,25 +84,24 @@ def _detect_level(grey: np.ndarray, p: Params, mask: np.ndarray | None) -> Corne
     if grey_units and thr is not None:  # grey levels of corner contrast -> Upsilon (sogdd.saddles)
         thr = measure_threshold(thr, spec)
     floor = _floor(p, spec, thr)
-    if floor is None:  # a relative threshold prunes too (sogdd._relative_floor)
+    top = None if p.x_junctions else p.max_corners
+    if floor is not None:  # absolute threshold: band by band, no H x W map (sogdd._banded)
+        rows, cols, values, qoff = peaks_in_bands(grey, spec, threshold=thr, floor=floor, border=p.border,
+                                                  nms_radius=p.nms_radius, mask=mask, max_corners=top)
+    else:  # a relative threshold prunes too (sogdd._relative_floor)
         floor = relative_floor(grey, p, spec, mask, threshold=thr)
-    resp = soddc_measure(grey, spec, floor=floor)
-    rows, cols = select_peaks(
-        resp,
-        threshold=thr,
-        threshold_rel=p.threshold_rel,
-        quantile=p.quantile,
-        nms_radius=p.nms_radius,
-        border=p.border,
-        mask=mask,
-        max_corners=None if p.x_junctions else p.max_corners,
-    )
+        resp = soddc_measure(grey, spec, floor=floor)
+        rows, cols = select_peaks(resp, threshold=thr, threshold_rel=p.threshold_rel, quantile=p.quantile,
+                                  nms_radius=p.nms_radius, border=p.border, mask=mask, max_corners=top)
+        values = resp[rows, cols]
+        qoff = refine_quadratic(resp, rows, cols) if p.subpixel != "none" else None
+        del resp
     xy = np.stack([cols, rows], axis=1).astype(np.float64)
     if p.subpixel != "none" and len(rows):
-        xy += refine_quadratic(resp, rows, cols)
+        xy += qoff
         if p.subpixel == "gradient":
             xy = refine_gradient(grey, xy)
-    strength = grey_strength(resp[rows, cols], spec) if grey_units else resp[rows, cols]
+    strength = grey_strength(values, spec) if grey_units else values
     out = Corners(xy, strength, np.full(len(rows), p.keypoint_size()))
     if p.x_junctions:
         out = add_x_junctions(out, grey, spec, threshold=p.threshold, rho=X_RING_RADIUS,

@@ -1,0 +1,44 @@
+"""Detection in bands of rows (sogdd._banded) against selection on the whole map."""
+
+import numpy as np
+import pytest
+
+import sogdd
+from sogdd._banded import peaks_in_bands
+from sogdd.peaks import refine_quadratic, select_peaks
+from sogdd.response import soddc_measure
+
+
+@pytest.mark.parametrize("band_rows", [1, 5, 17, 1024])
+@pytest.mark.parametrize("kw", [{}, {"nms_radius": 3}, {"border": 6}, {"border": 1, "max_corners": 25},
+                                {"border": 200}])
+def test_bands_give_the_peaks_of_the_whole_map(pattern, rng, band_rows, kw):
+    img = np.clip(pattern[0] + rng.normal(0, 4, pattern[0].shape), 0, 255)
+    spec = sogdd.resolve_params("paper").measure_spec()
+    mask = rng.random(img.shape) < 0.9
+    thr = 1e8
+    full = soddc_measure(img, spec)
+    rows, cols = select_peaks(full, threshold=thr, mask=mask, **kw)
+    r, c, v, off = peaks_in_bands(img, spec, threshold=thr, floor=thr, mask=mask, band_rows=band_rows, **kw)
+    if kw.get("border") != 200:
+        assert len(rows) > 10
+    np.testing.assert_array_equal(r, rows)
+    np.testing.assert_array_equal(c, cols)
+    np.testing.assert_array_equal(v, full[rows, cols])
+    np.testing.assert_array_equal(off, refine_quadratic(full, rows, cols))
+
+
+def test_bands_find_peaks_on_the_first_and_last_rows():
+    """Edge peaks (shifted 3x3 patches) and a band boundary next to a peak."""
+    img = np.zeros((23, 40))
+    img[:6, :10] = 200.0  # corners near row 0 ...
+    img[17:, 25:] = 200.0  # ... and near the last row
+    img[9:14, 15:20] = 255.0
+    spec = sogdd.resolve_params("paper").measure_spec()
+    full = soddc_measure(img, spec)
+    thr = float(np.quantile(full[full > 0], 0.5))
+    rows, cols = select_peaks(full, threshold=thr)
+    for band_rows in (2, 3, 11):
+        r, c, v, off = peaks_in_bands(img, spec, threshold=thr, floor=thr, band_rows=band_rows)
+        np.testing.assert_array_equal(np.stack([r, c]), np.stack([rows, cols]))
+        np.testing.assert_array_equal(off, refine_quadratic(full, rows, cols))
