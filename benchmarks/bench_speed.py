@@ -192,7 +192,9 @@ def build_cases(img: np.ndarray, mp: int, with_baselines: bool) -> dict:
         "cv2.goodFeaturesToTrack": lambda: cv2.goodFeaturesToTrack(img, 5000, 0.01, 3),
         "cv2.FAST": lambda: fast.detect(img, None),
     }
-    if "hr" in sogdd.params.PRESETS:
+    from sogdd.params import PRESETS  # (the package exports load lazily)
+
+    if "hr" in PRESETS:
         cases["sogdd hr: detect_corners"] = lambda: sogdd.detect_corners(img, preset="hr")
     if mp == 1:
         spec = sogdd.resolve_params("paper").measure_spec()
