@@ -215,3 +215,20 @@ def test_quadratic_fallback_is_clipped_to_half_a_pixel():
     patch = a[None, :] + b[:, None]
     off = refine_quadratic(np.pad(patch, 1), np.array([2]), np.array([2]), log=False)
     np.testing.assert_allclose(off, [[0.5, 0.0]])
+
+
+def test_tie_breaking_keeps_a_candidate_unless_an_earlier_kept_one_is_within_the_radius():
+    """The greedy definition, brute force, on random candidate lists in random order."""
+    from sogdd.peaks import _break_ties
+
+    rng = np.random.default_rng(7)
+    for _ in range(60):
+        h, w = rng.integers(1, 40, 2)
+        idx = rng.choice(h * w, int(rng.integers(0, min(h * w, 150) + 1)), replace=False)
+        rows, cols = np.divmod(idx, w)
+        radius = int(rng.integers(1, 7))
+        want = np.ones(len(rows), bool)
+        for j in range(len(rows)):
+            near = np.maximum(np.abs(rows[:j] - rows[j]), np.abs(cols[:j] - cols[j])) <= radius
+            want[j] = not (near & want[:j]).any()
+        np.testing.assert_array_equal(_break_ties(rows, cols, radius), want)

@@ -10,7 +10,6 @@ from __future__ import annotations
 import cv2
 import numba
 import numpy as np
-from scipy.spatial import cKDTree
 
 __all__ = [
     "local_maxima",
@@ -227,24 +226,31 @@ def _break_ties(rows: np.ndarray, cols: np.ndarray, radius: int) -> np.ndarray:
 
     Two local maxima closer than the NMS radius must have equal values, so this
     only decides ties, and it keeps the guarantee that no two corners lie
-    within ``radius`` of each other.
+    within ``radius`` of each other: a candidate is dropped exactly when an
+    earlier *kept* candidate lies within ``radius`` (strongest first, raster
+    order among equals).
     """
     keep = np.ones(len(rows), dtype=bool)
     if len(rows) < 2:
         return keep
-    pts = np.stack([cols, rows], axis=1).astype(np.float64)
-    pairs = cKDTree(pts).query_pairs(r=float(radius), p=np.inf, output_type="ndarray")
-    if len(pairs) == 0:
-        return keep
-    pairs.sort(axis=1)
-    later = {}
-    for i, j in pairs:
-        later.setdefault(int(i), []).append(int(j))
-    for i in range(len(rows)):  # strongest first, raster order among equals
-        if keep[i]:
-            for j in later.get(i, ()):
-                keep[j] = False
+    r = int(radius)
+    r0, c0 = int(rows.min()) - r, int(cols.min()) - r
+    blocked = np.zeros((int(rows.max()) - r0 + r + 1, int(cols.max()) - c0 + r + 1), np.uint8)
+    _greedy_ties(np.asarray(rows, np.int64) - r0, np.asarray(cols, np.int64) - c0, r, blocked, keep)
     return keep
+
+
+@numba.njit(cache=True, nogil=True)
+def _greedy_ties(rows, cols, r, blocked, keep):  # pragma: no cover - jit
+    """Greedy pass in candidate order: a kept point blocks its (2r+1)^2 square for later ones."""
+    for i in range(rows.shape[0]):
+        y, x = rows[i], cols[i]
+        if blocked[y, x]:
+            keep[i] = False
+            continue
+        for yy in range(y - r, y + r + 1):
+            for xx in range(x - r, x + r + 1):
+                blocked[yy, xx] = 1
 
 
 def refine_quadratic(
@@ -267,6 +273,16 @@ def refine_quadratic(
     c = np.clip(cols, 1, w - 2)
     dy, dx = np.mgrid[-1:2, -1:2]
     patch = response[r[:, None, None] + dy, c[:, None, None] + dx].astype(np.float64)
+    out[:] = quadratic_offsets(patch, log=log)
+    # peaks on the outermost pixel row/column keep their integer position
+    edge = (rows != r) | (cols != c)
+    out[edge] = 0.0
+    return out
+
+
+def quadratic_offsets(patch: np.ndarray, *, log: bool = True) -> np.ndarray:
+    """The offsets of :func:`refine_quadratic` from the (n, 3, 3) patches themselves (float64)."""
+    out = np.zeros((len(patch), 2))
     if log:
         with np.errstate(divide="ignore", invalid="ignore"):
             lp = np.log(patch)
@@ -286,9 +302,6 @@ def refine_quadratic(
         oy1 = np.where(fyy < 0, -gy / fyy, 0.0)
     out[:, 0] = np.where(good, ox, np.clip(np.nan_to_num(ox1), -0.5, 0.5))
     out[:, 1] = np.where(good, oy, np.clip(np.nan_to_num(oy1), -0.5, 0.5))
-    # peaks on the outermost pixel row/column keep their integer position
-    edge = (rows != r) | (cols != c)
-    out[edge] = 0.0
     return out
 
 
