@@ -58,6 +58,8 @@ _SCRIPT = textwrap.dedent(
     u8 = np.round(img * 255).astype(np.uint8)
     c = gpu.detect_corners(cuda.to_device(u8), threshold=1e8)  # device input: patches from the device
     out["dev_xy"], out["dev_resp"] = c.xy, c.response
+    c = gpu.detect_corners(img, threshold=1.0, border=5, nms_radius=2, subpixel=False)
+    out["border_xy"] = c.xy  # maxima of the valid area alone, as the CPU path finds them
     b = gpu.corner_response_batch(cuda.to_device(np.stack([u8[:, :16], u8[:, 15:]])), preset="paper",
                                   n_orientations=2, window=3)
     out["batch"] = b.copy_to_host()
@@ -109,6 +111,13 @@ def test_detection_matches_cpu(sim):
         assert np.allclose(resp, cpu.response, rtol=1e-10, atol=0)
         # host refinement is identical; refinement on device patches differs in float32 coordinates only
         assert np.abs(xy - cpu.xy).max() < (1e-6 if key == "det" else 1e-3)
+
+
+def test_detection_with_border_matches_cpu(sim):
+    """Maxima on the last valid row or column are judged within the valid area, as on the CPU."""
+    cpu = sogdd.detect_corners(shapes_image((24, 31)), threshold=1.0, border=5, nms_radius=2, subpixel=False)
+    assert len(cpu) >= 3
+    np.testing.assert_array_equal(sim["border_xy"], cpu.xy)
 
 
 def test_device_stack_batch(sim):

@@ -298,10 +298,12 @@ def authors_kernel(det, tr, big, eps, out):  # pragma: no cover - device code
 
 
 @cuda.jit
-def peaks_kernel(resp, thr, radius, count, rows, cols, vals, patches):  # pragma: no cover - device code
+def peaks_kernel(resp, thr, radius, border, count, rows, cols, vals, patches):  # pragma: no cover - device code
     """Local maxima strictly above ``thr`` that no pixel of their (2 radius + 1)^2 square exceeds.
 
-    The same test as :func:`sogdd.peaks.maxima_above`. Each peak is appended (order
+    The same test as :func:`sogdd.peaks.maxima_above`, on the valid area alone
+    (``border`` px excluded on every side, as :func:`sogdd.peaks.select_peaks`
+    does when ``2 border`` is less than both sides). Each peak is appended (order
     arbitrary) with its value and the 3 x 3 patch around it, centred on the pixel
     moved one step inwards at the image edge, as :func:`sogdd.peaks.refine_quadratic` reads it.
     """
@@ -310,11 +312,14 @@ def peaks_kernel(resp, thr, radius, count, rows, cols, vals, patches):  # pragma
     W = resp.shape[2]
     if n >= resp.shape[0] or y >= H or x >= W:
         return
+    b = border if 2 * border < H and 2 * border < W else 0
+    if y < b or y >= H - b or x < b or x >= W - b:
+        return
     v = resp[n, y, x]
     if not v > thr:
         return
-    for yy in range(max(0, y - radius), min(H, y + radius + 1)):
-        for xx in range(max(0, x - radius), min(W, x + radius + 1)):
+    for yy in range(max(b, y - radius), min(H - b, y + radius + 1)):
+        for xx in range(max(b, x - radius), min(W - b, x + radius + 1)):
             if resp[n, yy, xx] > v:
                 return
     i = cuda.atomic.add(count, n, 1)

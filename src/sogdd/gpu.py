@@ -96,7 +96,7 @@ def _measure(dev, spec):
     return ups
 
 
-def _device_peaks(resp, thr: float, radius: int):
+def _device_peaks(resp, thr: float, radius: int, border: int):
     """Per image: rows, cols, values and 3 x 3 patches of the local maxima above ``thr``, raster order."""
     N, H, W = resp.shape
     cap = max(1024, H * W // 256)
@@ -107,7 +107,7 @@ def _device_peaks(resp, thr: float, radius: int):
         vals = cuda.device_array((N, cap))
         patches = cuda.device_array((N, cap, 3, 3))
         ck.peaks_kernel[(math.ceil(W / 32), math.ceil(H / 8), N), (32, 8, 1)](
-            resp, thr, radius, count, rows, cols, vals, patches)
+            resp, thr, radius, border, count, rows, cols, vals, patches)
         counts = count.copy_to_host()
         if counts.max() <= cap:
             break
@@ -196,7 +196,7 @@ def _detect_stack(s: GreyStack, p: Params, masks: list) -> list[Corners]:
         return [c.subset(_allowed(c.xy, masks[j], p.border, (H, W))) for j, c in enumerate(out)]
     thr = 0.0 if p.threshold is None else float(p.threshold)  # as sogdd.peaks.resolve_threshold
     out = []
-    for j, (rows, cols, vals, patches) in enumerate(_device_peaks(resp, thr, int(p.nms_radius))):
+    for j, (rows, cols, vals, patches) in enumerate(_device_peaks(resp, thr, int(p.nms_radius), int(p.border))):
         rows, cols, vals, patches = _select(rows, cols, vals, patches, (H, W), p, masks[j])
         xy = np.stack([cols, rows], axis=1).astype(np.float64)
         if p.subpixel != "none" and len(rows):
