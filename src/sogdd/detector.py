@@ -12,6 +12,8 @@ import cv2
 import numpy as np
 
 from ._banded import peaks_in_bands
+from ._banded_relative import peaks_relative_in_bands
+from ._grey_rows import GreyRows
 from ._relative_floor import relative_floor
 from .corners import Corners
 from .io import check_mask, to_gray255, validate_image
@@ -23,12 +25,12 @@ from .saddles import X_RING_RADIUS, add_x_junctions, grey_strength, measure_thre
 __all__ = ["corner_response", "detect_corners"]
 
 
-def _prepare(image, p: Params) -> np.ndarray:
+def _prepare(image, p: Params, lazy: bool = False) -> np.ndarray | GreyRows:
+    """The grey 0-255 image; ``lazy``: converted crop by crop when read (no H x W float64 copy)."""
     img = validate_image(image, value_range=p.value_range)
-    return to_gray255(
-        img, weights=p.gray_weights, round_integer=p.gray_round, channel_order=p.channel_order,
-        value_range=p.value_range,
-    )
+    gray = dict(weights=p.gray_weights, round_integer=p.gray_round, channel_order=p.channel_order,
+                value_range=p.value_range)
+    return GreyRows(img, **gray) if lazy else to_gray255(img, **gray)
 
 
 
@@ -90,12 +92,20 @@ def _detect_level(grey: np.ndarray, p: Params, mask: np.ndarray | None) -> Corne
                                                   nms_radius=p.nms_radius, mask=mask, max_corners=top)
     else:  # a relative threshold prunes too (sogdd._relative_floor)
         floor = relative_floor(grey, p, spec, mask, threshold=thr)
-        resp = soddc_measure(grey, spec, floor=floor)
-        rows, cols = select_peaks(resp, threshold=thr, threshold_rel=p.threshold_rel, quantile=p.quantile,
-                                  nms_radius=p.nms_radius, border=p.border, mask=mask, max_corners=top)
-        values = resp[rows, cols]
-        qoff = refine_quadratic(resp, rows, cols) if p.subpixel != "none" else None
-        del resp
+        # one pass over bands, no H x W map (sogdd._banded_relative); None where only the full map can tell
+        got = peaks_relative_in_bands(
+            grey, spec, threshold=thr, threshold_rel=p.threshold_rel, quantile=p.quantile, floor=floor,
+            nms_radius=p.nms_radius, border=p.border, mask=mask, max_corners=top,
+            quadratic=p.subpixel != "none")
+        if got is not None:
+            rows, cols, values, qoff = got
+        else:
+            resp = soddc_measure(np.asarray(grey), spec, floor=floor)
+            rows, cols = select_peaks(resp, threshold=thr, threshold_rel=p.threshold_rel, quantile=p.quantile,
+                                      nms_radius=p.nms_radius, border=p.border, mask=mask, max_corners=top)
+            values = resp[rows, cols]
+            qoff = refine_quadratic(resp, rows, cols) if p.subpixel != "none" else None
+            del resp
     xy = np.stack([cols, rows], axis=1).astype(np.float64)
     if p.subpixel != "none" and len(rows):
         xy += qoff
@@ -185,7 +195,8 @@ def detect_corners(image, *, preset: str = "paper", mask=None, device: str = "cp
     if (gpu := _gpu(device)) is not None:
         return gpu.detect_corners(image, preset=preset, mask=mask, **params)
     p = resolve_params(preset, **params)
-    grey = _prepare(image, p)
+    # one level without X-junctions reads the grey image in crops only (the pyramid resizes it whole)
+    grey = _prepare(image, p, lazy=p.levels == 1 and not p.x_junctions)
     m = check_mask(mask, grey.shape)
     parts = []
     h, w = grey.shape

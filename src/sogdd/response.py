@@ -40,8 +40,8 @@ from .filters import basis_tile, kernel_radius, orientations, steerable_basis, s
 from .window import is_square, take_reflected, window_offsets
 
 __all__ = [
-    "VARSIGMA", "MeasureSpec", "authors_measure", "soddc_at", "soddc_from_responses", "soddc_measure",
-    "supports_floor",
+    "VARSIGMA", "MeasureSpec", "authors_apply", "authors_limit", "authors_measure", "soddc_at",
+    "soddc_from_responses", "soddc_measure", "supports_floor",
 ]
 
 _EPS = float(np.finfo(np.float64).eps)
@@ -201,11 +201,14 @@ def soddc_measure(
     floor: float | None = None,
     tile_rows: int = 128,
     threads: int | None = None,
+    raw: bool = False,
 ) -> np.ndarray:
     """The corner measure Upsilon (eq. 25) of a float64 grey image, H x W float64.
 
     Inputs are assumed valid (see :func:`sogdd.corner_response` for the checked
-    public entry point).
+    public entry point). With ``raw`` and the authors' measure the maps
+    ``(det, trace)`` are returned instead, before :func:`authors_measure`
+    (whose clamp needs ``max|det|`` over the whole image).
 
     With ``floor`` (> 0, square windows, see :func:`supports_floor`) only what
     peak selection above ``floor`` needs is computed: Upsilon is exact, bit for
@@ -250,7 +253,9 @@ def soddc_measure(
         H, W, domain, M, spec.coef, np.asarray(spec.halfwidths),
         parts=spec.authors_measure, floor=floor, tile_rows=tile_rows, threads=threads,
     )
-    return authors_measure(res[1], res[2], out=res[1]) if spec.authors_measure else res
+    if spec.authors_measure:
+        return (res[1], res[2]) if raw else authors_measure(res[1], res[2], out=res[1])
+    return res
 
 
 def soddc_from_responses(
@@ -322,15 +327,33 @@ def authors_measure(det: np.ndarray, tr: np.ndarray, out: np.ndarray | None = No
     Two compiled passes instead of numpy temporaries, with the same values.
     ``out`` may be ``det`` itself (element-wise, in place: no extra map).
     """
+    d = np.ascontiguousarray(det, dtype=np.float64).reshape(-1)
+    big, nan = _abs_max(d)
+    return authors_apply(det, tr, authors_limit(big, nan), out=out)
+
+
+def authors_limit(big: float, nan: bool) -> float:
+    """The clamp limit ``-eps * max|det|`` (NaN when a det is NaN: nothing is clamped then)."""
+    return -_EPS * (np.nan if nan else float(big))
+
+
+def authors_apply(det: np.ndarray, tr: np.ndarray, lim: float, out: np.ndarray | None = None) -> np.ndarray:
+    """``det`` in ``[lim, 0)`` -> 0, then ``det / (tr + eps)``, ``-inf`` where not finite.
+
+    The second half of :func:`authors_measure`, for a ``lim`` known from elsewhere
+    (:mod:`sogdd._banded_relative` takes ``max|det|`` over bands of the image).
+    """
     d = np.ascontiguousarray(det, dtype=np.float64)
     if out is None or out.shape != d.shape or out.dtype != np.float64 or not out.flags.c_contiguous:
         out = np.empty(d.shape)
-    _authors_post(d.reshape(-1), np.ascontiguousarray(tr, dtype=np.float64).reshape(-1), _EPS, out.reshape(-1))
+    _authors_post(d.reshape(-1), np.ascontiguousarray(tr, dtype=np.float64).reshape(-1), _EPS, float(lim),
+                  out.reshape(-1))
     return out
 
 
 @numba.njit(**JIT)
-def _authors_post(det, tr, eps, out):  # pragma: no cover - jit
+def _abs_max(det):  # pragma: no cover - jit
+    """max|det| over the finite-or-inf values, and whether any det is NaN."""
     big = 0.0
     nan = False
     for i in range(det.shape[0]):
@@ -339,7 +362,11 @@ def _authors_post(det, tr, eps, out):  # pragma: no cover - jit
             nan = True
         elif a > big:
             big = a
-    lim = -eps * (np.nan if nan else big)
+    return big, nan
+
+
+@numba.njit(**JIT)
+def _authors_post(det, tr, eps, lim, out):  # pragma: no cover - jit
     for i in range(det.shape[0]):
         d = det[i]
         if d < 0 and d >= lim:
