@@ -1,4 +1,4 @@
-"""HPatches MMA: the D2-Net protocol (exclusions, MNN, thresholds), loaders, a synthetic pair."""
+"""HPatches MMA: the D2-Net protocol (exclusions, MNN, thresholds), loaders, a synthetic pair; H AUC."""
 
 import json
 from pathlib import Path
@@ -18,6 +18,7 @@ from sogdd.evaluation.matching.data import (
     load_published,
     load_sequences,
 )
+from sogdd.evaluation.matching.homography import auc_of_errors, corner_error, estimate_homography
 from sogdd.evaluation.matching.protocol import (
     THRESHOLDS,
     evaluate_features,
@@ -121,6 +122,43 @@ def test_mma_known_by_construction():
     assert s["matches"] == pytest.approx((n + n + 0) / 3)
     # features: every image counts once per appearance (image 1, then each target)
     assert s["features"] == pytest.approx((n + n + n + n + 0) / 5)
+
+
+# ------------------------------------------------------------------ homography accuracy
+def test_auc_of_errors_hand_made():
+    # sorted errors 0.5, 2, 4, inf: curve through (0,0) (0.5,.25) (2,.5) (4,.75), flat to t, area / t
+    e = [4.0, float("inf"), 0.5, 2.0]
+    np.testing.assert_allclose(auc_of_errors(e, (1, 3, 5)), [0.1875, 1.125 / 3, 2.625 / 5], rtol=1e-12)
+    np.testing.assert_allclose(auc_of_errors([0.0, 0.0, 0.0]), [1.0, 1.0, 1.0])  # exact everywhere
+    np.testing.assert_allclose(auc_of_errors([float("nan"), 6.0]), [0.0, 0.0, 0.0])  # NaN = failure
+    assert auc_of_errors([]) == [0.0, 0.0, 0.0]
+
+
+def test_corner_error_of_known_homographies():
+    shift = np.array([[1.0, 0, 3], [0, 1, 4], [0, 0, 1]])
+    assert corner_error(shift @ H_TEST, H_TEST, (400, 480)) == pytest.approx(5.0)
+    # a scaling about the origin: the corners move by 0, 0.1*w, 0.1*|(w,h)|, 0.1*h (pixel centres)
+    w, h = 480, 400
+    scale = np.diag([1.1, 1.1, 1.0])
+    expected = 0.1 * (0 + (w - 1) + np.hypot(w - 1, h - 1) + (h - 1)) / 4
+    assert corner_error(scale, np.eye(3), (h, w)) == pytest.approx(expected)
+    assert corner_error(None, H_TEST, (h, w)) == float("inf")
+
+
+def test_estimate_homography_with_outliers_is_deterministic():
+    rng = np.random.default_rng(5)
+    src = rng.uniform(0, 480, (300, 2))
+    dst = project(H_TEST, src) + rng.normal(0, 0.3, (300, 2))
+    dst[:150] = rng.uniform(0, 480, (150, 2))  # half of the matches are wrong
+    h1, n1 = estimate_homography(src, dst)
+    assert corner_error(h1, H_TEST, (400, 480)) < 0.5 and 140 <= n1 <= 170
+    cv2.setRNGSeed(12345)  # USAC seeds itself: OpenCV's global RNG does not change the result
+    h2, n2 = estimate_homography(src, dst)
+    np.testing.assert_array_equal(h1, h2)
+    assert n1 == n2
+    assert estimate_homography(src[:3], dst[:3]) == (None, 0)
+    with pytest.raises(ValueError):
+        estimate_homography(src, dst[:10])
 
 
 # ------------------------------------------------------------------ loaders
@@ -236,11 +274,18 @@ def test_synthetic_pair_end_to_end(synthetic_root, tmp_path):
     # D2-Net's npz layout, named <image>.<method>
     z = np.load(tmp_path / "v_synth" / "1.ppm.sogdd")
     assert z["keypoints"].shape[1] == 2 and len(z["scores"]) == len(z["descriptors"])
-    # the wrong homography gives (almost) nothing
+    # the homography from the matches of a rendered, warped pair is near-exact
+    hom = res["homography"]
+    assert hom["failed"] == 0 and hom["median_corner_error"] < 0.2
+    assert min(hom["auc"]["viewpoint"]) > 0.85 and hom["auc"]["illumination"] is None
+    assert len(hom["corner_errors"]) == 5
+    # the wrong homography gives (almost) nothing, for MMA and for the corner error
     wrong = [HomographySequence(s.name, s.split, s.reference, [(p, np.eye(3)) for p, _ in s.targets])
              for s in seqs]
     bad = evaluate_specs(wrong, specs)["sogdd"].summary()
     assert bad["mma"]["viewpoint"][2] < 0.2
+    assert bad["homography"]["auc"]["viewpoint"] == [0.0, 0.0, 0.0]
+    assert bad["homography"]["median_corner_error"] > 20
 
 
 def test_cli_matching_json(synthetic_root, tmp_path, capsys):
@@ -252,7 +297,12 @@ def test_cli_matching_json(synthetic_root, tmp_path, capsys):
     for v in obj.values():
         assert len(v["mma"]["overall"]) == 10 and v["mma"]["illumination"] is None
         assert v["features"] > 0 and v["matches"] > 0
+        assert len(v["homography"]["auc"]["overall"]) == 3 and v["homography"]["failed"] == 0
     assert (tmp_path / "mma.png").stat().st_size > 0
+    md = (tmp_path / "matching.md").read_text()
+    assert "| H AUC@1 | H AUC@3 | H AUC@5 |" in md
+    auc1 = obj["sogdd"]["homography"]["auc"]["overall"][0]
+    assert f"| {auc1:.3f} |" in next(ln for ln in md.splitlines() if ln.startswith("| `sogdd` |"))
     assert json.loads((tmp_path / "matching.json").read_text()).keys() == obj.keys()
 
 

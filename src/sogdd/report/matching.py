@@ -1,4 +1,4 @@
-"""The matching evaluation's table and figure: MMA per split (Markdown) and MMA curves (Fig. 10)."""
+"""The matching evaluation's table and figure: MMA and homography AUC per split (Markdown), MMA curves."""
 
 from __future__ import annotations
 
@@ -12,15 +12,16 @@ __all__ = ["matching_markdown", "plot_mma"]
 
 
 def matching_markdown(results: dict, info: dict) -> str:
-    """Markdown table of a matching run: MMA at 1, 3, 5, 10 px per split, features, matches."""
+    """Markdown table of a matching run: MMA at 1, 3, 5, 10 px and H AUC at 1, 3, 5 px per split."""
     full = "the full D2-Net HPatches benchmark" if info["full_hpatches"] else "NOT the full HPatches benchmark"
     lines = [
         f"Sequences: {info['n_sequences']} ({info['n_illumination']} illumination, "
         f"{info['n_viewpoint']} viewpoint), {info['n_pairs']} pairs; layout {info['layout']}; {full}. "
         f"Descriptor: {info['descriptor']}.",
         "",
-        "| detector | split | MMA@1 | MMA@3 | MMA@5 | MMA@10 | features | matches |",
-        "|---|---|---|---|---|---|---|---|",
+        "| detector | split | MMA@1 | MMA@3 | MMA@5 | MMA@10 | H AUC@1 | H AUC@3 | H AUC@5 | "
+        "features | matches |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for label, s in results.items():
         n_all = s["pairs"]["overall"]
@@ -33,11 +34,21 @@ def matching_markdown(results: dict, info: dict) -> str:
             if split == "overall":
                 only = [k for k in ("illumination", "viewpoint") if s["pairs"][k] == n_all]
                 name = f"overall (all {only[0]})" if only else "overall"
+            auc = (s.get("homography") or {}).get("auc", {}).get(split) or [None] * 3
             lines.append(
                 f"| `{label}` | {name}, {s['pairs'][split]} pairs | {curve[0]:.3f} | {curve[2]:.3f} | "
-                f"{curve[4]:.3f} | {curve[9]:.3f} | {s['features']:.0f} | {s['matches']:.0f} |"
+                f"{curve[4]:.3f} | {curve[9]:.3f} | " + " | ".join(_f(a) for a in auc)
+                + f" | {s['features']:.0f} | {s['matches']:.0f} |"
             )
+    lines += ["", "H AUC@t: a homography is estimated from each pair's matches (MAGSAC++, "
+              "`sogdd.evaluation.matching.homography`); the mean error of the reference image's four "
+              "corners is integrated as in SuperGlue/LoFTR (area under the cumulative error curve up to "
+              "t px, over t; a failed estimate counts as an infinite error). Not in D2-Net's protocol."]
     return "\n".join(lines) + "\n"
+
+
+def _f(v) -> str:
+    return "–" if v is None else f"{v:.3f}"
 
 
 def plot_mma(

@@ -16,6 +16,11 @@ reproduced step by step:
 5. The mean number of features is over every image (6 per sequence), the mean
    number of matches over pairs.
 
+Beside MMA (not in D2-Net's protocol): per pair a homography is estimated from
+the matches with MAGSAC++ and scored by the mean error of the reference image's
+four corners; the summary gives the AUC of those errors at 1, 3 and 5 px
+(:mod:`.homography`).
+
 The paper's own pipeline (a 5-level pyramid, 75 px removed at the borders,
 top-k) is expressed with detector specs (:mod:`sogdd.evaluation.specs`), e.g.
 ``sogdd:levels=5:remove_border=75:top_k=5000``.
@@ -34,6 +39,7 @@ from ...io import read_image
 from ..features import FeatureSet, extract_features
 from ..specs import DetectorSpec, build_detector
 from .data import D2NET_EXCLUDED, HomographySequence
+from .homography import AUC_THRESHOLDS, auc_of_errors, corner_error, estimate_homography
 
 __all__ = [
     "SPLITS",
@@ -130,6 +136,8 @@ class PairRecord:
     n_features_b: int
     n_matches: int
     accuracy: list[float]
+    corner_error: float = float("inf")  # homography estimated from the matches (inf: none found)
+    inliers: int = 0
 
 
 @dataclass
@@ -150,10 +158,31 @@ class MatchingResult:
             return None
         return np.mean([p.accuracy for p in recs], axis=0).tolist()
 
+    def homography_auc(self, split: str = "overall") -> list[float] | None:
+        """AUC of the pairs' corner errors at :data:`AUC_THRESHOLDS` px (``None`` without pairs)."""
+        recs = [p for p in self.pairs if split == "overall" or p.split == split]
+        return auc_of_errors([p.corner_error for p in recs], AUC_THRESHOLDS) if recs else None
+
     def summary(self) -> dict:
-        """JSON-ready: ``mma`` per split (list for t = 1..10), ``features``, ``matches``, counts."""
+        """JSON-ready: ``mma`` per split (list for t = 1..10), ``features``, ``matches``, counts.
+
+        ``homography``: ``auc`` per split (list for :data:`AUC_THRESHOLDS`),
+        ``thresholds``, ``median_corner_error`` over all pairs (inf counts as
+        largest; ``None`` when most pairs failed), ``failed`` (pairs without a
+        model) and per pair ``corner_errors`` (``None`` for a failure).
+        """
+        errs = [p.corner_error for p in self.pairs]
+        med = float(np.median(errs)) if errs else float("inf")
         return {
             "mma": {s: self.mma(s) for s in SPLITS},
+            "homography": {
+                "auc": {s: self.homography_auc(s) for s in SPLITS},
+                "thresholds": list(AUC_THRESHOLDS),
+                "median_corner_error": med if np.isfinite(med) else None,
+                "failed": int(sum(not np.isfinite(e) for e in errs)),
+                "corner_errors": {f"{p.sequence}/{p.target}": (p.corner_error if np.isfinite(p.corner_error)
+                                                              else None) for p in self.pairs},
+            },
             "pairs": {s: sum(1 for p in self.pairs if s == "overall" or p.split == s) for s in SPLITS},
             "features": float(np.mean(self.features)) if self.features else 0.0,
             "matches": float(np.mean([p.n_matches for p in self.pairs])) if self.pairs else 0.0,
@@ -177,13 +206,17 @@ def evaluate_features(
     for seq in sequences:
         fa = features(seq, seq.reference)
         res.features.append(len(fa))
+        shape_a = _shape(fa, seq.reference)
         for target, h in seq.targets:
             fb = features(seq, target)
             res.features.append(len(fb))
             m = mutual_nn(fa.descriptors, fb.descriptors)
             err = match_errors(fa.keypoints, fb.keypoints, m, h)
+            h_est, n_in = estimate_homography(np.asarray(fa.keypoints)[m[:, 0], :2],
+                                              np.asarray(fb.keypoints)[m[:, 1], :2])
             res.pairs.append(PairRecord(seq.name, seq.split, target.name, len(fa), len(fb), len(m),
-                                        mma_of_errors(err, thresholds).tolist()))
+                                        mma_of_errors(err, thresholds).tolist(),
+                                        corner_error(h_est, h, shape_a), n_in))
         if progress:
             last = res.pairs[-1]
             progress(f"{label}: {seq.name}: {len(fa)} features, {last.n_matches} matches with {last.target}")
@@ -223,6 +256,14 @@ def evaluate_specs(
         r.spec = spec.to_json()
         out[spec.label] = r
     return out
+
+
+def _shape(fs: FeatureSet, path: Path) -> tuple[int, int]:
+    """The reference image's (height, width): from its features, else from the file's header."""
+    if fs.image_shape and min(fs.image_shape) > 0:
+        return tuple(fs.image_shape)[:2]
+    img = read_image(path)
+    return img.shape[:2]
 
 
 def _safe(label: str) -> str:
