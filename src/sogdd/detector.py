@@ -18,9 +18,10 @@ from ._relative_floor import relative_floor
 from .corners import Corners
 from .io import check_mask, to_gray255, validate_image
 from .params import Params, resolve_params
-from .peaks import refine_gradient, refine_quadratic, select_peaks
-from .response import MeasureSpec, soddc_measure, supports_floor
+from .peaks import refine_gradient, refine_gradient_adaptive, refine_quadratic, select_peaks
+from .response import MeasureSpec, supports_floor
 from .saddles import X_RING_RADIUS, add_x_junctions, grey_strength, measure_threshold
+from .weighted import measure_of
 
 __all__ = ["corner_response", "detect_corners"]
 
@@ -67,20 +68,20 @@ def corner_response(image, *, preset: str = "paper", device: str = "cpu", **para
     if (gpu := _gpu(device)) is not None:
         return gpu.corner_response(image, preset=preset, **params)
     p = resolve_params(preset, **params)
-    return soddc_measure(_prepare(image, p), p.measure_spec())
+    return measure_of(_prepare(image, p), p.window_spec())
 
 
 def _floor(p: Params, spec: MeasureSpec, threshold: float | None) -> float | None:
     """The absolute threshold, when it alone decides which peaks pass (no relative or quantile one)."""
     if threshold is None or threshold <= 0 or p.threshold_rel is not None or p.quantile is not None:
         return None
-    return float(threshold) if supports_floor(spec) else None
+    return float(threshold) if isinstance(spec, MeasureSpec) and supports_floor(spec) else None
 
 
 def _detect_level(grey: np.ndarray, p: Params, mask: np.ndarray | None) -> Corners:
     # Exact wherever a peak above the threshold or its 3x3 neighbourhood can be, -inf
     # where a bound proves the measure below it: the same corners as the full map.
-    spec = p.measure_spec()
+    spec = p.window_spec()  # a MeasureSpec, or a Gaussian-window spec (sogdd.weighted)
     grey_units = p.threshold_units == "grey"
     thr = p.threshold
     if grey_units and thr is not None:  # grey levels of corner contrast -> Upsilon (sogdd.saddles)
@@ -91,16 +92,16 @@ def _detect_level(grey: np.ndarray, p: Params, mask: np.ndarray | None) -> Corne
         rows, cols, values, qoff = peaks_in_bands(grey, spec, threshold=thr, floor=floor, border=p.border,
                                                   nms_radius=p.nms_radius, mask=mask, max_corners=top)
     else:  # a relative threshold prunes too (sogdd._relative_floor)
-        floor = relative_floor(grey, p, spec, mask, threshold=thr)
+        floor = relative_floor(grey, p, spec, mask, threshold=thr) if isinstance(spec, MeasureSpec) else None
         # one pass over bands, no H x W map (sogdd._banded_relative); None where only the full map can tell
-        got = peaks_relative_in_bands(
+        got = None if not isinstance(spec, MeasureSpec) else peaks_relative_in_bands(
             grey, spec, threshold=thr, threshold_rel=p.threshold_rel, quantile=p.quantile, floor=floor,
             nms_radius=p.nms_radius, border=p.border, mask=mask, max_corners=top,
             quadratic=p.subpixel != "none")
         if got is not None:
             rows, cols, values, qoff = got
         else:
-            resp = soddc_measure(np.asarray(grey), spec, floor=floor)
+            resp = measure_of(np.asarray(grey), spec, floor=floor)
             rows, cols = select_peaks(resp, threshold=thr, threshold_rel=p.threshold_rel, quantile=p.quantile,
                                       nms_radius=p.nms_radius, border=p.border, mask=mask, max_corners=top)
             values = resp[rows, cols]
@@ -113,11 +114,17 @@ def _detect_level(grey: np.ndarray, p: Params, mask: np.ndarray | None) -> Corne
             xy = refine_gradient(grey, xy)
     strength = grey_strength(values, spec) if grey_units else values
     out = Corners(xy, strength, np.full(len(rows), p.keypoint_size()))
+    is_x = np.zeros(len(out), bool)
     if p.x_junctions:
-        out = add_x_junctions(out, grey, spec, threshold=p.threshold, rho=X_RING_RADIUS,
-                              size=p.keypoint_size(), border=p.border, mask=mask)
+        out, is_x = add_x_junctions(out, grey, spec, threshold=p.threshold, rho=X_RING_RADIUS,
+                                    size=p.keypoint_size(), border=p.border, mask=mask)
         if p.max_corners is not None:
-            out = out.subset(np.arange(min(len(out), p.max_corners)))
+            out, is_x = out.subset(np.arange(min(len(out), p.max_corners))), is_x[: p.max_corners]
+    if p.subpixel == "adaptive" and len(out):  # after the cut: windows see the final neighbours
+        c = ~is_x
+        xy = out.xy.copy()
+        xy[c] = refine_gradient_adaptive(grey, xy[c], xy[is_x])
+        out = Corners(xy, out.response, out.size, out.level)
     return out
 
 

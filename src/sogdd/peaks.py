@@ -341,3 +341,34 @@ def refine_gradient(
     keep = ~np.isfinite(out).all(axis=1) | (moved > max_shift)
     out[keep] = pts[keep]
     return out
+
+
+def refine_gradient_adaptive(grey: np.ndarray, xy: np.ndarray, neighbours: np.ndarray | None = None, *,
+                             max_half: int = 3) -> np.ndarray:
+    """:func:`refine_gradient` with a window that shrinks to half the distance to the nearest other point.
+
+    The half-window of each point is ``min(max_half, floor(d / 2))`` (at least 1), with
+    ``d`` the distance to the nearest other point of ``xy`` or ``neighbours`` (e.g. the
+    X-junctions reported beside the corners), so the gradients of a close neighbour do
+    not pull a corner towards it; a move longer than the half-window is refused.
+    Points outside the image keep their position.
+    """
+    pts = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    if len(pts) == 0:
+        return pts.copy()
+    allp = pts if neighbours is None or len(neighbours) == 0 else np.concatenate([pts, neighbours])
+    if len(allp) > 1:
+        from scipy.spatial import cKDTree
+
+        d = cKDTree(allp).query(pts, k=2)[0][:, 1]
+    else:
+        d = np.full(len(pts), np.inf)
+    half = np.clip(np.floor(d / 2), 1, max_half).astype(np.int64)
+    h, w = grey.shape
+    inside = (pts[:, 0] >= 0) & (pts[:, 0] <= w - 1) & (pts[:, 1] >= 0) & (pts[:, 1] <= h - 1)
+    out = pts.copy()
+    for hw in np.unique(half):
+        sel = np.flatnonzero((half == hw) & inside)
+        if len(sel):
+            out[sel] = refine_gradient(grey, pts[sel], half_window=int(hw), max_shift=float(hw))
+    return out

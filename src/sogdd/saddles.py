@@ -43,7 +43,7 @@ import cv2
 import numpy as np
 
 from .filters import kernel_radius, steerable_basis
-from .response import MeasureSpec, soddc_measure
+from .response import MeasureSpec
 from .synthetic import Polygon, render_polygons
 
 __all__ = [
@@ -63,7 +63,7 @@ __all__ = [
 CALIBRATION_CONTRAST = 100.0
 #: Upsilon peaks closer than this (px) to a reported X-junction belong to its ring and are dropped
 #: (the hr study's choice, docs/hr.md)
-X_RING_RADIUS = 3.0
+X_RING_RADIUS = 2.0
 _BORDER = cv2.BORDER_REFLECT  # half-sample symmetric, as every other stage
 
 
@@ -95,9 +95,11 @@ def _bilinear(m: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
             + (m[y1, x0] * (1 - fx) + m[y1, x1] * fx) * fy)
 
 
-def find_saddles(grey: np.ndarray, sigma2: float, radius: int | None = None, *, iterations: int = 4
-                 ) -> tuple[np.ndarray, np.ndarray]:
+def find_saddles(grey: np.ndarray, sigma2: float, radius: int | None = None, *, iterations: int = 4,
+                 min_strength: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Saddle points of the smoothed image: ``(xy (N, 2), strength (N,))``, strength ``s`` (module doc).
+
+    Candidates with ``s < min_strength`` are not fitted (a threshold, applied early).
 
     Examples
     --------
@@ -113,7 +115,7 @@ def find_saddles(grey: np.ndarray, sigma2: float, radius: int | None = None, *, 
     neg = gxy * gxy - gxx * gyy
     s = sigma2 * np.sqrt(np.maximum(neg, 0.0))
     dil = cv2.dilate(s, np.ones((3, 3), np.uint8), borderType=cv2.BORDER_REPLICATE)
-    rows, cols = np.nonzero((s >= dil) & (s > 0))
+    rows, cols = np.nonzero((s >= dil) & (s > max(float(min_strength), 0.0)))
     if len(rows) == 0:
         return np.zeros((0, 2)), np.zeros(0)
     x0, y0 = cols.astype(np.float64), rows.astype(np.float64)
@@ -142,10 +144,15 @@ def _calibration_images() -> tuple[np.ndarray, np.ndarray]:
 
 
 @lru_cache(maxsize=32)
-def corner_unit(spec: MeasureSpec) -> float:
-    """Peak Upsilon of an ideal right-angle L-corner of contrast 100 under ``spec``."""
+def corner_unit(spec) -> float:
+    """Peak Upsilon of an ideal right-angle L-corner of contrast 100 under ``spec``.
+
+    ``spec``: a :class:`~sogdd.response.MeasureSpec` or a :class:`~sogdd.weighted.GaussianWindowSpec`.
+    """
+    from .weighted import measure_of
+
     L, _ = _calibration_images()
-    return float(soddc_measure(L, spec).max())
+    return float(measure_of(L, spec).max())
 
 
 @lru_cache(maxsize=32)
@@ -194,13 +201,16 @@ def add_x_junctions(corners, grey: np.ndarray, spec: MeasureSpec, *, threshold: 
 
     ``corners`` carry grey-level strengths (:func:`grey_strength`). Saddles of
     strength ``>= threshold`` (grey levels, :func:`saddle_unit` scale) are added;
-    corners within ``rho`` px of one are dropped. Returns ``Corners``, strongest first.
+    corners within ``rho`` px of one are dropped. Returns ``(Corners, is_x)``, strongest first,
+    ``is_x`` marking the X-junctions.
     """
     from .corners import Corners
 
     r = kernel_radius(spec.sigma2, spec.radius_rule)
-    xy, s = find_saddles(grey, spec.sigma2, r)
-    s = CALIBRATION_CONTRAST * s / saddle_unit(spec.sigma2, r)
+    unit = saddle_unit(spec.sigma2, r)
+    raw_min = 0.0 if threshold is None else threshold * unit / CALIBRATION_CONTRAST
+    xy, s = find_saddles(grey, spec.sigma2, r, min_strength=raw_min)
+    s = CALIBRATION_CONTRAST * s / unit
     h, w = grey.shape
     col, row = np.rint(xy[:, 0]).astype(np.int64), np.rint(xy[:, 1]).astype(np.int64)
     keep = (col >= border) & (col <= w - 1 - border) & (row >= border) & (row <= h - 1 - border)
@@ -211,4 +221,6 @@ def add_x_junctions(corners, grey: np.ndarray, spec: MeasureSpec, *, threshold: 
     xy, s = xy[keep], s[keep]
     c = corners.subset(~near_any(corners.xy, xy, rho))
     out = Corners.concatenate([c, Corners(xy, s, np.full(len(s), float(size)))])
-    return out.subset(np.argsort(-out.response, kind="stable"))
+    order = np.argsort(-out.response, kind="stable")
+    is_x = np.r_[np.zeros(len(c), bool), np.ones(len(s), bool)][order]
+    return out.subset(order), is_x

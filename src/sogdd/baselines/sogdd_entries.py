@@ -18,7 +18,7 @@ from ..detector import detect_corners
 from ..params import PRESETS, resolve_params
 from .registry import BaselineDetector, register
 
-__all__ = ["SOGDDPaper", "SOGDDAuthors"]
+__all__ = ["SOGDDPaper", "SOGDDAuthors", "SOGDDHR"]
 
 
 class _SOGDDEntry(BaselineDetector):
@@ -26,19 +26,21 @@ class _SOGDDEntry(BaselineDetector):
     preset: ClassVar[str] = "paper"
 
     def __init__(self, **params: Any) -> None:
+        # ``preset=`` starts from another preset (the spec ``sogdd:preset=hr``)
+        self.active_preset = params.pop("preset", self.preset)
         # the core validates (and owns) every parameter, channel_order included
-        self.params = asdict(resolve_params(self.preset, **params))
+        self.params = asdict(resolve_params(self.active_preset, **params))
         self.channel_order = self.params["channel_order"]
         self._overrides = dict(params)
 
     def with_params(self, **params: Any) -> BaselineDetector:
-        return type(self)(**{**self._overrides, **params})
+        return type(self)(**{"preset": self.active_preset, **self._overrides, **params})
 
     def permissive(self) -> BaselineDetector:
         return self.with_params(threshold=None, threshold_rel=None, quantile=None)
 
     def detect_corners(self, image: Any, mask: Any = None) -> Corners:
-        return detect_corners(image, preset=self.preset, mask=mask, **self._overrides)
+        return detect_corners(image, preset=self.active_preset, mask=mask, **self._overrides)
 
     def _detect(self, grey: np.ndarray, mask: np.ndarray | None) -> Corners:  # pragma: no cover
         raise NotImplementedError("detect_corners delegates to sogdd.detect_corners")
@@ -71,4 +73,21 @@ class SOGDDAuthors(_SOGDDEntry):
     source: ClassVar[str] = (
         "this package, 'authors' preset: the defaults of the authors' public Python code "
         "(sigma^2 = 1.44, K = 4, 21-pixel disk window, 0.99 quantile threshold)"
+    )
+
+
+@register
+class SOGDDHR(_SOGDDEntry):
+    name: ClassVar[str] = "sogdd-hr"
+    preset: ClassVar[str] = "hr"
+    defaults: ClassVar[dict[str, Any]] = asdict(PRESETS["hr"])
+    strength_param: ClassVar[str] = "threshold"
+    permissive_value: ClassVar[Any] = None
+    strength_doc: ClassVar[str] = (
+        "(grey levels of corner contrast: a right-angle corner of contrast T has strength T, "
+        "an X-junction of contrast T too; see sogdd.saddles)"
+    )
+    source: ClassVar[str] = (
+        "this package, 'hr' preset: the configuration chosen by the declared study of docs/hr.md "
+        "(issue 13); X-junctions reported on their saddle point"
     )
