@@ -17,15 +17,26 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-from sogdd.evaluation.gt_data import find_gt_sets
-from sogdd.evaluation.homography_data import load_sequences
-from sogdd.evaluation.matching_common import FeatureSpec, extract_features
-from sogdd.evaluation.matching_mma import match_errors, mma_of_errors, mutual_nn
-from sogdd.evaluation.transforms import FAMILIES, apply_transform, family_grid
-from sogdd.evaluation.tuning import joint_tuning, sweep_curve
+from _compat import (
+    FAMILIES,
+    apply_transform,
+    configurations,
+    extract_features,
+    family_grid,
+    feature_spec,
+    find_gt_sets,
+    joint_tuning,
+    load_images,
+    load_sequences,
+    match_errors,
+    mma_of_errors,
+    mutual_nn,
+    pair_repeatability,
+    render_configuration,
+    score_configuration,
+    sweep_curve,
+)
 
-from sogdd.evaluation.repeatability import load_images, pair_repeatability
-from sogdd.evaluation.resolution import configurations, render_configuration, score_configuration
 from sogdd.io import read_image
 
 DATA = Path(os.environ.get("SOGDD_DATA", "/work/shared/data"))
@@ -186,7 +197,7 @@ def _pairs(set_name: str, half: str):
 
 
 def bench_mma(det, half: str) -> dict:
-    spec = FeatureSpec("proto", desc="sift")
+    spec = feature_spec()
     cache: dict[Path, object] = {}
 
     def feats(p: Path):

@@ -54,8 +54,11 @@ class Cfg:
     zero_mean: bool = False
     radius_mult: float = 4.0  # kernel radius = ceil(radius_mult * sigma)
     scales: int = 1  # 1, or 2: max over sigma and 2 sigma (scale-normalised) per pixel
+    levels: int = 1  # image pyramid (factor 2, INTER_AREA), points of every level ranked together
+    dedup: float = 0.0  # drop a coarse point within dedup coarse pixels of a finer one (0: keep all)
     saddle: bool = False  # X-junction stage
     saddle_rho: float = 3.0  # ring suppression radius (px) around an accepted saddle
+    saddle_measure: str = "det"  # det: sigma^2 sqrt(-det H); min: sigma^2 min(|l1|, |l2|) (opposite signs)
     subpix: str = "grad"  # none | quad | grad | grad_adapt
     threshold: float | None = None  # grey levels on g
     max_corners: int | None = None
@@ -120,33 +123,58 @@ def _wfilter(x: np.ndarray, w: np.ndarray) -> np.ndarray:
 
 
 def window_means(a: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """(H, W, K, K) window means of a_i a_j (symmetric), pixel-major for the batched linear algebra."""
+    """(K, K, H, W) window means of a_i a_j (symmetric; the same array object on both sides)."""
     K = len(a)
-    out = np.empty(a.shape[1:] + (K, K))
+    out = np.empty((K, K) + a.shape[1:])
     for i in range(K):
         for j in range(i, K):
-            out[..., i, j] = out[..., j, i] = _wfilter(a[i] * a[j], w)
+            out[i, j] = _wfilter(a[i] * a[j], w)
+            if j != i:
+                out[j, i] = out[i, j]
     return out
 
 
+def det_planes(M: np.ndarray) -> np.ndarray:
+    """det of (K, K, H, W) symmetric PSD matrices by elimination across pixel planes (no pivoting).
+
+    A zero pivot means a singular matrix (PSD), so its determinant is 0.
+    """
+    A = M.copy()
+    K = A.shape[0]
+    det = np.ones(A.shape[2:])
+    for k in range(K):
+        piv = A[k, k]
+        det *= piv
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inv = np.where(np.abs(piv) > 1e-280, 1.0 / piv, 0.0)  # (near-)singular: det 0
+        for i in range(k + 1, K):
+            f = A[i, k] * inv
+            for j in range(k + 1, K):
+                A[i, j] -= f * A[k, j]
+    return det
+
+
 def measure_grey(M: np.ndarray, measure: str) -> np.ndarray:
-    """The grey-level measure g of the (H, W, K, K) matrices (module doc)."""
-    K = M.shape[-1]
-    A = M
-    tr = np.trace(A, axis1=-2, axis2=-1)
+    """The grey-level measure g of the (K, K, H, W) matrices (module doc)."""
+    K = M.shape[0]
+    tr = np.maximum(sum(M[k, k] for k in range(K)), 0.0)  # running box sums round to -1e-14 on flat areas
     if measure in ("dettr", "detroot", "scalefree"):
-        det = np.maximum(np.linalg.det(A), 0.0)
+        det = np.maximum(det_planes(M), 0.0)
         if measure == "dettr":
             return (det / (tr + VARSIGMA)) ** (1.0 / (2 * K - 2))
         if measure == "detroot":
             return det ** (1.0 / (2 * K))
         return det / np.maximum(tr / K, 1e-300) ** K
     if measure == "mineig":
+        A = np.ascontiguousarray(np.moveaxis(M, (0, 1), (-2, -1)))
         return np.sqrt(np.maximum(np.linalg.eigvalsh(A)[..., 0], 0.0))
     if measure == "gram":
-        d = np.sqrt(np.maximum(np.diagonal(A, axis1=-2, axis2=-1), 1e-300))
-        C = A / (d[..., :, None] * d[..., None, :])
-        return np.sqrt(tr / K) * np.maximum(np.linalg.det(C), 0.0) ** (1.0 / (2 * K))
+        # flat pixels (a zero diagonal) have no direction: their correlation det is 0
+        diag = np.stack([M[k, k] for k in range(K)])
+        ok = np.all(diag > 1e-12 * np.maximum(tr, 1e-300), axis=0)
+        d = np.sqrt(np.where(ok, diag, 1.0))
+        C = M / (d[:, None] * d[None, :])
+        return np.where(ok, np.sqrt(tr / K) * np.maximum(det_planes(C), 0.0) ** (1.0 / (2 * K)), 0.0)
     raise ValueError(measure)
 
 
@@ -180,18 +208,19 @@ def paper_measure(img: np.ndarray, cfg: Cfg) -> np.ndarray:
     a = ls if cfg.signed else np.abs(ls)
     w = window_kernel(cfg.window, cfg.size)
     w = w / w.max()  # 0/1 weights: plain sums
-    A = window_means(a, w)
-    return np.linalg.det(A) / (np.trace(A, axis1=-2, axis2=-1) + VARSIGMA)
+    M = window_means(a, w)
+    return det_planes(M) / (sum(M[k, k] for k in range(len(M))) + VARSIGMA)
 
 
 # -- X-junctions ----------------------------------------------------------------
 def _bilinear(m: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    return cv2.remap(m.astype(np.float32), x.astype(np.float32).reshape(1, -1),
-                     y.astype(np.float32).reshape(1, -1), cv2.INTER_LINEAR,
-                     borderMode=cv2.BORDER_REFLECT).reshape(-1).astype(np.float64)
+    from sogdd.saddles import _bilinear as bil  # the core's float64 bilinear sampler
+
+    return bil(m, x, y)
 
 
-def saddles(derivs: tuple, sigma2: float, iters: int = 4) -> tuple[np.ndarray, np.ndarray]:
+def saddles(derivs: tuple, sigma2: float, iters: int = 4, measure: str = "det"
+            ) -> tuple[np.ndarray, np.ndarray]:
     """Saddle points of the smoothed image: ``(xy, strength)``, strength in grey levels.
 
     Candidates are 3x3 maxima of ``s = sigma^2 sqrt(max(0, -det H))``; from each,
@@ -201,7 +230,12 @@ def saddles(derivs: tuple, sigma2: float, iters: int = 4) -> tuple[np.ndarray, n
     """
     gx, gy, gxx, gxy, gyy = derivs
     neg = gxy * gxy - gxx * gyy
-    s = sigma2 * np.sqrt(np.maximum(neg, 0.0))
+    if measure == "min":  # the weaker of two opposite curvatures: |l_min| = sqrt(disc) - |tr| / 2
+        half_tr = 0.5 * (gxx + gyy)
+        disc = np.sqrt(np.maximum(half_tr * half_tr + neg, 0.0))
+        s = sigma2 * np.where(neg > 0, disc - np.abs(half_tr), 0.0)
+    else:
+        s = sigma2 * np.sqrt(np.maximum(neg, 0.0))
     dil = cv2.dilate(s, np.ones((3, 3), np.uint8))
     rows, cols = np.nonzero((s == dil) & (s > 0))
     if len(rows) == 0:
@@ -238,7 +272,7 @@ def calibration(cfg: Cfg) -> tuple[float, float]:
     base = replace(cfg, scales=1)
     gL, _ = raw_grey_map(L, base)
     _, d = raw_grey_map(X, base)
-    _, st = saddles(d, cfg.sigma2)
+    _, st = saddles(d, cfg.sigma2, measure=cfg.saddle_measure)
     return 100.0 / float(gL.max()), (100.0 / float(st.max()) if len(st) else 1.0)
 
 
@@ -262,6 +296,9 @@ def _adaptive_subpix(grey: np.ndarray, xy: np.ndarray, max_half: int = 3) -> np.
         sel = np.flatnonzero(half == hw)
         if h < 2 * hw + 3 or w < 2 * hw + 3:
             continue
+        sel = sel[(xy[sel, 0] >= 0) & (xy[sel, 0] <= w - 1) & (xy[sel, 1] >= 0) & (xy[sel, 1] <= h - 1)]
+        if len(sel) == 0:
+            continue
         p = xy[sel].astype(np.float32).reshape(-1, 1, 2).copy()
         q = cv2.cornerSubPix(g32, p, (int(hw), int(hw)), (-1, -1), crit).reshape(-1, 2).astype(np.float64)
         bad = ~np.isfinite(q).all(axis=1) | (np.linalg.norm(q - xy[sel], axis=1) > hw)
@@ -270,13 +307,8 @@ def _adaptive_subpix(grey: np.ndarray, xy: np.ndarray, max_half: int = 3) -> np.
     return out
 
 
-def detect(image: np.ndarray, cfg: Cfg) -> Corners:
-    """Detect with a prototype configuration: strongest first, response = grey-level strength.
-
-    Order: peaks of g (threshold), X-junction stage (saddles added, ring peaks dropped),
-    ranking and ``max_corners``, then sub-pixel refinement of the kept corners only.
-    """
-    grey = np.asarray(image, dtype=np.float64)
+def _candidates(grey: np.ndarray, cfg: Cfg) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Peaks of g above the threshold (quadratic sub-pixel), X-junction stage: ``(xy, strength, is_x)``."""
     g, derivs = grey_map(grey, cfg)
     rows, cols = select_peaks(g, threshold=cfg.threshold, nms_radius=1, max_corners=None)
     xy = np.stack([cols, rows], axis=1).astype(np.float64)
@@ -285,7 +317,7 @@ def detect(image: np.ndarray, cfg: Cfg) -> Corners:
         xy += refine_quadratic(g, rows, cols)
     is_x = np.zeros(len(xy), bool)
     if cfg.saddle:
-        sxy, sst = saddles(derivs, cfg.sigma2)
+        sxy, sst = saddles(derivs, cfg.sigma2, measure=cfg.saddle_measure)
         sst = sst * calibration(cfg)[1]
         if cfg.threshold is not None:
             keep = sst >= cfg.threshold
@@ -297,10 +329,11 @@ def detect(image: np.ndarray, cfg: Cfg) -> Corners:
             xy, resp = xy[~near], resp[~near]
         xy, resp = np.concatenate([xy, sxy]), np.concatenate([resp, sst])
         is_x = np.r_[np.zeros(len(xy) - len(sxy), bool), np.ones(len(sxy), bool)]
-    order = np.argsort(-resp, kind="stable")
-    if cfg.max_corners is not None:
-        order = order[: cfg.max_corners]
-    xy, resp, is_x = xy[order], resp[order], is_x[order]
+    return xy, resp, is_x
+
+
+def _refine(grey: np.ndarray, xy: np.ndarray, is_x: np.ndarray, cfg: Cfg) -> np.ndarray:
+    xy = xy.copy()
     c = ~is_x
     if cfg.subpix == "grad" and c.any():
         from sogdd.peaks import refine_gradient
@@ -308,8 +341,56 @@ def detect(image: np.ndarray, cfg: Cfg) -> Corners:
         xy[c] = refine_gradient(grey, xy[c])
     elif cfg.subpix == "grad_adapt" and c.any():
         xy[c] = _adaptive_subpix(grey, xy)[c]
+    return xy
+
+
+def detect(image: np.ndarray, cfg: Cfg) -> Corners:
+    """Detect with a prototype configuration: strongest first, response = grey-level strength.
+
+    Order: per pyramid level, peaks of g (threshold) and the X-junction stage (saddles
+    added, ring peaks dropped); levels merged (a coarse point within ``dedup`` coarse
+    pixels of a finer one is dropped), ranked and cut to ``max_corners``; then sub-pixel
+    refinement of the kept points only, on their own level.
+    """
+    grey = np.asarray(image, dtype=np.float64)
+    h, w = grey.shape
+    imgs, parts = [], []
+    for lev in range(cfg.levels):
+        if lev == 0:
+            gl, sx, sy = grey, 1.0, 1.0
+        else:
+            lw, lh = int(round(w / 2**lev)), int(round(h / 2**lev))
+            if min(lw, lh) < 16:
+                break
+            gl = cv2.resize(grey, (lw, lh), interpolation=cv2.INTER_AREA)
+            sx, sy = w / lw, h / lh
+        xy, resp, is_x = _candidates(gl, cfg)
+        full = np.stack([(xy[:, 0] + 0.5) * sx - 0.5, (xy[:, 1] + 0.5) * sy - 0.5], axis=1)
+        if lev and cfg.dedup > 0 and parts:
+            from scipy.spatial import cKDTree
+
+            finer = np.concatenate([p[1] for p in parts])
+            if len(finer) and len(full):
+                far = cKDTree(finer).query(full, k=1)[0] > cfg.dedup * sx
+                xy, resp, is_x, full = xy[far], resp[far], is_x[far], full[far]
+        imgs.append((gl, sx, sy))
+        parts.append((xy, full, resp, is_x, np.full(len(xy), lev)))
+    xy = np.concatenate([p[0] for p in parts])
+    resp = np.concatenate([p[2] for p in parts])
+    is_x = np.concatenate([p[3] for p in parts])
+    lev = np.concatenate([p[4] for p in parts])
+    order = np.argsort(-resp, kind="stable")
+    if cfg.max_corners is not None:
+        order = order[: cfg.max_corners]
+    xy, resp, is_x, lev = xy[order], resp[order], is_x[order], lev[order]
+    out = np.zeros_like(xy)
+    for L, (gl, sx, sy) in enumerate(imgs):
+        m = lev == L
+        if m.any():
+            q = _refine(gl, xy[m], is_x[m], cfg)
+            out[m] = np.stack([(q[:, 0] + 0.5) * sx - 0.5, (q[:, 1] + 0.5) * sy - 0.5], axis=1)
     r = kernel_radius(cfg.sigma2)
-    return Corners(xy, resp, np.full(len(xy), float(cfg.size + 2 * r)))
+    return Corners(out, resp, float(cfg.size + 2 * r) * 2.0**lev, lev)
 
 
 class ProtoDetector:
