@@ -1,14 +1,20 @@
 """sogdd report: run the fast evaluations and write the results page.
 
-GT accuracy, repeatability (quick grid unless --full) and adjacent-corner
-resolution are run on the benchmark data; the matching and SfM runs already
-written under figures/downstream/ next to the page are included as they are.
+GT accuracy, repeatability (quick grid unless --full), dense checkerboards
+(full grid unless --chessboard-quick) and Fig. 1 are run on the benchmark
+data. Adjacent-corner resolution is read from cached full-grid runs
+(figures/resolution_full/ next to the page, or --resolution-runs DIR; made by
+`sogdd eval resolution --out DIR` and `sogdd eval resolution --mode oracle
+--sweep-sigma2 --out DIR`) where they exist, else run on the quick grid (the
+full grid with --full). The matching and SfM runs already written under
+figures/downstream/ next to the page are included as they are.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+from pathlib import Path
 
 from ._common import data_path
 
@@ -22,8 +28,11 @@ def run(args: argparse.Namespace) -> int:
     for sub in ("corners_gt", "repeatability"):
         if not (data / sub).is_dir():
             raise ValueError(f"{data}: has no {sub}/ folder")
+    if args.resolution_runs and not Path(args.resolution_runs).is_dir():
+        raise ValueError(f"--resolution-runs: {args.resolution_runs} is not a folder")
     out = build_report(args.out, data, full=args.full, jobs=args.jobs, paper_csv=args.paper,
-                       progress=not args.quiet)
+                       progress=not args.quiet, resolution_runs=args.resolution_runs,
+                       chessboard_quick=args.chessboard_quick)
     print(out)
     return 0
 
@@ -37,7 +46,10 @@ def configure(p: argparse.ArgumentParser) -> None:
     p.add_argument("--paper", metavar="CSV", help="the paper's Table 1 "
                    "[default: DATA/../reference/paper_table1.csv]")
     p.add_argument("--full", action="store_true",
-                   help="the paper's full repeatability grid and the full resolution grid")
+                   help="the paper's full repeatability grid and the full resolution grid (run, not cached)")
+    p.add_argument("--resolution-runs", metavar="DIR",
+                   help="cached resolution runs [default: figures/resolution_full next to the page]")
+    p.add_argument("--chessboard-quick", action="store_true", help="the checkerboards' quick grid")
     p.add_argument("--jobs", type=int, default=min(2, os.cpu_count() or 1), help="worker processes")
     p.add_argument("--quiet", "--no-progress", dest="quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=run)

@@ -13,8 +13,25 @@ from ..evaluation.repeatability.protocol import RepeatabilityReport, top_n_label
 from ..evaluation.repeatability.transforms import FAMILIES as PAPER_FAMILIES
 from ..evaluation.resolution.protocol import ResolutionReport
 
-__all__ = ["markdown_table", "gt_table", "gt_summary_table", "gt_csv", "paper_table1", "repeatability_table",
-           "repeatability_modes_table", "resolution_table", "fmt"]
+__all__ = ["markdown_table", "gt_table", "gt_summary_table", "gt_csv", "paper_table1", "rank_of",
+           "repeatability_table", "repeatability_modes_table", "resolution_table", "fmt"]
+
+
+def rank_of(scores: dict[str, float], name: str, higher_is_better: bool = True) -> tuple[int, int]:
+    """``(rank, count)`` of ``name`` among ``scores`` (1 = best; NaN and None rank last).
+
+    Examples
+    --------
+    >>> rank_of({"a": 0.5, "b": 0.9, "c": float("nan")}, "a")
+    (2, 3)
+    """
+    def key(d):
+        v = scores[d]
+        if v is None or not math.isfinite(v):
+            return math.inf
+        return -v if higher_is_better else v
+    order = sorted(scores, key=key)
+    return order.index(name) + 1, len(order)
 
 
 def fmt(v, digits: int = 3) -> str:

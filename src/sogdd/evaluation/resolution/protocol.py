@@ -41,7 +41,12 @@ from ..points import match_points
 from ..specs import DetectorSpec, build_detector, detect, permissive_detections
 from .scenes import configurations, render_configuration
 
-__all__ = ["ResolutionReport", "evaluate_resolution", "score_configuration", "score_oracle", "sigma2_specs"]
+__all__ = ["RECORDS_FORMAT", "ResolutionReport", "evaluate_resolution", "load_records", "score_configuration",
+           "score_oracle", "sigma2_specs"]
+
+#: tag of the per-configuration records file written by :meth:`ResolutionReport.write`
+RECORDS_FORMAT = "sogdd-resolution-records/1"
+_CFG_KEYS = ("kind", "d", "alpha", "beta", "noise")
 
 
 def score_configuration(corners: np.ndarray, det_xy: np.ndarray, delta: float = 1.5
@@ -101,6 +106,8 @@ class ResolutionReport:
     quick: bool
     mode: str = "default"
     seconds: float = 0.0
+    seed: int = 0
+    size: int = 96
 
     def ds(self) -> list[float]:
         return sorted({r["d"] for r in self.records})
@@ -161,7 +168,68 @@ class ResolutionReport:
                          + f",{self.mean_rate(det):.3f},{self.le(det):.3f},"
                          f"{self.min_resolved_d(det):g}")
         (o / f"{stem}.csv").write_text("\n".join(lines) + "\n")
-        return [o / f"{stem}.json", o / f"{stem}.csv"]
+        (o / f"{stem}_records.json").write_text(json.dumps(self.records_json(), separators=(",", ":")))
+        return [o / f"{stem}.json", o / f"{stem}.csv", o / f"{stem}_records.json"]
+
+    def records_json(self) -> dict:
+        """Every configuration's outcome, compactly, for :func:`load_records` (cached runs).
+
+        ``configs`` lists ``[kind, d, alpha, beta, noise]`` once; ``outcomes[detector]``
+        holds per configuration ``0`` (unresolved) or the two matched distances
+        rounded to 1e-5 px (only resolved configurations enter Le).
+        """
+        keys, outcomes = [], {d: [] for d in self.detectors}
+        for r in self.records:  # in configuration order for every detector
+            if r["detector"] == self.detectors[0]:
+                keys.append([r[c] for c in _CFG_KEYS])
+            outcomes[r["detector"]].append([round(float(x), 5) for x in r["dist"]] if r["resolved"] else 0)
+        return {"format": RECORDS_FORMAT, "mode": self.mode, "quick": self.quick, "delta": self.delta,
+                "seed": self.seed, "size": self.size, "seconds": self.seconds,
+                "detectors": self.detectors, "configs": keys, "outcomes": outcomes}
+
+    @classmethod
+    def from_records_json(cls, obj: dict) -> ResolutionReport:
+        """The report written by :meth:`records_json` (distances as rounded there)."""
+        if not isinstance(obj, dict) or obj.get("format") != RECORDS_FORMAT:
+            raise ValueError(f"not a {RECORDS_FORMAT} object")
+        cfgs = obj["configs"]
+        recs = []
+        for det in obj["detectors"]:
+            outs = obj["outcomes"][det]
+            if len(outs) != len(cfgs):
+                raise ValueError(f"{det}: {len(outs)} outcomes for {len(cfgs)} configurations")
+            for c, o in zip(cfgs, outs):
+                recs.append({**dict(zip(_CFG_KEYS, c)), "detector": det, "resolved": o != 0,
+                             "dist": list(o) if o != 0 else []})
+        return cls(recs, list(obj["detectors"]), obj["delta"], obj["quick"], obj["mode"],
+                   obj.get("seconds", 0.0), obj.get("seed", 0), obj.get("size", 96))
+
+    def merged(self, other: ResolutionReport) -> ResolutionReport:
+        """This report with ``other``'s detectors added (same grid and settings, checked)."""
+        same = ("mode", "quick", "delta", "seed", "size")
+        if any(getattr(self, a) != getattr(other, a) for a in same):
+            raise ValueError("cannot merge resolution runs with different " + "/".join(same))
+        mine = [tuple(r[c] for c in _CFG_KEYS) for r in self.records if r["detector"] == self.detectors[0]]
+        theirs = [tuple(r[c] for c in _CFG_KEYS) for r in other.records if r["detector"] == other.detectors[0]]
+        if mine != theirs:
+            raise ValueError("cannot merge resolution runs over different configurations")
+        if set(self.detectors) & set(other.detectors):
+            raise ValueError(f"detectors in both runs: {sorted(set(self.detectors) & set(other.detectors))}")
+        return ResolutionReport(self.records + other.records, self.detectors + other.detectors, self.delta,
+                                self.quick, self.mode, self.seconds + other.seconds, self.seed, self.size)
+
+
+def load_records(path: str | os.PathLike) -> ResolutionReport:
+    """Read a ``*_records.json`` file written by :meth:`ResolutionReport.write`."""
+    p = Path(path)
+    try:
+        obj = json.loads(p.read_text())
+    except (OSError, json.JSONDecodeError) as exc:
+        raise ValueError(f"{p}: cannot read resolution records ({exc})") from exc
+    try:
+        return ResolutionReport.from_records_json(obj)
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ValueError(f"{p}: {exc}") from exc
 
 
 def _num(v: float):
@@ -197,4 +265,4 @@ def evaluate_resolution(
                          "beta": cfg.beta, "noise": cfg.noise, "resolved": ok,
                          "dist": [float(x) for x in dist]})
     return ResolutionReport(recs, [s.label for s in specs], delta, quick, mode,
-                            time.perf_counter() - t0)
+                            time.perf_counter() - t0, seed, size)
