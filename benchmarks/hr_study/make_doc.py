@@ -80,9 +80,12 @@ def _targets() -> str:
 def main() -> int:
     FIG.mkdir(parents=True, exist_ok=True)
     parts = [
-        _stage("stage_a", "stage_a.txt", "dev", True, "Stage A: one factor at a time from the base (dev, screening)"),
+        _stage("stage_a", "stage_a.txt", "dev", True,
+               "Stage A: one factor at a time from the base (dev, screening)"),
         _stage("stage_b", "stage_b.txt", "dev", True, "Stage B: combinations (dev, screening)"),
-        _stage("stage_c", "stage_c.txt", "dev", True, "Stage C: ablation from the chosen configuration (dev, "
+        _stage("stage_c", "stage_c.txt", "dev", True, "Stage C: ablation around the first pick, sigma^2 = 1.2 "
+               "(dev, screening)"),
+        _stage("stage_d", "stage_d.txt", "dev", True, "Stage D: ablation, one choice at a time from hr (dev, "
                "screening)"),
         _stage("final_dev", "final.txt", "dev", False, "Final: development half, full protocol"),
         _stage("final_conf", "final.txt", "conf", False, "Final: confirmation half, full protocol"),

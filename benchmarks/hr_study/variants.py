@@ -19,7 +19,8 @@ BASELINES = ("harris", "shi-tomasi", "fast", "akaze", "zhang2013", "sift", "sogd
 BASE = Cfg(K=4, threshold=20.0)
 
 #: the chosen configuration: the best mean rank of stage B on the development half (docs/hr.md)
-HR = Cfg(K=4, threshold=20.0, window="gauss", size=3, saddle=True, saddle_rho=2.0, subpix="grad_adapt")
+HR = Cfg(K=4, sigma2=1.5, threshold=20.0, window="gauss", size=3, saddle=True, saddle_rho=2.0,
+         subpix="grad_adapt")
 
 _TYPES = {f.name: f.type for f in fields(Cfg)}
 

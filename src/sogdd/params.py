@@ -104,7 +104,7 @@ PRESETS: dict[str, Params] = {
     # The best corners the family gives, chosen by the declared study of docs/hr.md (issue 13);
     # the values and the study row each comes from are in the README's preset table.
     "hr": Params(
-        sigma2=1.2,
+        sigma2=1.5,
         n_orientations=4,
         window=3,
         window_shape="gaussian",
