@@ -43,7 +43,7 @@ def corner_response(image, *, preset: str = "paper", device: str = "cpu", **para
     image : ndarray
         Grey (H, W) or colour (H, W, 3|4) image; uint8, uint16, float in [0, 1]
         or bool. Converted to grey on the 0-255 scale (see :mod:`sogdd.io`).
-    preset : {"paper", "authors"}
+    preset : {"paper", "authors", "hr"}
         Starting parameter set; keyword arguments override it.
     device : {"cpu", "cuda"}
         ``"cuda"`` runs on an NVIDIA GPU (:mod:`sogdd.gpu`); a device input gives a device map.
@@ -161,7 +161,7 @@ def detect_corners(image, *, preset: str = "paper", mask=None, device: str = "cp
     ----------
     image : ndarray
         Grey or colour image (see :func:`corner_response`).
-    preset : {"paper", "authors"}
+    preset : {"paper", "authors", "hr"}
         Starting parameter set; keyword arguments override it (``sigma2``,
         ``n_orientations``, ``window``, ``threshold``, ``quantile``,
         ``nms_radius``, ``max_corners``, ``subpixel``, ``border``, ``levels``,
