@@ -15,6 +15,8 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING
 
+from ._version import __version__
+
 # Public names and the module that holds each. They load on first use (PEP 562),
 # so that `sogdd --help` and `import sogdd.cli` do not pay for numba, OpenCV and
 # scipy, which the core's modules import.
@@ -31,6 +33,7 @@ _EXPORTS = {
 }
 
 __all__ = [
+    "__version__",
     "PRESETS",
     "SOGDD",
     "Corners",
@@ -41,7 +44,6 @@ __all__ = [
     "read_image",
     "resolve_params",
 ]
-__version__ = "0.1.0"
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs
     from .corners import Corners

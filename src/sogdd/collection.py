@@ -42,7 +42,7 @@ from pathlib import Path
 
 import cv2
 
-from . import __version__
+from ._version import __version__
 from .detector import detect_corners
 from .features import FORMATS, make_record, params_dict, read_features, remove_stale_temporaries, write_features
 from .io import list_images, read_image

@@ -43,7 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__
+from ._version import __version__
 from .corners import Corners
 
 __all__ = [

@@ -15,7 +15,7 @@ import importlib
 import sys
 from collections.abc import Sequence
 
-from .. import __version__
+from .._version import __version__
 from ._common import HelpFormatter
 
 __all__ = ["COMMANDS", "build_parser", "main"]

@@ -25,7 +25,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .. import __version__
+from .._version import __version__
 from ..evaluation.gt import evaluate_gt, find_gt_sets
 from ..evaluation.repeatability import evaluate_repeatability, load_images, top_n_label
 from ..evaluation.specs import DetectorSpec, default_fast_specs, default_gt_specs, registry_names
