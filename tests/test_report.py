@@ -117,7 +117,8 @@ def test_resolution_stage_reads_cached_runs(tmp_path):
     page = _page(tmp_path)
     resolution_stage(page, runs)
     text = "\n".join(page.md)
-    assert "Read from the cached runs in `runs`" in text and "sogdd eval resolution --mode oracle" in text
+    assert "Read from the cached runs in `runs` (made by `sogdd eval resolution --out " in text
+    assert "--mode oracle --sweep-sigma2 --out " in text and "sub-folder(s) `hr/`" in text
     assert "| sogdd-hr | 1.000 | 1.000 |" in text  # merged from the sub-folder
     assert page.summary["resolution_default"]["sogdd"] == 0.75
     assert page.summary["resolution_grid"] == {"full": True, "configurations": 4, "cached": True}

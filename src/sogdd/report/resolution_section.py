@@ -72,9 +72,13 @@ def resolution_stage(page, runs: str | os.PathLike | None = None) -> None:
         res, oracle, sweep = cached
         rel = os.path.relpath(Path(runs), page.figs.parent.parent)
         secs = res.seconds + oracle.seconds + sweep.seconds
-        source = (f"Read from the cached runs in `{rel}` (made by `"
-                  + "` and `".join(c.format(dir=rel) for c in RUN_COMMANDS)
-                  + f"`; {secs / 60:.0f} min of run time), not re-run by `sogdd report`.")
+        later = [d.name for d in sorted(Path(runs).iterdir()) if d.is_dir() and d.name != "sigma2"]
+        subs = ", ".join(f"`{x}/`" for x in later)
+        source = (f"Read from the cached runs in `{rel}` (made by "
+                  + " and ".join(f"`{c.format(dir=runs)}`" for c in RUN_COMMANDS)
+                  + (f", with detectors added later from the sub-folder(s) {subs}" if later else "")
+                  + f"; {secs / 60:.0f} min of run time; commits and times in its README.md), "
+                  "not re-run by `sogdd report`.")
     else:
         specs = [DetectorSpec(n) for n in registry_names()]
         quick = not page.full
