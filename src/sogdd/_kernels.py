@@ -20,6 +20,7 @@ import numba
 import numpy as np
 
 from ._jit import JIT
+from ._weighted_sums import wcolumn_sum, wrow_sum
 
 __all__ = ["VARSIGMA", "det_trace", "row_sum", "column_sum", "steer", "tile_general", "tile_square"]
 
@@ -252,7 +253,7 @@ def next_run(mask, start, stop, gap):  # pragma: no cover - jit
 
 @numba.njit(**JIT)
 def tile_square(planes, off, coef, nr, need, colneed, rowneed, want_parts, out, det_out, tr_out,
-                block, gap, y0, y1, clear):  # pragma: no cover - jit
+                block, gap, y0, y1, clear, wts):  # pragma: no cover - jit
     """Fill ``out`` (Ht, W) with det/(tr + varsigma) for an ``nr x nr`` square window.
 
     ``planes`` as in :func:`tile_general`. Products of the K absolute
@@ -265,13 +266,15 @@ def tile_square(planes, off, coef, nr, need, colneed, rowneed, want_parts, out, 
     (without it they keep their value: a second pass adds pixels). An empty
     ``need`` (shape (0, 0)) means all. Only output rows ``y0 .. y1 - 1`` are
     touched. Evaluated pixels get the same value, bit for bit, whatever the
-    masks and rows.
+    masks and rows. A non-empty ``wts`` (``nr`` positive weights) makes the window
+    separable-weighted (:mod:`sogdd._weighted_sums`): weighted column sums, then row sums.
     """
     K = coef.shape[0]
     P = K * (K + 1) // 2
     R = (nr - 1) // 2
     Ht, W = out.shape
     dense = need.shape[0] == 0
+    weighted = wts.shape[0] > 0
     pi, pj, diag = pair_index(K)
     WB = block + 2 * R
     labs = np.empty((K, WB))
@@ -316,7 +319,10 @@ def tile_square(planes, off, coef, nr, need, colneed, rowneed, want_parts, out, 
                 a, b = next_run(colneed[yo, x0:], 0, m, gap)
             while a < b:
                 for q in range(P):
-                    column_sum(pring[q], yo, nr, vsum[q], a, b)
+                    if weighted:
+                        wcolumn_sum(pring[q], yo, wts, vsum[q], a, b)
+                    else:
+                        column_sum(pring[q], yo, nr, vsum[q], a, b)
                 if dense:
                     break
                 a, b = next_run(colneed[yo, x0:], b, m, gap)
@@ -334,7 +340,10 @@ def tile_square(planes, off, coef, nr, need, colneed, rowneed, want_parts, out, 
                     flush_gathered(acc, diag, det, tr, f, pos, ys, xs, want_parts, out, det_out, tr_out)
                     pos = 0
                 for q in range(P):
-                    row_sum(vsum[q, a:], nr, acc[q, pos:], w)
+                    if weighted:
+                        wrow_sum(vsum[q, a:], wts, acc[q, pos:], w)
+                    else:
+                        row_sum(vsum[q, a:], nr, acc[q, pos:], w)
                 for t in range(w):
                     ys[pos + t] = yo
                     xs[pos + t] = x0 + a + t

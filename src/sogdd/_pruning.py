@@ -18,6 +18,7 @@ import numpy as np
 
 from ._jit import JIT
 from ._kernels import VARSIGMA, column_sum, row_sum
+from ._weighted_sums import wcolumn_sum, wrow_sum
 
 __all__ = ["bound_mask", "bound_tables", "fischer_row", "need_from_keep", "neighbour_need", "spread_masks"]
 
@@ -41,6 +42,16 @@ def fischer_row(srow, quad, pair, pi2, pj2, floor, keep, nb, work):  # pragma: n
     Neither d nor t needs |.|: both are quadratic forms in S, so the bound costs
     six window sums for any K. Rounding is covered by the margins above, so a
     pruned pixel is one that the full computation also puts below ``floor``.
+
+    The same holds for a window of positive weights ``w`` (the Gaussian window):
+    ``S_pq = sum w g_p g_q``, ``d_i``, ``t_ij`` and ``Lambda = sum w |l| |l|^T``
+    (PSD, ``Lambda_ij >= |t_ij|``) are the weighted sums. Each weighted sum of
+    ``nr x nr`` terms is off by at most ``~(2 nr + 1) eps sum w |g_p g_q| <= (2 nr + 1)
+    eps sqrt(S_pp S_qq)`` (Cauchy-Schwarz with positive weights), so ``d_i`` and ``t_ij``
+    by at most ``~4 (2 nr + 7) eps u^2``: 2e-14 u^2 at nr = 7, 3e-13 u^2 at the
+    largest window (nr = 153), under ``_GAMMA``; the kernel's own det is off by less
+    than ``K (2 nr + 1) eps`` plus the elimination's ``~K^3 eps`` times the Hadamard
+    bound, under ``_HADAMARD_SLACK``.
     """
     err, fb, hb, trs = work
     s00, s01, s02, s11, s12, s22 = srow[0], srow[1], srow[2], srow[3], srow[4], srow[5]
@@ -172,11 +183,12 @@ def spread_masks(need, R, colneed, rowneed, lo, hi):  # pragma: no cover - jit
 
 
 @numba.njit(**JIT)
-def bound_mask(planes, nr, quad, pair, pi2, pj2, floor, keep, block):  # pragma: no cover - jit
+def bound_mask(planes, nr, quad, pair, pi2, pj2, floor, keep, block, wts):  # pragma: no cover - jit
     """keep (Ht + 2, W + 2): the Fischer bound of tile rows -1..Ht, columns -1..W (margin R + 1).
 
     The six products of the basis responses are kept for the last ``nr`` rows
-    (a ring), summed down the columns, then along the rows.
+    (a ring), summed down the columns, then along the rows; with a non-empty
+    ``wts``, weighted sums as the kernel's (:func:`fischer_row` holds for positive weights).
     """
     Hk, Wk = keep.shape
     nbm = block + 2
@@ -204,8 +216,12 @@ def bound_mask(planes, nr, quad, pair, pi2, pj2, floor, keep, block):  # pragma:
             if r < 0:
                 continue
             for q in range(6):
-                column_sum(pring[q], r, nr, scol[q], 0, wcols)
-                row_sum(scol[q], nr, srow[q], nb)
+                if wts.shape[0] > 0:
+                    wcolumn_sum(pring[q], r, wts, scol[q], 0, wcols)
+                    wrow_sum(scol[q], wts, srow[q], nb)
+                else:
+                    column_sum(pring[q], r, nr, scol[q], 0, wcols)
+                    row_sum(scol[q], nr, srow[q], nb)
             fischer_row(srow, quad, pair, pi2, pj2, floor, row, nb, work)
             kr = keep[r, x0 : x0 + nb]
             for c in range(nb):

@@ -13,6 +13,7 @@ import numpy as np
 
 from ._banded import peaks_in_bands
 from ._banded_relative import peaks_relative_in_bands
+from ._banded_saddles import saddles_in_bands
 from ._grey_rows import GreyRows
 from ._relative_floor import relative_floor
 from .corners import Corners
@@ -75,7 +76,8 @@ def _floor(p: Params, spec: MeasureSpec, threshold: float | None) -> float | Non
     """The absolute threshold, when it alone decides which peaks pass (no relative or quantile one)."""
     if threshold is None or threshold <= 0 or p.threshold_rel is not None or p.quantile is not None:
         return None
-    return float(threshold) if isinstance(spec, MeasureSpec) and supports_floor(spec) else None
+    # square windows (sogdd.response) and Gaussian ones (sogdd.weighted) prune; the authors' measure does not
+    return float(threshold) if not isinstance(spec, MeasureSpec) or supports_floor(spec) else None
 
 
 def _detect_level(grey: np.ndarray, p: Params, mask: np.ndarray | None) -> Corners:
@@ -117,13 +119,14 @@ def _detect_level(grey: np.ndarray, p: Params, mask: np.ndarray | None) -> Corne
     is_x = np.zeros(len(out), bool)
     if p.x_junctions:
         out, is_x = add_x_junctions(out, grey, spec, threshold=p.threshold, rho=X_RING_RADIUS,
-                                    size=p.keypoint_size(), border=p.border, mask=mask)
+                                    size=p.keypoint_size(), border=p.border, mask=mask, find=saddles_in_bands)
         if p.max_corners is not None:
             out, is_x = out.subset(np.arange(min(len(out), p.max_corners))), is_x[: p.max_corners]
     if p.subpixel == "adaptive" and len(out):  # after the cut: windows see the final neighbours
         c = ~is_x
         xy = out.xy.copy()
-        xy[c] = refine_gradient_adaptive(grey, xy[c], xy[is_x])
+        # the float32 image cornerSubPix reads, built once (band by band from a GreyRows)
+        xy[c] = refine_gradient_adaptive(np.asarray(grey, np.float32), xy[c], xy[is_x])
         out = Corners(xy, out.response, out.size, out.level)
     return out
 
@@ -202,8 +205,8 @@ def detect_corners(image, *, preset: str = "paper", mask=None, device: str = "cp
     if (gpu := _gpu(device)) is not None:
         return gpu.detect_corners(image, preset=preset, mask=mask, **params)
     p = resolve_params(preset, **params)
-    # one level without X-junctions reads the grey image in crops only (the pyramid resizes it whole)
-    grey = _prepare(image, p, lazy=p.levels == 1 and not p.x_junctions)
+    # one level reads the grey image in crops only (the pyramid resizes it whole)
+    grey = _prepare(image, p, lazy=p.levels == 1)
     m = check_mask(mask, grey.shape)
     parts = []
     h, w = grey.shape

@@ -126,13 +126,15 @@ def _tiled(
     floor: float | None = None,
     tile_rows: int = 128,
     threads: int | None = None,
+    weights: np.ndarray | None = None,
 ) -> np.ndarray | tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Run the compiled tile kernel over row tiles, in threads.
 
     ``domain(r0, r1)`` returns the filter-response planes of one tile with
     ``margin`` extra rows and columns on each side (at least the window
     half-height R; R + 1 for ``floor``). With ``parts`` the raw det and trace
-    maps are returned too; with ``floor`` the pruned kernel runs.
+    maps are returned too; with ``floor`` the pruned kernel runs. ``weights``: the 1-D
+    weights of a separable square window (:mod:`sogdd.weighted`).
     """
     halfw = np.ascontiguousarray(halfwidths, dtype=np.int64)
     R = (len(halfw) - 1) // 2
@@ -151,6 +153,7 @@ def _tiled(
     ends = starts[1:] + [H]
     tables = bound_tables(coef) if floor is not None else None
     none = np.zeros((0, 0), np.uint8)
+    wts = np.zeros(0) if weights is None else np.ascontiguousarray(weights, dtype=np.float64)
 
     def run(r0: int, r1: int) -> None:
         planes = domain(r0, r1)
@@ -161,23 +164,25 @@ def _tiled(
             return
         h = r1 - r0
         if tables is None:
-            tile_square(planes, margin - R, coef, nr, none, none, none, parts, o, d, t, 256, 32, 0, h, True)
+            tile_square(planes, margin - R, coef, nr, none, none, none, parts, o, d, t, 256, 32, 0, h, True,
+                        wts)
             return
         # pass 1: the pixels whose bound reaches the floor; pass 2: the 3 x 3 patches around
         # those found at or above it (sub-pixel refinement reads them), when not evaluated yet
         keep = np.empty((h + 2, W + 2), np.uint8)
-        bound_mask(planes, nr, *tables, float(floor), keep, 256)
+        bound_mask(planes, nr, *tables, float(floor), keep, 256, wts)
         need = np.empty((h, W), np.uint8)
         colneed = np.empty((h, W + 2 * R), np.uint8)
         rowneed = np.empty((h + 2 * R, W + 2 * R), np.uint8)
         need_from_keep(keep, need)
         spread_masks(need, R, colneed, rowneed, 0, h)
-        tile_square(planes, margin - R, coef, nr, need, colneed, rowneed, parts, o, d, t, 256, 32, 0, h, True)
+        tile_square(planes, margin - R, coef, nr, need, colneed, rowneed, parts, o, d, t, 256, 32, 0, h, True,
+                    wts)
         lo, hi = neighbour_need(o, float(floor), r0, H, need)
         if lo < hi:
             spread_masks(need, R, colneed, rowneed, lo, hi)
             tile_square(planes, margin - R, coef, nr, need, colneed, rowneed, parts, o, d, t, 256, 32,
-                        lo, hi, False)
+                        lo, hi, False, wts)
 
     n = threads or _n_threads()
     if n == 1 or len(starts) == 1:

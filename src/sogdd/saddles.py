@@ -196,20 +196,22 @@ def near_any(xy: np.ndarray, centres: np.ndarray, radius: float) -> np.ndarray:
 
 
 def add_x_junctions(corners, grey: np.ndarray, spec: MeasureSpec, *, threshold: float | None,
-                    rho: float, size: float, border: int = 0, mask: np.ndarray | None = None):
+                    rho: float, size: float, border: int = 0, mask: np.ndarray | None = None,
+                    find=find_saddles):
     """Replace the ring of Upsilon peaks around each X-junction by the junction's saddle point.
 
     ``corners`` carry grey-level strengths (:func:`grey_strength`). Saddles of
     strength ``>= threshold`` (grey levels, :func:`saddle_unit` scale) are added;
     corners within ``rho`` px of one are dropped. Returns ``(Corners, is_x)``, strongest first,
-    ``is_x`` marking the X-junctions.
+    ``is_x`` marking the X-junctions. ``find``: :func:`find_saddles` or a function with
+    its signature and results (:func:`sogdd._banded_saddles.saddles_in_bands`, no image-sized maps).
     """
     from .corners import Corners
 
     r = kernel_radius(spec.sigma2, spec.radius_rule)
     unit = saddle_unit(spec.sigma2, r)
     raw_min = 0.0 if threshold is None else threshold * unit / CALIBRATION_CONTRAST
-    xy, s = find_saddles(grey, spec.sigma2, r, min_strength=raw_min)
+    xy, s = find(grey, spec.sigma2, r, min_strength=raw_min)
     s = CALIBRATION_CONTRAST * s / unit
     h, w = grey.shape
     col, row = np.rint(xy[:, 0]).astype(np.int64), np.rint(xy[:, 1]).astype(np.int64)

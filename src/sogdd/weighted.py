@@ -11,11 +11,15 @@ A square window of equal weights is the limit of wide Gaussians; the Gaussian
 weights the pixels nearest the candidate most, so two corners a few pixels
 apart pull less on each other's measure (the hr study, docs/hr.md).
 
-The computation is direct: the three separable basis responses (reflect
-border, as every stage), K steered absolute responses, K (K + 1) / 2 products
-filtered with the separable Gaussian (OpenCV, float64), and the determinant by
-symmetric elimination across pixel planes. :func:`gaussian_window_reference`
-is the literal definition used by the tests.
+The computation is the compiled, tiled kernel of the square window
+(:func:`sogdd.response._tiled`, :mod:`sogdd._kernels`) with separable weights
+(:mod:`sogdd._weighted_sums`): basis responses per tile (reflect border),
+K steered absolute responses, K (K + 1) / 2 products, weighted column sums then
+weighted row sums in a fixed order (so a value never depends on the tile, band or
+thread), det/trace by symmetric elimination. With ``floor`` the Fischer bound
+prunes as for the square window (:mod:`sogdd._pruning`; it holds for positive
+weights). :func:`gaussian_window_reference` is the literal definition used by the
+tests; the two differ by the order of the roundings (~1e-15 relative).
 """
 
 from __future__ import annotations
@@ -23,16 +27,20 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 
-from .filters import kernel_radius, orientations, sogdd_kernel, steerable_basis, steering_coefficients
+from .filters import (
+    basis_tile,
+    kernel_radius,
+    orientations,
+    sogdd_kernel,
+    steerable_basis,
+    steering_coefficients,
+)
 from .response import VARSIGMA
 
 __all__ = ["GaussianWindowSpec", "gaussian_window_measure", "gaussian_window_reference", "measure_of",
            "window_weights_1d"]
-
-_BORDER = cv2.BORDER_REFLECT
 
 
 @dataclass(frozen=True)
@@ -49,6 +57,16 @@ class GaussianWindowSpec:
     def sigma_w(self) -> float:
         return self.window / 4.0
 
+    @property
+    def radius(self) -> int:
+        """The basis kernels' radius."""
+        return kernel_radius(self.sigma2, self.radius_rule)
+
+    @property
+    def window_radius(self) -> int:
+        """R, the weighted window's half-width (``ceil(3 sigma_w)``)."""
+        return len(window_weights_1d(self.sigma_w)) // 2
+
 
 def window_weights_1d(sigma_w: float) -> np.ndarray:
     """``exp(-t^2 / (2 sigma_w^2))`` on ``t = -R..R``, ``R = ceil(3 sigma_w)``; 2-D: its outer square."""
@@ -57,43 +75,14 @@ def window_weights_1d(sigma_w: float) -> np.ndarray:
     return np.exp(-t * t / (2.0 * sigma_w * sigma_w))
 
 
-def _responses(grey: np.ndarray, spec: GaussianWindowSpec) -> np.ndarray:
-    r = kernel_radius(spec.sigma2, spec.radius_rule)
-    b = steerable_basis(spec.sigma2, r, zero_mean=spec.zero_mean)
-    img = np.ascontiguousarray(grey, dtype=np.float64)
-
-    def f(kx, ky):
-        return cv2.sepFilter2D(img, cv2.CV_64F, kx, ky, borderType=_BORDER)
-
-    gxx, gxy, gyy = f(b.d2, b.gauss), f(b.d1, b.d1), f(b.gauss, b.d2)
-    if spec.zero_mean:
-        n = 2 * r + 1
-        box = cv2.boxFilter(img, cv2.CV_64F, (n, n), normalize=False, borderType=_BORDER)
-        m = b.means
-        gxx, gxy, gyy = gxx - m[0] * box, gxy - m[1] * box, gyy - m[2] * box
-    coef = steering_coefficients(orientations(spec.n_orientations))
-    return np.abs(np.stack([c[0] * gxx + c[1] * gxy + c[2] * gyy for c in coef]))
-
-
-def _det_planes(M: list[list[np.ndarray]]) -> np.ndarray:
-    """det of K x K symmetric PSD matrices given as planes, by elimination (a zero pivot gives 0)."""
-    K = len(M)
-    A = [[M[i][j].copy() for j in range(K)] for i in range(K)]
-    det = np.ones_like(A[0][0])
-    for k in range(K):
-        piv = A[k][k]
-        det *= piv
-        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            inv = np.where(np.abs(piv) > 1e-280, 1.0 / piv, 0.0)
-        for i in range(k + 1, K):
-            f = A[i][k] * inv
-            for j in range(k + 1, K):
-                A[i][j] -= f * A[k][j]
-    return det
-
-
-def gaussian_window_measure(grey: np.ndarray, spec: GaussianWindowSpec) -> np.ndarray:
+def gaussian_window_measure(grey: np.ndarray, spec: GaussianWindowSpec, *, floor: float | None = None,
+                            tile_rows: int = 128, threads: int | None = None) -> np.ndarray:
     """Upsilon with the Gaussian-weighted window (module doc), H x W float64.
+
+    With ``floor`` (> 0) only what peak selection above ``floor`` needs is
+    computed, with the contract of :func:`sogdd.response.soddc_measure`: exact,
+    bit for bit as without ``floor``, at every pixel at or above it and in the
+    3 x 3 patches around those; ``-inf`` only where the measure is provably below it.
 
     Examples
     --------
@@ -102,19 +91,32 @@ def gaussian_window_measure(grey: np.ndarray, spec: GaussianWindowSpec) -> np.nd
     >>> spec = GaussianWindowSpec(1.2, 4, 3)
     >>> fast = gaussian_window_measure(img, spec)
     >>> ref = gaussian_window_reference(img, spec)
-    >>> bool(np.max(np.abs(fast - ref)) <= 1e-9 * np.max(np.abs(ref)))
+    >>> bool(np.max(np.abs(fast - ref)) <= 1e-12 * np.max(np.abs(ref)))
+    True
+    >>> pruned = gaussian_window_measure(img, spec, floor=1e6)
+    >>> bool(np.all((pruned == fast) | ((pruned == -np.inf) & (fast < 1e6))))
     True
     """
-    a = _responses(grey, spec)
+    from .response import _tiled
+
+    img = np.ascontiguousarray(grey, dtype=np.float64)
+    H, W = img.shape
+    if floor is not None and not floor > 0:
+        raise ValueError("floor needs a positive value")
+    if min(H, W) < 3:  # too small for 3 x 3 patches: the full map is the pruned one
+        floor = None
     w = window_weights_1d(spec.sigma_w)
-    K = len(a)
-    M: list[list[np.ndarray]] = [[None] * K for _ in range(K)]  # type: ignore[list-item]
-    for i in range(K):
-        for j in range(i, K):
-            M[i][j] = M[j][i] = cv2.sepFilter2D(a[i] * a[j], cv2.CV_64F, w, w, borderType=_BORDER)
-    # window sums of non-negative products: clip the ~1e-14 rounding of the filter
-    tr = np.maximum(sum(M[k][k] for k in range(K)), 0.0)
-    return np.maximum(_det_planes(M), 0.0) / (tr + VARSIGMA)
+    R = len(w) // 2
+    r = kernel_radius(spec.sigma2, spec.radius_rule)
+    basis = steerable_basis(spec.sigma2, r, zero_mean=spec.zero_mean)
+    coef = steering_coefficients(orientations(spec.n_orientations))
+    M = R + 1  # one margin for the full and pruned kernels: the same responses
+
+    def domain(r0: int, r1: int) -> np.ndarray:
+        return basis_tile(img, r0, r1, M, basis, reflect_image=False)
+
+    return _tiled(H, W, domain, M, coef, np.full(2 * R + 1, R), floor=floor, tile_rows=tile_rows,
+                  threads=threads, weights=w)
 
 
 def gaussian_window_reference(grey: np.ndarray, spec: GaussianWindowSpec) -> np.ndarray:
@@ -142,7 +144,7 @@ def gaussian_window_reference(grey: np.ndarray, spec: GaussianWindowSpec) -> np.
 def measure_of(grey: np.ndarray, spec, floor: float | None = None) -> np.ndarray:
     """Upsilon for either spec: Gaussian windows here, squares and disks by ``response.soddc_measure``."""
     if isinstance(spec, GaussianWindowSpec):
-        return gaussian_window_measure(grey, spec)
+        return gaussian_window_measure(grey, spec, floor=floor)
     from .response import soddc_measure
 
     return soddc_measure(grey, spec, floor=floor)

@@ -1,0 +1,139 @@
+"""The saddle points of :func:`sogdd.saddles.find_saddles` in bands of rows, without image-sized maps.
+
+:func:`~sogdd.saddles.find_saddles` filters the whole image into five float64
+derivative maps (and three more for the strength and its maxima): 1.5 GB at
+24 MP. Every step is local, so the same points come band by band:
+
+- the derivatives of a crop of full rows are those of the image, bit for bit,
+  on every row at least ``radius`` rows from a crop edge that is not the
+  image's (OpenCV's separable filter computes each pixel from the same values
+  in the same order; tested), so a band's maps are exact on ``halo`` rows
+  beyond the band;
+- the strength and its 3 x 3 maxima on the band's rows read rows +-1 only;
+- each Newton step reads the maps on two rows (bilinear interpolation). A point
+  whose step needs a row outside the band's exact rows (it wandered more than
+  ``halo`` rows: rare, and almost always refused in the end) continues on rows
+  filtered for it alone (:class:`_RowCache`), so its path is the full maps' path.
+
+Candidates keep the raster order of the full maps; the result is
+``find_saddles(grey, ...)`` exactly, with maps of ``band_rows + 2 (halo +
+radius)`` rows. ``grey`` may be a :class:`sogdd._grey_rows.GreyRows`.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from .saddles import derivatives
+
+__all__ = ["saddles_in_bands"]
+
+BAND_ROWS = 256
+HALO = 16
+
+
+def _rows_of(y: np.ndarray, H: int) -> tuple[np.ndarray, np.ndarray]:
+    """The two rows the bilinear interpolation of :func:`sogdd.saddles._bilinear` reads at ``y``."""
+    yc = np.clip(y, 0.0, H - 1.0)
+    y0 = np.minimum(np.floor(yc).astype(np.int64), H - 2 if H > 1 else 0)
+    return y0, np.minimum(y0 + 1, H - 1)
+
+
+def _bilinear_at(maps, off: int, H: int, W: int, x: np.ndarray, y: np.ndarray) -> list[np.ndarray]:
+    """:func:`sogdd.saddles._bilinear` of each map, the maps holding image rows ``off ..``: same arithmetic."""
+    x = np.clip(x, 0.0, W - 1.0)
+    y = np.clip(y, 0.0, H - 1.0)
+    x0 = np.minimum(np.floor(x).astype(np.int64), W - 2 if W > 1 else 0)
+    y0 = np.minimum(np.floor(y).astype(np.int64), H - 2 if H > 1 else 0)
+    x1, y1 = np.minimum(x0 + 1, W - 1), np.minimum(y0 + 1, H - 1)
+    fx, fy = x - x0, y - y0
+    r0, r1 = y0 - off, y1 - off
+    return [((m[r0, x0] * (1 - fx) + m[r0, x1] * fx) * (1 - fy) + (m[r1, x0] * (1 - fx) + m[r1, x1] * fx) * fy)
+            for m in maps]
+
+
+def _newton_step(vals: list[np.ndarray], x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """One step of :func:`sogdd.saddles.find_saddles` from ``(g_x, g_y, g_xx, g_xy, g_yy)`` at the points."""
+    px, py, a, b, c = vals
+    det = a * c - b * b
+    with np.errstate(divide="ignore", invalid="ignore"):
+        dx = -(c * px - b * py) / det
+        dy = -(a * py - b * px) / det
+    return x + np.where(np.isfinite(dx), dx, 9.0), y + np.where(np.isfinite(dy), dy, 9.0)
+
+
+class _RowCache:
+    """Derivative rows filtered on demand (for the few points that leave their band)."""
+
+    def __init__(self, grey, sigma2: float, radius: int) -> None:
+        self.grey, self.sigma2, self.r = grey, sigma2, radius
+        self.H = grey.shape[0]
+        self.rows: dict[int, tuple[np.ndarray, ...]] = {}
+
+    def maps(self, lo: int, hi: int) -> tuple[list[np.ndarray], int]:
+        """The five maps on rows ``lo .. hi`` (``hi - lo <= 1``), and ``lo``."""
+        for v in (lo, hi):
+            if v not in self.rows:
+                c0, c1 = max(0, v - self.r), min(self.H, v + 1 + self.r)
+                d = derivatives(np.asarray(self.grey[c0:c1]), self.sigma2, self.r)
+                self.rows[v] = tuple(m[v - c0].copy() for m in d)
+        return [np.stack([self.rows[v][k] for v in range(lo, hi + 1)]) for k in range(5)], lo
+
+
+def saddles_in_bands(grey, sigma2: float, radius: int, *, iterations: int = 4, min_strength: float = 0.0,
+                     band_rows: int = BAND_ROWS, halo: int = HALO) -> tuple[np.ndarray, np.ndarray]:
+    """``find_saddles(grey, sigma2, radius, iterations=..., min_strength=...)`` in bands (module doc)."""
+    H, W = grey.shape
+    r = int(radius)
+    halo = max(int(halo), 1)
+    thr = max(float(min_strength), 0.0)
+    cand_x, cand_y, cand_s = [], [], []
+    done_xy, done_idx, stray = [], [], []  # stray: (candidate index, x, y, steps done)
+    n0 = 0
+    for a in range(0, H, int(band_rows)):
+        c = min(H, a + int(band_rows))
+        ea, eb = max(0, a - halo), min(H, c + halo)  # rows where the band's maps are the image's
+        y0, y1 = max(0, ea - r), min(H, eb + r)
+        d = derivatives(np.asarray(grey[y0:y1]), sigma2, r)
+        maps = [m[ea - y0 : eb - y0] for m in d]  # g_x, g_y, g_xx, g_xy, g_yy on rows ea .. eb - 1
+        gxx, gxy, gyy = maps[2], maps[3], maps[4]
+        neg = gxy * gxy - gxx * gyy
+        s = sigma2 * np.sqrt(np.maximum(neg, 0.0))
+        dil = cv2.dilate(s, np.ones((3, 3), np.uint8), borderType=cv2.BORDER_REPLICATE)
+        own = s[a - ea : c - ea]
+        rows, cols = np.nonzero((own >= dil[a - ea : c - ea]) & (own > thr))
+        del neg, dil
+        idx = n0 + np.arange(len(rows))
+        n0 += len(rows)
+        x0, yy0 = cols.astype(np.float64), (rows + a).astype(np.float64)
+        cand_x.append(x0)
+        cand_y.append(yy0)
+        cand_s.append(own[rows, cols])
+        x, y = x0.copy(), yy0.copy()
+        for step in range(int(iterations)):
+            lo, hi = _rows_of(y, H)
+            out = (lo < ea) | (hi >= eb)
+            if out.any():
+                stray += [(i, xi, yi, step) for i, xi, yi in zip(idx[out], x[out], y[out])]
+                x, y, idx = x[~out], y[~out], idx[~out]
+            x, y = _newton_step(_bilinear_at(maps, ea, H, W, x, y), x, y)
+        done_xy.append(np.stack([x, y], axis=1))
+        done_idx.append(idx)
+    if n0 == 0:
+        return np.zeros((0, 2)), np.zeros(0)
+    cx, cy, cs = np.concatenate(cand_x), np.concatenate(cand_y), np.concatenate(cand_s)
+    fin = np.empty((n0, 2))
+    di = np.concatenate(done_idx)
+    fin[di] = np.concatenate(done_xy)
+    if stray:
+        cache = _RowCache(grey, sigma2, r)
+        for i, xi, yi, step in stray:  # one point at a time: its own rows, the same arithmetic
+            x, y = np.array([xi]), np.array([yi])
+            for _ in range(step, int(iterations)):
+                lo, hi = _rows_of(y, H)
+                m, off = cache.maps(int(lo[0]), int(hi[0]))
+                x, y = _newton_step(_bilinear_at(m, off, H, W, x, y), x, y)
+            fin[i] = (x[0], y[0])
+    ok = (np.abs(fin[:, 0] - cx) <= 1.0) & (np.abs(fin[:, 1] - cy) <= 1.0)
+    return fin[ok], cs[ok]
