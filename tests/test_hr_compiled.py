@@ -1,0 +1,117 @@
+"""The hr preset on the compiled kernel: weighted window sums, pruning, bands, banded saddles.
+
+The Gaussian window's sums run in the tiled kernel (weighted column sums, then
+row sums, in a fixed order): ~1e-15 relative from the literal definition
+(another rounding order), and bit for bit the same whatever the tiles, threads,
+masks and bands.
+"""
+
+import numpy as np
+import pytest
+from scipy import ndimage
+
+import sogdd
+from sogdd import _banded_saddles
+from sogdd._banded import peaks_in_bands
+from sogdd._banded_saddles import saddles_in_bands
+from sogdd.filters import kernel_radius
+from sogdd.peaks import refine_quadratic, select_peaks
+from sogdd.saddles import find_saddles, measure_threshold
+from sogdd.weighted import GaussianWindowSpec, gaussian_window_measure, gaussian_window_reference
+
+
+def _photo_like(h, w, seed=3):
+    rng = np.random.default_rng(seed)
+    img = ndimage.gaussian_filter(rng.uniform(0, 255, (h, w)), 1.5) * 3 - 250
+    img[h // 3 : 2 * h // 3, w // 4 : w // 2] += 90
+    img[h // 2 :, w // 2 :: 8] += 60  # stripes: saddles and close corners
+    return np.clip(img + rng.normal(0, 2, (h, w)), 0, 255)
+
+
+HR = sogdd.resolve_params("hr").window_spec()
+
+
+@pytest.mark.parametrize("shape", [(3, 4), (9, 5), (41, 57)])
+@pytest.mark.parametrize("spec", [HR, GaussianWindowSpec(1.2, 8, 5), GaussianWindowSpec(2.0, 2, 7),
+                                  GaussianWindowSpec(1.44, 4, 3, "authors", True)])
+def test_weighted_kernel_equals_the_definition(shape, spec):
+    img = _photo_like(*shape)
+    ref = gaussian_window_reference(img, spec)
+    fast = gaussian_window_measure(img, spec)
+    # K = 8 responses of a 3-dimensional basis: Lambda is close to rank 3 on a tiny image, and det
+    # amplifies any rounding (the OpenCV-filter implementation before this one was 1.6e-8 off at 3 x 4)
+    tol = 1e-12 if spec.n_orientations <= 4 or min(shape) > 3 else 1e-7
+    assert np.max(np.abs(fast - ref)) <= tol * np.max(np.abs(ref))
+
+
+@pytest.mark.parametrize("tile_rows,threads", [(1, 2), (3, 1), (5, 2), (128, 1)])
+def test_weighted_kernel_does_not_depend_on_tiles_or_threads(tile_rows, threads):
+    img = _photo_like(23, 61)
+    base = gaussian_window_measure(img, HR, tile_rows=64, threads=1)
+    np.testing.assert_array_equal(gaussian_window_measure(img, HR, tile_rows=tile_rows, threads=threads), base)
+    ref = gaussian_window_reference(img, HR)
+    assert np.max(np.abs(base - ref)) <= 1e-12 * ref.max()
+
+
+@pytest.mark.parametrize("tile_rows", [3, 7, 128])
+def test_pruned_hr_measure_is_the_full_one_where_it_matters(tile_rows):
+    rng = np.random.default_rng(5)
+    img = np.clip(sogdd.synthetic.pattern_image((120, 160))[0] + rng.normal(0, 2, (120, 160)), 0, 255)
+    floor = measure_threshold(20.0, HR)
+    full = gaussian_window_measure(img, HR)
+    pruned = gaussian_window_measure(img, HR, floor=floor, tile_rows=tile_rows, threads=2)
+    exact = np.isfinite(pruned)
+    np.testing.assert_array_equal(pruned[exact], full[exact])
+    assert np.all(pruned[~exact] == -np.inf) and np.all(full[~exact] < floor)
+    rows, cols = np.nonzero(full >= floor)
+    assert len(rows) > 20
+    r, c = np.clip(rows, 1, 118), np.clip(cols, 1, 158)
+    dy, dx = np.mgrid[-1:2, -1:2]
+    assert exact[r[:, None, None] + dy, c[:, None, None] + dx].all()  # refine_quadratic's patches
+    assert exact.mean() < 0.9  # the bound proves pixels below the floor
+
+
+@pytest.mark.parametrize("band_rows", [1, 6, 1024])
+def test_banded_hr_peaks_equal_the_full_map(band_rows):
+    img = _photo_like(64, 90)
+    p = sogdd.resolve_params("hr")
+    thr = measure_threshold(p.threshold, HR)
+    full = gaussian_window_measure(img, HR)
+    rows, cols = select_peaks(full, threshold=thr, nms_radius=1, border=2)
+    got = peaks_in_bands(img, HR, threshold=thr, floor=thr, border=2, band_rows=band_rows)
+    assert len(rows) > 10
+    np.testing.assert_array_equal(got[0], rows)
+    np.testing.assert_array_equal(got[1], cols)
+    np.testing.assert_array_equal(got[2], full[rows, cols])
+    np.testing.assert_array_equal(got[3], refine_quadratic(full, rows, cols))
+
+
+@pytest.mark.parametrize("band_rows,halo", [(256, 16), (5, 1), (1, 1)])
+def test_banded_saddles_equal_find_saddles(band_rows, halo, monkeypatch):
+    img = _photo_like(60, 80)
+    r = kernel_radius(1.5)
+    calls = []
+    maps = _banded_saddles._RowCache.maps
+    monkeypatch.setattr(_banded_saddles._RowCache, "maps",
+                        lambda self, lo, hi: calls.append(lo) or maps(self, lo, hi))
+    for ms in (0.0, 3.0):
+        want = find_saddles(img, 1.5, r, min_strength=ms)
+        got = saddles_in_bands(img, 1.5, r, min_strength=ms, band_rows=band_rows, halo=halo)
+        assert len(want[0]) > 5
+        np.testing.assert_array_equal(got[0], want[0])
+        np.testing.assert_array_equal(got[1], want[1])
+    if halo == 1:
+        assert calls  # points that left their band took the row-by-row path
+
+
+def test_hr_detection_reads_the_grey_image_in_crops_only(monkeypatch):
+    """No H x W float64 grey image: crops, and the one float32 copy cornerSubPix reads."""
+    from sogdd._grey_rows import GreyRows
+
+    img = np.clip(_photo_like(150, 170), 0, 255).astype(np.uint8)
+    asked = []
+    whole = GreyRows.__array__
+    monkeypatch.setattr(GreyRows, "__array__", lambda self, dtype=None, copy=None: asked.append(dtype)
+                        or whole(self, dtype, copy))
+    got = sogdd.detect_corners(img, preset="hr")
+    assert len(got) > 10 and asked == [np.float32]
