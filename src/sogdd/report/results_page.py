@@ -203,13 +203,17 @@ def downstream_stage(folder: Path, page_dir: Path) -> list[str]:
 
 
 def _commit() -> str:
-    """The source tree's git commit (``-dirty`` with uncommitted changes), or ``unknown``."""
+    """The source tree's git commit, or ``unknown``.
+
+    ``-dirty`` when the package's own files (``src/sogdd``) differ from it; the
+    page's outputs, which the report has just rewritten, do not count.
+    """
     here = Path(__file__).resolve().parent
     try:
         sha = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=here, capture_output=True,
                              text=True, timeout=10, check=True).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=here,
-                               capture_output=True, text=True, timeout=10, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--", ".."],
+                               cwd=here, capture_output=True, text=True, timeout=10, check=True).stdout.strip()
     except (OSError, subprocess.SubprocessError):
         return "unknown"
     return sha + ("-dirty" if dirty else "")
