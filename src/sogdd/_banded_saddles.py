@@ -12,8 +12,8 @@ derivative maps (and three more for the strength and its maxima): 1.5 GB at
 - the strength and its 3 x 3 maxima on the band's rows read rows +-1 only;
 - each Newton step reads the maps on two rows (bilinear interpolation). A point
   whose step needs a row outside the band's exact rows (it wandered more than
-  ``halo`` rows: rare, and almost always refused in the end) continues on rows
-  filtered for it alone (:class:`_RowCache`), so its path is the full maps' path.
+  ``halo`` rows; almost always refused in the end) continues afterwards on crops
+  filtered around the rows it reads (:func:`_finish`), so its path is the full maps' path.
 
 Candidates keep the raster order of the full maps; the result is
 ``find_saddles(grey, ...)`` exactly, with maps of ``band_rows + 2 (halo +
@@ -63,22 +63,35 @@ def _newton_step(vals: list[np.ndarray], x: np.ndarray, y: np.ndarray) -> tuple[
     return x + np.where(np.isfinite(dx), dx, 9.0), y + np.where(np.isfinite(dy), dy, 9.0)
 
 
-class _RowCache:
-    """Derivative rows filtered on demand (for the few points that leave their band)."""
+def _finish(grey, sigma2: float, r: int, x: np.ndarray, y: np.ndarray, steps: np.ndarray, iterations: int,
+            band_rows: int) -> tuple[np.ndarray, np.ndarray]:
+    """Newton steps of the points that left their band, until each has done ``iterations``.
 
-    def __init__(self, grey, sigma2: float, radius: int) -> None:
-        self.grey, self.sigma2, self.r = grey, sigma2, radius
-        self.H = grey.shape[0]
-        self.rows: dict[int, tuple[np.ndarray, ...]] = {}
-
-    def maps(self, lo: int, hi: int) -> tuple[list[np.ndarray], int]:
-        """The five maps on rows ``lo .. hi`` (``hi - lo <= 1``), and ``lo``."""
-        for v in (lo, hi):
-            if v not in self.rows:
-                c0, c1 = max(0, v - self.r), min(self.H, v + 1 + self.r)
-                d = derivatives(np.asarray(self.grey[c0:c1]), self.sigma2, self.r)
-                self.rows[v] = tuple(m[v - c0].copy() for m in d)
-        return [np.stack([self.rows[v][k] for v in range(lo, hi + 1)]) for k in range(5)], lo
+    Each round sorts the points by the rows they read and filters crops of at most
+    ``band_rows`` rows (plus ``r`` on each side) around groups of them, so memory stays
+    that of a band however far the points went.
+    """
+    H, W = grey.shape
+    x, y, steps = x.copy(), y.copy(), steps.copy()
+    act = np.flatnonzero(steps < iterations)
+    while len(act):
+        lo, hi = _rows_of(y[act], H)
+        order = np.argsort(lo, kind="stable")
+        g0 = 0
+        while g0 < len(order):
+            glo = int(lo[order[g0]])
+            g1 = g0
+            while g1 < len(order) and (g1 == g0 or hi[order[g1]] < glo + band_rows):
+                g1 += 1
+            sel = act[order[g0:g1]]
+            ghi = int(hi[order[g0:g1]].max())
+            c0, c1 = max(0, glo - r), min(H, ghi + 1 + r)  # rows glo .. ghi are the image's
+            maps = [m[glo - c0 : ghi + 1 - c0] for m in derivatives(np.asarray(grey[c0:c1]), sigma2, r)]
+            x[sel], y[sel] = _newton_step(_bilinear_at(maps, glo, H, W, x[sel], y[sel]), x[sel], y[sel])
+            g0 = g1
+        steps[act] += 1
+        act = act[steps[act] < iterations]
+    return x, y
 
 
 def saddles_in_bands(grey, sigma2: float, radius: int, *, iterations: int = 4, min_strength: float = 0.0,
@@ -126,14 +139,10 @@ def saddles_in_bands(grey, sigma2: float, radius: int, *, iterations: int = 4, m
     fin = np.empty((n0, 2))
     di = np.concatenate(done_idx)
     fin[di] = np.concatenate(done_xy)
-    if stray:
-        cache = _RowCache(grey, sigma2, r)
-        for i, xi, yi, step in stray:  # one point at a time: its own rows, the same arithmetic
-            x, y = np.array([xi]), np.array([yi])
-            for _ in range(step, int(iterations)):
-                lo, hi = _rows_of(y, H)
-                m, off = cache.maps(int(lo[0]), int(hi[0]))
-                x, y = _newton_step(_bilinear_at(m, off, H, W, x, y), x, y)
-            fin[i] = (x[0], y[0])
+    if stray:  # (candidate index, x, y, steps done)
+        i, sx, sy, st = (np.array(v) for v in zip(*stray))
+        sx, sy = _finish(grey, sigma2, r, sx.astype(np.float64), sy.astype(np.float64), st.astype(np.int64),
+                         int(iterations), int(band_rows))
+        fin[i.astype(np.int64)] = np.stack([sx, sy], axis=1)
     ok = (np.abs(fin[:, 0] - cx) <= 1.0) & (np.abs(fin[:, 1] - cy) <= 1.0)
     return fin[ok], cs[ok]
