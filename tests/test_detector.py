@@ -219,7 +219,7 @@ def test_quadratic_fallback_is_clipped_to_half_a_pixel():
 
 def test_tie_breaking_keeps_a_candidate_unless_an_earlier_kept_one_is_within_the_radius():
     """The greedy definition, brute force, on random candidate lists in random order."""
-    from sogdd.peaks import _break_ties
+    from sogdd.peaks import break_ties
 
     rng = np.random.default_rng(7)
     for _ in range(60):
@@ -231,4 +231,4 @@ def test_tie_breaking_keeps_a_candidate_unless_an_earlier_kept_one_is_within_the
         for j in range(len(rows)):
             near = np.maximum(np.abs(rows[:j] - rows[j]), np.abs(cols[:j] - cols[j])) <= radius
             want[j] = not (near & want[:j]).any()
-        np.testing.assert_array_equal(_break_ties(rows, cols, radius), want)
+        np.testing.assert_array_equal(break_ties(rows, cols, radius), want)

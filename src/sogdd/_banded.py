@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .peaks import _break_ties, maxima_above, refine_quadratic
+from .peaks import break_ties, maxima_above, refine_quadratic
 from .response import MeasureSpec
 from .weighted import measure_of
 
@@ -82,7 +82,7 @@ def peaks_in_bands(
                               np.concatenate(offs))
     order = np.argsort(-vals, kind="stable")  # candidates are in raster order, as select_peaks' are
     rows, cols, vals, offs = rows[order], cols[order], vals[order], offs[order]
-    keep = _break_ties(rows, cols, rad)
+    keep = break_ties(rows, cols, rad)
     rows, cols, vals, offs = rows[keep], cols[keep], vals[keep], offs[keep]
     if max_corners is not None:
         k = int(max_corners)

@@ -30,7 +30,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._stream_quantile import StreamQuantile
-from .peaks import _break_ties, maxima_above, quadratic_offsets, refine_quadratic
+from .peaks import break_ties, maxima_above, quadratic_offsets, refine_quadratic
 from .response import (
     MeasureSpec,
     _abs_max,  # noqa: PLC2701 - the same compiled pass authors_measure uses
@@ -189,7 +189,7 @@ def _rank(cand: list, H: int, W: int, lim: float | None, rad: int, quadratic: bo
         offs = np.concatenate([x[3] for x in cand])
     order = np.argsort(-vals, kind="stable")  # candidates are in raster order, as select_peaks' are
     rows, cols, vals, offs = rows[order], cols[order], vals[order], offs[order]
-    keep = _break_ties(rows, cols, rad)
+    keep = break_ties(rows, cols, rad)
     rows, cols, vals, offs = rows[keep], cols[keep], vals[keep], offs[keep]
     if max_corners is not None:
         k = int(max_corners)

@@ -47,7 +47,7 @@ from .detector import detect_corners
 from .features import FORMATS, make_record, params_dict, read_features, remove_stale_temporaries, write_features
 from .io import list_images, read_image
 from .params import resolve_params
-from .response import _n_threads
+from .response import thread_count
 
 __all__ = [
     "BatchInterrupted", "BatchItem", "expand_inputs", "feature_path", "relative_names", "run_batch",
@@ -195,7 +195,7 @@ def run_batch(
     """
     params = dict(params or {})
     resolve_params(preset, **params)  # bad parameters (and environment) fail before any work
-    _n_threads()
+    thread_count()
     if fmt not in FORMATS:
         raise ValueError(f"unknown format {fmt!r}")
     if jobs < 1:

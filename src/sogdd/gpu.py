@@ -40,7 +40,7 @@ from .corners import Corners
 from .filters import steerable_basis
 from .io import check_mask
 from .params import Params, resolve_params
-from .peaks import _break_ties, refine_gradient, refine_quadratic, select_peaks
+from .peaks import break_ties, refine_gradient, refine_quadratic, select_peaks
 
 __all__ = ["available", "corner_response", "corner_response_batch", "detect_corners", "detect_corners_batch"]
 
@@ -131,7 +131,7 @@ def _select(rows, cols, vals, patches, shape, p: Params, mask):
     rows, cols, vals, patches = rows[inside], cols[inside], vals[inside], patches[inside]
     order = np.argsort(-vals, kind="stable")
     rows, cols, vals, patches = rows[order], cols[order], vals[order], patches[order]
-    keep = _break_ties(rows, cols, p.nms_radius)
+    keep = break_ties(rows, cols, p.nms_radius)
     sel = np.flatnonzero(keep)[: p.max_corners]
     return rows[sel], cols[sel], vals[sel], patches[sel]
 

@@ -12,6 +12,7 @@ import numba
 import numpy as np
 
 __all__ = [
+    "break_ties",
     "local_maxima",
     "maxima_above",
     "refine_gradient",
@@ -214,14 +215,14 @@ def select_peaks(
     rows, cols = rows[inside], cols[inside]
     order = np.argsort(-resp[rows, cols], kind="stable")
     rows, cols = rows[order], cols[order]
-    keep = _break_ties(rows, cols, nms_radius)
+    keep = break_ties(rows, cols, nms_radius)
     rows, cols = rows[keep], cols[keep]
     if max_corners is not None:
         rows, cols = rows[: int(max_corners)], cols[: int(max_corners)]
     return rows, cols
 
 
-def _break_ties(rows: np.ndarray, cols: np.ndarray, radius: int) -> np.ndarray:
+def break_ties(rows: np.ndarray, cols: np.ndarray, radius: int) -> np.ndarray:
     """Keep one point per plateau: of candidates within ``radius`` (Chebyshev), the first.
 
     Two local maxima closer than the NMS radius must have equal values, so this

@@ -41,7 +41,7 @@ from .window import is_square, take_reflected, window_offsets
 
 __all__ = [
     "VARSIGMA", "MeasureSpec", "authors_apply", "authors_limit", "authors_measure", "soddc_at",
-    "soddc_from_responses", "soddc_measure", "supports_floor",
+    "soddc_from_responses", "soddc_measure", "supports_floor", "thread_count",
 ]
 
 _EPS = float(np.finfo(np.float64).eps)
@@ -105,7 +105,11 @@ class MeasureSpec:
         return (len(self.halfwidths) - 1) // 2
 
 
-def _n_threads() -> int:
+def thread_count() -> int:
+    """Threads for the tiled measure: ``$SOGDD_NUM_THREADS``, else the cores (at most 8).
+
+    Raises ``ValueError`` for a value that is not a positive integer.
+    """
     env = os.environ.get("SOGDD_NUM_THREADS")
     if env:
         if not env.strip().isdigit() or int(env) < 1:
@@ -184,7 +188,7 @@ def _tiled(
             tile_square(planes, margin - R, coef, nr, need, colneed, rowneed, parts, o, d, t, 256, 32,
                         lo, hi, False, wts)
 
-    n = threads or _n_threads()
+    n = threads or thread_count()
     if n == 1 or len(starts) == 1:
         for r0, r1 in zip(starts, ends):
             run(r0, r1)

@@ -21,7 +21,7 @@ from ..detector import detect_corners
 from ..features import FeatureRecord, encode_features, make_record, write_features
 from ..io import intensity_hint, read_image
 from ..params import resolve_params
-from ..response import _n_threads
+from ..response import thread_count
 from .overlay import check_overlay_path, save_overlay
 from .params import add_detector_arguments, add_read_arguments, detector_overrides, read_options
 
@@ -90,7 +90,7 @@ def _scale(img: np.ndarray) -> float:
 def run(args: argparse.Namespace) -> int:
     params = detector_overrides(args)
     p = resolve_params(args.preset, **params)  # bad parameters fail before any work
-    _n_threads()  # and a bad SOGDD_NUM_THREADS
+    thread_count()  # and a bad SOGDD_NUM_THREADS
     reading = read_options(args)
     paths = expand_inputs(args.images, recursive=args.recursive)
     if not paths:
