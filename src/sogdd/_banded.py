@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .peaks import break_ties, maxima_above, refine_quadratic
+from .peaks import maxima_above, rank_peaks, refine_quadratic
 from .response import MeasureSpec
 from .weighted import measure_of
 
@@ -80,11 +80,5 @@ def peaks_in_bands(
         return e, e, np.zeros(0), np.zeros((0, 2))
     rows, cols, vals, offs = (np.concatenate(rows), np.concatenate(cols), np.concatenate(vals),
                               np.concatenate(offs))
-    order = np.argsort(-vals, kind="stable")  # candidates are in raster order, as select_peaks' are
-    rows, cols, vals, offs = rows[order], cols[order], vals[order], offs[order]
-    keep = break_ties(rows, cols, rad)
-    rows, cols, vals, offs = rows[keep], cols[keep], vals[keep], offs[keep]
-    if max_corners is not None:
-        k = int(max_corners)
-        rows, cols, vals, offs = rows[:k], cols[:k], vals[:k], offs[:k]
-    return rows, cols, vals, offs
+    sel = rank_peaks(vals, rows, cols, rad, max_corners)  # candidates in raster order, as select_peaks'
+    return rows[sel], cols[sel], vals[sel], offs[sel]

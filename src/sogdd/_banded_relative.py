@@ -30,10 +30,10 @@ from __future__ import annotations
 import numpy as np
 
 from ._stream_quantile import StreamQuantile
-from .peaks import break_ties, maxima_above, quadratic_offsets, refine_quadratic
+from .peaks import maxima_above, quadratic_offsets, rank_peaks, refine_quadratic
 from .response import (
     MeasureSpec,
-    _abs_max,  # noqa: PLC2701 - the same compiled pass authors_measure uses
+    abs_max,
     authors_apply,
     authors_limit,
     soddc_measure,
@@ -104,7 +104,7 @@ def peaks_relative_in_bands(
         if spec.authors_measure:
             det, tr = soddc_measure(grey[y0:y1], spec, raw=True)
             det, tr = det[lo - y0 : hi - y0], tr[lo - y0 : hi - y0]
-            bb, bn = _abs_max(det[a - lo : c - lo].reshape(-1))
+            bb, bn = abs_max(det[a - lo : c - lo].reshape(-1))
             big, nan = max(big, bb), nan or bn
             resp = authors_apply(det, tr, np.nan)  # NaN: no clamp; values > 0 are the same either way
         else:
@@ -187,14 +187,8 @@ def _rank(cand: list, H: int, W: int, lim: float | None, rad: int, quadratic: bo
         offs[(rows != np.clip(rows, 1, H - 2)) | (cols != np.clip(cols, 1, W - 2))] = 0.0
     else:
         offs = np.concatenate([x[3] for x in cand])
-    order = np.argsort(-vals, kind="stable")  # candidates are in raster order, as select_peaks' are
-    rows, cols, vals, offs = rows[order], cols[order], vals[order], offs[order]
-    keep = break_ties(rows, cols, rad)
-    rows, cols, vals, offs = rows[keep], cols[keep], vals[keep], offs[keep]
-    if max_corners is not None:
-        k = int(max_corners)
-        rows, cols, vals, offs = rows[:k], cols[:k], vals[:k], offs[:k]
-    return rows, cols, vals, offs
+    sel = rank_peaks(vals, rows, cols, rad, max_corners)  # candidates in raster order, as select_peaks'
+    return rows[sel], cols[sel], vals[sel], offs[sel]
 
 
 def _bound(threshold, threshold_rel, vmax: float, sq: StreamQuantile | None) -> float:

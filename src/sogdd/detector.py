@@ -19,7 +19,7 @@ from ._relative_floor import relative_floor
 from .corners import Corners
 from .io import check_mask, to_gray255, validate_image
 from .params import Params, resolve_params
-from .peaks import refine_gradient, refine_gradient_adaptive, refine_quadratic, select_peaks
+from .peaks import inside_allowed, refine_gradient, refine_gradient_adaptive, refine_quadratic, select_peaks
 from .response import MeasureSpec, supports_floor
 from .saddles import X_RING_RADIUS, add_x_junctions, grey_strength, measure_threshold
 from .weighted import measure_of
@@ -131,20 +131,6 @@ def _detect_level(grey: np.ndarray, p: Params, mask: np.ndarray | None) -> Corne
     return out
 
 
-def _allowed(xy: np.ndarray, mask: np.ndarray | None, border: int, shape: tuple[int, int]) -> np.ndarray:
-    """Points whose nearest full-resolution pixel is inside the mask and ``border`` px from the edge.
-
-    Sub-pixel refinement (up to 3 px) and the pyramid's coarser mask can move a
-    peak found inside the allowed area out of it; such points are dropped, not clamped.
-    """
-    h, w = shape
-    col, row = np.rint(xy[:, 0]).astype(np.int64), np.rint(xy[:, 1]).astype(np.int64)
-    ok = (col >= border) & (col <= w - 1 - border) & (row >= border) & (row <= h - 1 - border)
-    if mask is not None:
-        ok[ok] = mask[row[ok], col[ok]]
-    return ok
-
-
 def _gpu(device: str):
     """The GPU module for ``device="cuda"``; ``device="cpu"`` gives None."""
     if device == "cpu":
@@ -227,7 +213,7 @@ def detect_corners(image, *, preset: str = "paper", mask=None, device: str = "cp
         # pixel centres at integers: x_full = (x_level + 0.5) * s - 0.5
         xy = np.stack([(c.xy[:, 0] + 0.5) * sx - 0.5, (c.xy[:, 1] + 0.5) * sy - 0.5], axis=1)
         c = Corners(xy, c.response, c.size * (sx + sy) / 2, np.full(len(c), level))
-        parts.append(c.subset(_allowed(xy, m, p.border, (h, w))))
+        parts.append(c.subset(inside_allowed(xy, m, p.border, (h, w))))
     out = Corners.concatenate(parts)
     if p.levels > 1:
         order = np.argsort(-out.response, kind="stable")

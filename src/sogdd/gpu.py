@@ -40,7 +40,7 @@ from .corners import Corners
 from .filters import steerable_basis
 from .io import check_mask
 from .params import Params, resolve_params
-from .peaks import break_ties, refine_gradient, refine_quadratic, select_peaks
+from .peaks import inside_allowed, rank_peaks, refine_gradient, refine_quadratic, select_peaks
 
 __all__ = ["available", "corner_response", "corner_response_batch", "detect_corners", "detect_corners_batch"]
 
@@ -129,10 +129,7 @@ def _select(rows, cols, vals, patches, shape, p: Params, mask):
     if mask is not None:
         inside &= mask[rows, cols]
     rows, cols, vals, patches = rows[inside], cols[inside], vals[inside], patches[inside]
-    order = np.argsort(-vals, kind="stable")
-    rows, cols, vals, patches = rows[order], cols[order], vals[order], patches[order]
-    keep = break_ties(rows, cols, p.nms_radius)
-    sel = np.flatnonzero(keep)[: p.max_corners]
+    sel = rank_peaks(vals, rows, cols, p.nms_radius, p.max_corners)
     return rows[sel], cols[sel], vals[sel], patches[sel]
 
 
@@ -193,7 +190,7 @@ def _detect_stack(s: GreyStack, p: Params, masks: list) -> list[Corners]:
     if p.threshold_rel is not None or p.quantile is not None or H < 3 or W < 3:
         grey = s.host if s.host is not None else s.dev.copy_to_host()
         out = [_detect_map(resp[j].copy_to_host(), grey[j], p, masks[j]) for j in range(N)]
-        return [c.subset(_allowed(c.xy, masks[j], p.border, (H, W))) for j, c in enumerate(out)]
+        return [c.subset(inside_allowed(c.xy, masks[j], p.border, (H, W))) for j, c in enumerate(out)]
     thr = 0.0 if p.threshold is None else float(p.threshold)  # as sogdd.peaks.resolve_threshold
     out = []
     for j, (rows, cols, vals, patches) in enumerate(_device_peaks(resp, thr, int(p.nms_radius), int(p.border))):
@@ -205,17 +202,7 @@ def _detect_stack(s: GreyStack, p: Params, masks: list) -> list[Corners]:
                 xy = refine_gradient(s.host[j], xy) if s.host is not None else \
                     _gradient_on_device(s.dev, j, rows, cols, xy)
         out.append(Corners(xy, vals, np.full(len(rows), p.keypoint_size())))
-    return [c.subset(_allowed(c.xy, masks[j], p.border, (H, W))) for j, c in enumerate(out)]
-
-
-def _allowed(xy: np.ndarray, mask, border: int, shape: tuple[int, int]) -> np.ndarray:
-    """Final positions inside the mask and border, as sogdd.detector drops refined points that left them."""
-    h, w = shape
-    col, row = np.rint(xy[:, 0]).astype(np.int64), np.rint(xy[:, 1]).astype(np.int64)
-    ok = (col >= border) & (col <= w - 1 - border) & (row >= border) & (row <= h - 1 - border)
-    if mask is not None:
-        ok[ok] = mask[row[ok], col[ok]]
-    return ok
+    return [c.subset(inside_allowed(c.xy, masks[j], p.border, (H, W))) for j, c in enumerate(out)]
 
 
 def _params(preset: str, params: dict) -> Params:

@@ -13,6 +13,8 @@ import numpy as np
 
 __all__ = [
     "break_ties",
+    "inside_allowed",
+    "rank_peaks",
     "local_maxima",
     "maxima_above",
     "refine_gradient",
@@ -213,13 +215,43 @@ def select_peaks(
     if mask is not None:
         inside &= np.asarray(mask, dtype=bool)[rows, cols]
     rows, cols = rows[inside], cols[inside]
-    order = np.argsort(-resp[rows, cols], kind="stable")
-    rows, cols = rows[order], cols[order]
-    keep = break_ties(rows, cols, nms_radius)
-    rows, cols = rows[keep], cols[keep]
-    if max_corners is not None:
-        rows, cols = rows[: int(max_corners)], cols[: int(max_corners)]
-    return rows, cols
+    sel = rank_peaks(resp[rows, cols], rows, cols, nms_radius, max_corners)
+    return rows[sel], cols[sel]
+
+
+def rank_peaks(values: np.ndarray, rows: np.ndarray, cols: np.ndarray, radius: int,
+               max_corners: int | None = None) -> np.ndarray:
+    """Indices of the peaks to keep, strongest first: rank, break ties within ``radius``, top-k.
+
+    The candidates must come in raster order, so that equal values keep it.
+
+    Examples
+    --------
+    >>> rank_peaks(np.array([1.0, 3.0, 3.0]), np.array([0, 0, 0]), np.array([0, 5, 6]), 1).tolist()
+    [1, 0]
+    """
+    order = np.argsort(-np.asarray(values), kind="stable")
+    order = order[break_ties(rows[order], cols[order], radius)]
+    return order if max_corners is None else order[: int(max_corners)]
+
+
+def inside_allowed(xy: np.ndarray, mask: np.ndarray | None, border: int, shape: tuple[int, int]) -> np.ndarray:
+    """Points whose nearest pixel is inside the mask and ``border`` px from the edge.
+
+    Sub-pixel refinement (up to 3 px) and the pyramid's coarser mask can move a
+    peak found inside the allowed area out of it; such points are dropped, not clamped.
+
+    Examples
+    --------
+    >>> inside_allowed(np.array([[1.4, 5.0], [0.4, 5.0]]), None, 1, (10, 10)).tolist()
+    [True, False]
+    """
+    h, w = shape
+    col, row = np.rint(xy[:, 0]).astype(np.int64), np.rint(xy[:, 1]).astype(np.int64)
+    ok = (col >= border) & (col <= w - 1 - border) & (row >= border) & (row <= h - 1 - border)
+    if mask is not None:
+        ok[ok] = mask[row[ok], col[ok]]
+    return ok
 
 
 def break_ties(rows: np.ndarray, cols: np.ndarray, radius: int) -> np.ndarray:

@@ -41,7 +41,7 @@ from .window import is_square, take_reflected, window_offsets
 
 __all__ = [
     "VARSIGMA", "MeasureSpec", "authors_apply", "authors_limit", "authors_measure", "soddc_at",
-    "soddc_from_responses", "soddc_measure", "supports_floor", "thread_count",
+    "abs_max", "soddc_from_responses", "soddc_measure", "supports_floor", "thread_count",
 ]
 
 _EPS = float(np.finfo(np.float64).eps)
@@ -337,7 +337,7 @@ def authors_measure(det: np.ndarray, tr: np.ndarray, out: np.ndarray | None = No
     ``out`` may be ``det`` itself (element-wise, in place: no extra map).
     """
     d = np.ascontiguousarray(det, dtype=np.float64).reshape(-1)
-    big, nan = _abs_max(d)
+    big, nan = abs_max(d)
     return authors_apply(det, tr, authors_limit(big, nan), out=out)
 
 
@@ -361,7 +361,7 @@ def authors_apply(det: np.ndarray, tr: np.ndarray, lim: float, out: np.ndarray |
 
 
 @numba.njit(**JIT)
-def _abs_max(det):  # pragma: no cover - jit
+def abs_max(det):  # pragma: no cover - jit
     """max|det| over the finite-or-inf values, and whether any det is NaN."""
     big = 0.0
     nan = False
