@@ -82,30 +82,73 @@ def row_sum(src, width, dst, n):  # pragma: no cover - jit
 
 @numba.njit(**JIT)
 def column_sum(ring, first, nr, dst, a, b):  # pragma: no cover - jit
-    """dst[x] = sum of ring[r, x] over the nr ring rows from ``first`` on, a <= x < b, in a fixed order."""
+    """dst[x] = sum of ring[r % nh, x] for r = first .. first + nr - 1, a <= x < b, in a fixed order."""
     # 1-D views indexed from 0 (here and in every hot loop): numba's negative-index
     # handling otherwise stops the loops from vectorising
+    nh = ring.shape[0]  # the ring's rows, >= nr
     n = b - a
     d = dst[a:b]
     if nr == 7:
-        r0, r1, r2 = ring[first % 7, a:b], ring[(first + 1) % 7, a:b], ring[(first + 2) % 7, a:b]
-        r3, r4, r5 = ring[(first + 3) % 7, a:b], ring[(first + 4) % 7, a:b], ring[(first + 5) % 7, a:b]
-        r6 = ring[(first + 6) % 7, a:b]
+        r0, r1, r2 = ring[first % nh, a:b], ring[(first + 1) % nh, a:b], ring[(first + 2) % nh, a:b]
+        r3, r4, r5 = ring[(first + 3) % nh, a:b], ring[(first + 4) % nh, a:b], ring[(first + 5) % nh, a:b]
+        r6 = ring[(first + 6) % nh, a:b]
         for x in range(n):
             d[x] = ((r0[x] + r1[x]) + (r2[x] + r3[x])) + ((r4[x] + r5[x]) + r6[x])
     elif nr == 5:
-        r0, r1, r2 = ring[first % 5, a:b], ring[(first + 1) % 5, a:b], ring[(first + 2) % 5, a:b]
-        r3, r4 = ring[(first + 3) % 5, a:b], ring[(first + 4) % 5, a:b]
+        r0, r1, r2 = ring[first % nh, a:b], ring[(first + 1) % nh, a:b], ring[(first + 2) % nh, a:b]
+        r3, r4 = ring[(first + 3) % nh, a:b], ring[(first + 4) % nh, a:b]
         for x in range(n):
             d[x] = ((r0[x] + r1[x]) + (r2[x] + r3[x])) + r4[x]
     else:
-        src = ring[first % nr, a:b]
+        src = ring[first % nh, a:b]
         for x in range(n):
             d[x] = src[x]
         for dy in range(1, nr):
-            src = ring[(first + dy) % nr, a:b]
+            src = ring[(first + dy) % nh, a:b]
             for x in range(n):
                 d[x] += src[x]
+
+
+@numba.njit(**JIT)
+def column_sums(ring, first, nr, ng, dst, a, b):  # pragma: no cover - jit
+    """dst[i, x] = :func:`column_sum` of ring rows ``first + i`` on (modulo the ring's rows), i < ng.
+
+    Several output rows in one pass load each ring row once for all of them (the
+    pass is bound by loads and stores, not additions); every sum keeps the
+    order of :func:`column_sum`, so the values are the same bit for bit.
+    """
+    nh = ring.shape[0]
+    n = b - a
+    if nr == 7 and ng == 4:
+        r0, r1, r2 = ring[first % nh, a:b], ring[(first + 1) % nh, a:b], ring[(first + 2) % nh, a:b]
+        r3, r4, r5 = ring[(first + 3) % nh, a:b], ring[(first + 4) % nh, a:b], ring[(first + 5) % nh, a:b]
+        r6, r7, r8 = ring[(first + 6) % nh, a:b], ring[(first + 7) % nh, a:b], ring[(first + 8) % nh, a:b]
+        r9 = ring[(first + 9) % nh, a:b]
+        d0, d1, d2, d3 = dst[0, a:b], dst[1, a:b], dst[2, a:b], dst[3, a:b]
+        for x in range(n):
+            p23 = r2[x] + r3[x]
+            p45 = r4[x] + r5[x]
+            p34 = r3[x] + r4[x]
+            p56 = r5[x] + r6[x]
+            d0[x] = ((r0[x] + r1[x]) + p23) + (p45 + r6[x])
+            d1[x] = ((r1[x] + r2[x]) + p34) + (p56 + r7[x])
+            d2[x] = (p23 + p45) + ((r6[x] + r7[x]) + r8[x])
+            d3[x] = (p34 + p56) + ((r7[x] + r8[x]) + r9[x])
+    elif nr == 5 and ng == 4:
+        r0, r1, r2 = ring[first % nh, a:b], ring[(first + 1) % nh, a:b], ring[(first + 2) % nh, a:b]
+        r3, r4, r5 = ring[(first + 3) % nh, a:b], ring[(first + 4) % nh, a:b], ring[(first + 5) % nh, a:b]
+        r6, r7 = ring[(first + 6) % nh, a:b], ring[(first + 7) % nh, a:b]
+        d0, d1, d2, d3 = dst[0, a:b], dst[1, a:b], dst[2, a:b], dst[3, a:b]
+        for x in range(n):
+            p23 = r2[x] + r3[x]
+            p34 = r3[x] + r4[x]
+            d0[x] = ((r0[x] + r1[x]) + p23) + r4[x]
+            d1[x] = ((r1[x] + r2[x]) + p34) + r5[x]
+            d2[x] = (p23 + (r4[x] + r5[x])) + r6[x]
+            d3[x] = (p34 + (r5[x] + r6[x])) + r7[x]
+    else:
+        for i in range(ng):
+            column_sum(ring, first + i, nr, dst[i], a, b)
 
 
 @numba.njit(**JIT)
@@ -278,11 +321,18 @@ def tile_square(planes, off, coef, nr, need, colneed, rowneed, want_parts, out, 
     pi, pj, diag = pair_index(K)
     WB = block + 2 * R
     labs = np.empty((K, WB))
-    pring = np.empty((P, nr, WB))  # products of the last nr rows
-    vsum = np.empty((P, WB))  # column sums of one output row
+    G = 4  # output rows per column pass (column_sums)
+    pring = np.zeros((P, nr + G - 1, WB))  # products of the last nr + G - 1 rows
+    vsum = np.empty((G, WB))  # column sums of one pair for G output rows
+    cm = np.empty(WB, np.uint8)
+    ca = np.empty(WB, np.int64)  # runs [ca, cb) of column sums, [na, nb) of pixels in row ni of a group
+    cb = np.empty(WB, np.int64)
+    na = np.empty(G * block, np.int64)
+    nb = np.empty(G * block, np.int64)
+    ni = np.empty(G * block, np.int64)
     # window sums of needed pixels are gathered from several runs and rows, so the
     # elimination runs on long vectors (its ~K^3/6 loops cost little per pixel then)
-    cap = 2 * block
+    cap = G * block  # >= one group of rows
     acc = np.empty((P, cap))
     det = np.empty(cap)
     f = np.empty(cap)
@@ -294,7 +344,7 @@ def tile_square(planes, off, coef, nr, need, colneed, rowneed, want_parts, out, 
         n = min(block, W - x0)
         m = n + 2 * R
         for y in range(y0, y1 + 2 * R):
-            slot = y % nr
+            slot = y % (nr + G - 1)
             xp = x0 + off
             a, b = 0, m
             if not dense:
@@ -313,44 +363,69 @@ def tile_square(planes, off, coef, nr, need, colneed, rowneed, want_parts, out, 
                 a, b = next_run(rowneed[y, x0:], b, m, gap)
             if y < y0 + 2 * R:
                 continue
-            yo = y - 2 * R
-            a, b = 0, m
-            if not dense:
-                a, b = next_run(colneed[yo, x0:], 0, m, gap)
-            while a < b:
-                for q in range(P):
-                    if weighted:
-                        wcolumn_sum(pring[q], yo, wts, vsum[q], a, b)
-                    else:
-                        column_sum(pring[q], yo, nr, vsum[q], a, b)
-                if dense:
-                    break
-                a, b = next_run(colneed[yo, x0:], b, m, gap)
-            if not dense:
-                if clear:
-                    orow = out[yo, x0 : x0 + n]
-                    for c in range(n):
-                        orow[c] = -np.inf
-                a, b = next_run(need[yo, x0:], 0, n, gap)
+            yl = y - 2 * R  # the last output row whose window is complete
+            if (yl - y0) % G != G - 1 and yl != y1 - 1:
+                continue
+            g0 = yl - (yl - y0) % G  # output rows g0 .. yl: their column sums in one pass
+            ng = yl - g0 + 1
+            nc = 0  # runs of the union of their column masks
+            if dense:
+                ca[0], cb[0] = 0, m
+                nc = 1
             else:
-                a, b = 0, n
-            while a < b:
-                w = b - a
-                if pos + w > cap:
-                    flush_gathered(acc, diag, det, tr, f, pos, ys, xs, want_parts, out, det_out, tr_out)
-                    pos = 0
-                for q in range(P):
-                    if weighted:
-                        wrow_sum(vsum[q, a:], wts, acc[q, pos:], w)
-                    else:
-                        row_sum(vsum[q, a:], nr, acc[q, pos:], w)
-                for t in range(w):
-                    ys[pos + t] = yo
-                    xs[pos + t] = x0 + a + t
-                pos += w
+                for c in range(m):
+                    cm[c] = colneed[g0, x0 + c]
+                for i in range(1, ng):
+                    for c in range(m):
+                        cm[c] |= colneed[g0 + i, x0 + c]
+                a, b = next_run(cm, 0, m, gap)
+                while a < b:
+                    ca[nc], cb[nc] = a, b
+                    nc += 1
+                    a, b = next_run(cm, b, m, gap)
+            nn = 0  # runs of their needed pixels
+            tot = 0
+            for i in range(ng):
+                yo = g0 + i
                 if dense:
-                    break
-                a, b = next_run(need[yo, x0:], b, n, gap)
+                    a, b = 0, n
+                else:
+                    if clear:
+                        orow = out[yo, x0 : x0 + n]
+                        for c in range(n):
+                            orow[c] = -np.inf
+                    a, b = next_run(need[yo, x0:], 0, n, gap)
+                while a < b:
+                    na[nn], nb[nn], ni[nn] = a, b, i
+                    nn += 1
+                    tot += b - a
+                    if dense:
+                        break
+                    a, b = next_run(need[yo, x0:], b, n, gap)
+            if pos + tot > cap:
+                flush_gathered(acc, diag, det, tr, f, pos, ys, xs, want_parts, out, det_out, tr_out)
+                pos = 0
+            # one pair at a time: its column sums stay in L1 for the row sums
+            for q in range(P):
+                for r in range(nc):
+                    if weighted:
+                        for i in range(ng):
+                            wcolumn_sum(pring[q], g0 + i, wts, vsum[i], ca[r], cb[r])
+                    else:
+                        column_sums(pring[q], g0, nr, ng, vsum, ca[r], cb[r])
+                p = pos
+                for r in range(nn):
+                    w = nb[r] - na[r]
+                    if weighted:
+                        wrow_sum(vsum[ni[r], na[r]:], wts, acc[q, p:], w)
+                    else:
+                        row_sum(vsum[ni[r], na[r]:], nr, acc[q, p:], w)
+                    p += w
+            for r in range(nn):
+                for t in range(nb[r] - na[r]):
+                    ys[pos + t] = g0 + ni[r]
+                    xs[pos + t] = x0 + na[r] + t
+                pos += nb[r] - na[r]
     flush_gathered(acc, diag, det, tr, f, pos, ys, xs, want_parts, out, det_out, tr_out)
 
 

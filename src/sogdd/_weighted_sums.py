@@ -23,16 +23,20 @@ __all__ = ["wcolumn_sum", "wrow_sum"]
 
 @numba.njit(**JIT)
 def wcolumn_sum(ring, first, wts, dst, a, b):  # pragma: no cover - jit
-    """dst[x] = sum_t wts[t] ring[(first + t) % nr, x] for a <= x < b, t = 0 .. nr - 1 in order."""
+    """dst[x] = sum_t wts[t] ring[(first + t) % nring, x] for a <= x < b, t = 0 .. nr - 1 in order.
+
+    ``nr`` is the window's height (``wts``), ``nring >= nr`` the ring's rows.
+    """
     nr = wts.shape[0]
+    nring = ring.shape[0]
     n = b - a
     d = dst[a:b]  # 1-D views from 0: they vectorise (see sogdd._kernels.column_sum)
-    src = ring[first % nr, a:b]
+    src = ring[first % nring, a:b]
     w0 = wts[0]
     for x in range(n):
         d[x] = w0 * src[x]
     for t in range(1, nr):
-        src = ring[(first + t) % nr, a:b]
+        src = ring[(first + t) % nring, a:b]
         wt = wts[t]
         for x in range(n):
             d[x] += wt * src[x]
