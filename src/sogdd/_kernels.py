@@ -300,8 +300,9 @@ def tile_square(planes, off, coef, nr, need, colneed, rowneed, want_parts, out, 
     """Fill ``out`` (Ht, W) with det/(tr + varsigma) for an ``nr x nr`` square window.
 
     ``planes`` as in :func:`tile_general`. Products of the K absolute
-    responses are kept for the last ``nr`` rows (a ring); each output row sums
-    them down the columns, then along the row, both directly in a fixed
+    responses are kept for the last ``nr + 3`` rows (a ring); groups of 4 output
+    rows sum them down the columns in one pass (:func:`column_sums`, over the
+    union of their column masks), then each row along the row, both directly in a fixed
     pair-wise order (no running sums: the result must not depend on where a
     tile starts, and must not cancel). ``need``, ``colneed`` and ``rowneed``
     (:func:`dilate_masks`) say which pixels, column sums and products to compute;
@@ -322,11 +323,12 @@ def tile_square(planes, off, coef, nr, need, colneed, rowneed, want_parts, out, 
     WB = block + 2 * R
     labs = np.empty((K, WB))
     G = 4  # output rows per column pass (column_sums)
-    pring = np.zeros((P, nr + G - 1, WB))  # products of the last nr + G - 1 rows
+    pring = np.empty((P, nr + G - 1, WB))  # products of the last nr + G - 1 rows
     vsum = np.empty((G, WB))  # column sums of one pair for G output rows
     cm = np.empty(WB, np.uint8)
-    ca = np.empty(WB, np.int64)  # runs [ca, cb) of column sums, [na, nb) of pixels in row ni of a group
-    cb = np.empty(WB, np.int64)
+    ca = np.empty(G * WB, np.int64)  # runs [ca, cb) of column sums, [na, nb) of pixels in row ni of a group
+    cb = np.empty(G * WB, np.int64)
+    ci = np.empty(G * WB, np.int64)
     na = np.empty(G * block, np.int64)
     nb = np.empty(G * block, np.int64)
     ni = np.empty(G * block, np.int64)
@@ -368,10 +370,17 @@ def tile_square(planes, off, coef, nr, need, colneed, rowneed, want_parts, out, 
                 continue
             g0 = yl - (yl - y0) % G  # output rows g0 .. yl: their column sums in one pass
             ng = yl - g0 + 1
-            nc = 0  # runs of the union of their column masks
+            nc = 0  # runs [ca, cb) of column sums for row ci of the group (-1: all, the union of their masks)
             if dense:
-                ca[0], cb[0] = 0, m
+                ca[0], cb[0], ci[0] = 0, m, -1
                 nc = 1
+            elif weighted:  # row by row: no shared loads would repay a union's extra columns
+                for i in range(ng):
+                    a, b = next_run(colneed[g0 + i, x0:], 0, m, gap)
+                    while a < b:
+                        ca[nc], cb[nc], ci[nc] = a, b, i
+                        nc += 1
+                        a, b = next_run(colneed[g0 + i, x0:], b, m, gap)
             else:
                 for c in range(m):
                     cm[c] = colneed[g0, x0 + c]
@@ -380,7 +389,7 @@ def tile_square(planes, off, coef, nr, need, colneed, rowneed, want_parts, out, 
                         cm[c] |= colneed[g0 + i, x0 + c]
                 a, b = next_run(cm, 0, m, gap)
                 while a < b:
-                    ca[nc], cb[nc] = a, b
+                    ca[nc], cb[nc], ci[nc] = a, b, -1
                     nc += 1
                     a, b = next_run(cm, b, m, gap)
             nn = 0  # runs of their needed pixels
@@ -408,11 +417,12 @@ def tile_square(planes, off, coef, nr, need, colneed, rowneed, want_parts, out, 
             # one pair at a time: its column sums stay in L1 for the row sums
             for q in range(P):
                 for r in range(nc):
-                    if weighted:
-                        for i in range(ng):
-                            wcolumn_sum(pring[q], g0 + i, wts, vsum[i], ca[r], cb[r])
-                    else:
+                    if not weighted:
                         column_sums(pring[q], g0, nr, ng, vsum, ca[r], cb[r])
+                        continue
+                    for i in range(ng):
+                        if ci[r] < 0 or ci[r] == i:
+                            wcolumn_sum(pring[q], g0 + i, wts, vsum[i], ca[r], cb[r])
                 p = pos
                 for r in range(nn):
                     w = nb[r] - na[r]
