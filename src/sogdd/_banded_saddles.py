@@ -25,7 +25,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from .saddles import derivatives
+from .saddles import bilinear_rows, derivatives
 
 __all__ = ["saddles_in_bands"]
 
@@ -34,23 +34,10 @@ HALO = 16
 
 
 def _rows_of(y: np.ndarray, H: int) -> tuple[np.ndarray, np.ndarray]:
-    """The two rows the bilinear interpolation of :func:`sogdd.saddles._bilinear` reads at ``y``."""
+    """The two rows the bilinear interpolation of :func:`sogdd.saddles.bilinear_rows` reads at ``y``."""
     yc = np.clip(y, 0.0, H - 1.0)
     y0 = np.minimum(np.floor(yc).astype(np.int64), H - 2 if H > 1 else 0)
     return y0, np.minimum(y0 + 1, H - 1)
-
-
-def _bilinear_at(maps, off: int, H: int, W: int, x: np.ndarray, y: np.ndarray) -> list[np.ndarray]:
-    """:func:`sogdd.saddles._bilinear` of each map, the maps holding image rows ``off ..``: same arithmetic."""
-    x = np.clip(x, 0.0, W - 1.0)
-    y = np.clip(y, 0.0, H - 1.0)
-    x0 = np.minimum(np.floor(x).astype(np.int64), W - 2 if W > 1 else 0)
-    y0 = np.minimum(np.floor(y).astype(np.int64), H - 2 if H > 1 else 0)
-    x1, y1 = np.minimum(x0 + 1, W - 1), np.minimum(y0 + 1, H - 1)
-    fx, fy = x - x0, y - y0
-    r0, r1 = y0 - off, y1 - off
-    return [((m[r0, x0] * (1 - fx) + m[r0, x1] * fx) * (1 - fy) + (m[r1, x0] * (1 - fx) + m[r1, x1] * fx) * fy)
-            for m in maps]
 
 
 def _newton_step(vals: list[np.ndarray], x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -87,7 +74,7 @@ def _finish(grey, sigma2: float, r: int, x: np.ndarray, y: np.ndarray, steps: np
             ghi = int(hi[order[g0:g1]].max())
             c0, c1 = max(0, glo - r), min(H, ghi + 1 + r)  # rows glo .. ghi are the image's
             maps = [m[glo - c0 : ghi + 1 - c0] for m in derivatives(np.asarray(grey[c0:c1]), sigma2, r)]
-            x[sel], y[sel] = _newton_step(_bilinear_at(maps, glo, H, W, x[sel], y[sel]), x[sel], y[sel])
+            x[sel], y[sel] = _newton_step(bilinear_rows(maps, glo, H, W, x[sel], y[sel]), x[sel], y[sel])
             g0 = g1
         steps[act] += 1
         act = act[steps[act] < iterations]
@@ -130,7 +117,7 @@ def saddles_in_bands(grey, sigma2: float, radius: int, *, iterations: int = 4, m
             if out.any():
                 stray += [(i, xi, yi, step) for i, xi, yi in zip(idx[out], x[out], y[out])]
                 x, y, idx = x[~out], y[~out], idx[~out]
-            x, y = _newton_step(_bilinear_at(maps, ea, H, W, x, y), x, y)
+            x, y = _newton_step(bilinear_rows(maps, ea, H, W, x, y), x, y)
         done_xy.append(np.stack([x, y], axis=1))
         done_idx.append(idx)
     if n0 == 0:

@@ -82,17 +82,21 @@ def derivatives(grey: np.ndarray, sigma2: float, radius: int) -> tuple[np.ndarra
     return f(b.d1, b.gauss), f(b.gauss, b.d1), f(b.d2, b.gauss), f(b.d1, b.d1), f(b.gauss, b.d2)
 
 
-def _bilinear(m: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """``m`` at sub-pixel points (bilinear, reflect border), float64 arithmetic."""
-    h, w = m.shape
-    x = np.clip(x, 0.0, w - 1.0)
-    y = np.clip(y, 0.0, h - 1.0)
-    x0 = np.minimum(np.floor(x).astype(np.int64), w - 2 if w > 1 else 0)
-    y0 = np.minimum(np.floor(y).astype(np.int64), h - 2 if h > 1 else 0)
-    x1, y1 = np.minimum(x0 + 1, w - 1), np.minimum(y0 + 1, h - 1)
+def bilinear_rows(maps, off: int, H: int, W: int, x: np.ndarray, y: np.ndarray) -> list[np.ndarray]:
+    """Each map at sub-pixel points of an H x W image (bilinear, edge-clamped), float64 arithmetic.
+
+    The maps may hold only image rows ``off ..`` (a band), as long as they cover
+    the two rows each point reads.
+    """
+    x = np.clip(x, 0.0, W - 1.0)
+    y = np.clip(y, 0.0, H - 1.0)
+    x0 = np.minimum(np.floor(x).astype(np.int64), W - 2 if W > 1 else 0)
+    y0 = np.minimum(np.floor(y).astype(np.int64), H - 2 if H > 1 else 0)
+    x1, y1 = np.minimum(x0 + 1, W - 1), np.minimum(y0 + 1, H - 1)
     fx, fy = x - x0, y - y0
-    return ((m[y0, x0] * (1 - fx) + m[y0, x1] * fx) * (1 - fy)
-            + (m[y1, x0] * (1 - fx) + m[y1, x1] * fx) * fy)
+    r0, r1 = y0 - off, y1 - off
+    return [((m[r0, x0] * (1 - fx) + m[r0, x1] * fx) * (1 - fy) + (m[r1, x0] * (1 - fx) + m[r1, x1] * fx) * fy)
+            for m in maps]
 
 
 def find_saddles(grey: np.ndarray, sigma2: float, radius: int | None = None, *, iterations: int = 4,
@@ -121,8 +125,7 @@ def find_saddles(grey: np.ndarray, sigma2: float, radius: int | None = None, *, 
     x0, y0 = cols.astype(np.float64), rows.astype(np.float64)
     x, y = x0.copy(), y0.copy()
     for _ in range(int(iterations)):
-        a, b, c = _bilinear(gxx, x, y), _bilinear(gxy, x, y), _bilinear(gyy, x, y)
-        px, py = _bilinear(gx, x, y), _bilinear(gy, x, y)
+        a, b, c, px, py = bilinear_rows((gxx, gxy, gyy, gx, gy), 0, *gxx.shape, x, y)
         det = a * c - b * b
         with np.errstate(divide="ignore", invalid="ignore"):
             dx = -(c * px - b * py) / det
