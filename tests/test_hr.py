@@ -79,7 +79,7 @@ def test_grey_threshold_is_contrast_invariant():
 
 
 def test_grey_units_round_trip_and_calibration():
-    spec = resolve_params("hr").window_spec()
+    spec = resolve_params("hr").measure_spec()
     for t in (1.0, 17.0, 100.0):
         assert grey_strength(np.array([measure_threshold(t, spec)]), spec)[0] == pytest.approx(t, rel=1e-12)
 

@@ -16,8 +16,9 @@ from sogdd._banded import peaks_in_bands
 from sogdd._banded_saddles import saddles_in_bands
 from sogdd.filters import kernel_radius
 from sogdd.peaks import refine_quadratic, select_peaks
+from sogdd.response import soddc_measure
 from sogdd.saddles import find_saddles, measure_threshold
-from sogdd.weighted import GaussianWindowSpec, gaussian_window_measure, gaussian_window_reference
+from sogdd.weighted import gaussian_window_reference, gaussian_window_spec
 
 
 def _photo_like(h, w, seed=3):
@@ -28,16 +29,16 @@ def _photo_like(h, w, seed=3):
     return np.clip(img + rng.normal(0, 2, (h, w)), 0, 255)
 
 
-HR = sogdd.resolve_params("hr").window_spec()
+HR = sogdd.resolve_params("hr").measure_spec()
 
 
 @pytest.mark.parametrize("shape", [(3, 4), (9, 5), (41, 57)])
-@pytest.mark.parametrize("spec", [HR, GaussianWindowSpec(1.2, 8, 5), GaussianWindowSpec(2.0, 2, 7),
-                                  GaussianWindowSpec(1.44, 4, 3, "authors", True)])
+@pytest.mark.parametrize("spec", [HR, gaussian_window_spec(1.2, 8, 5), gaussian_window_spec(2.0, 2, 7),
+                                  gaussian_window_spec(1.44, 4, 3, "authors", True)])
 def test_weighted_kernel_equals_the_definition(shape, spec):
     img = _photo_like(*shape)
     ref = gaussian_window_reference(img, spec)
-    fast = gaussian_window_measure(img, spec)
+    fast = soddc_measure(img, spec)
     # K = 8 responses of a 3-dimensional basis: Lambda is close to rank 3 on a tiny image, and det
     # amplifies any rounding (the OpenCV-filter implementation before this one was 1.6e-8 off at 3 x 4)
     tol = 1e-12 if spec.n_orientations <= 4 or min(shape) > 3 else 1e-7
@@ -47,8 +48,8 @@ def test_weighted_kernel_equals_the_definition(shape, spec):
 @pytest.mark.parametrize("tile_rows,threads", [(1, 2), (3, 1), (5, 2), (128, 1)])
 def test_weighted_kernel_does_not_depend_on_tiles_or_threads(tile_rows, threads):
     img = _photo_like(23, 61)
-    base = gaussian_window_measure(img, HR, tile_rows=64, threads=1)
-    np.testing.assert_array_equal(gaussian_window_measure(img, HR, tile_rows=tile_rows, threads=threads), base)
+    base = soddc_measure(img, HR, tile_rows=64, threads=1)
+    np.testing.assert_array_equal(soddc_measure(img, HR, tile_rows=tile_rows, threads=threads), base)
     ref = gaussian_window_reference(img, HR)
     assert np.max(np.abs(base - ref)) <= 1e-12 * ref.max()
 
@@ -58,8 +59,8 @@ def test_pruned_hr_measure_is_the_full_one_where_it_matters(tile_rows):
     rng = np.random.default_rng(5)
     img = np.clip(sogdd.synthetic.pattern_image((120, 160))[0] + rng.normal(0, 2, (120, 160)), 0, 255)
     floor = measure_threshold(20.0, HR)
-    full = gaussian_window_measure(img, HR)
-    pruned = gaussian_window_measure(img, HR, floor=floor, tile_rows=tile_rows, threads=2)
+    full = soddc_measure(img, HR)
+    pruned = soddc_measure(img, HR, floor=floor, tile_rows=tile_rows, threads=2)
     exact = np.isfinite(pruned)
     np.testing.assert_array_equal(pruned[exact], full[exact])
     assert np.all(pruned[~exact] == -np.inf) and np.all(full[~exact] < floor)
@@ -76,7 +77,7 @@ def test_banded_hr_peaks_equal_the_full_map(band_rows):
     img = _photo_like(64, 90)
     p = sogdd.resolve_params("hr")
     thr = measure_threshold(p.threshold, HR)
-    full = gaussian_window_measure(img, HR)
+    full = soddc_measure(img, HR)
     rows, cols = select_peaks(full, threshold=thr, nms_radius=1, border=2)
     got = peaks_in_bands(img, HR, threshold=thr, floor=thr, border=2, band_rows=band_rows)
     assert len(rows) > 10

@@ -17,8 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from .peaks import maxima_above, rank_peaks, refine_quadratic
-from .response import MeasureSpec
-from .weighted import measure_of
+from .response import MeasureSpec, soddc_measure
 
 __all__ = ["BAND_ROWS", "peaks_in_bands"]
 
@@ -39,9 +38,9 @@ def peaks_in_bands(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Rows, columns, values and quadratic offsets (dx, dy) of the peaks above ``threshold``.
 
-    ``spec``: a :class:`~sogdd.response.MeasureSpec` (square window) or a
-    :class:`~sogdd.weighted.GaussianWindowSpec`. The points are those of
-    ``select_peaks(measure_of(grey, spec, floor=floor),
+    ``spec``: a :class:`~sogdd.response.MeasureSpec` with a square window (equal or
+    Gaussian weights). The points are those of
+    ``select_peaks(soddc_measure(grey, spec, floor=floor),
     threshold=threshold, nms_radius=..., border=..., mask=..., max_corners=...)``
     (``floor <= threshold``), strongest first, and the offsets those of
     :func:`sogdd.peaks.refine_quadratic` on that map.
@@ -58,7 +57,7 @@ def peaks_in_bands(
         c = min(H, a + int(band_rows))
         lo, hi = max(0, a - halo), min(H, c + halo)  # rows whose values are used
         y0, y1 = max(0, lo - m), min(H, hi + m)
-        resp = measure_of(grey[y0:y1], spec, floor=floor)[lo - y0 : hi - y0]
+        resp = soddc_measure(grey[y0:y1], spec, floor=floor)[lo - y0 : hi - y0]
         n0, n1 = max(a - rad, rlo), min(c + rad, rhi)
         if n1 <= n0 or chi <= clo:
             continue

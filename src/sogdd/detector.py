@@ -20,9 +20,8 @@ from .corners import Corners
 from .io import check_mask, to_gray255, validate_image
 from .params import Params, resolve_params
 from .peaks import inside_allowed, refine_gradient, refine_gradient_adaptive, refine_quadratic, select_peaks
-from .response import MeasureSpec, supports_floor
+from .response import MeasureSpec, soddc_measure, supports_floor
 from .saddles import X_RING_RADIUS, add_x_junctions, grey_strength, measure_threshold
-from .weighted import measure_of
 
 __all__ = ["corner_response", "detect_corners"]
 
@@ -33,7 +32,6 @@ def _prepare(image, p: Params, lazy: bool = False) -> np.ndarray | GreyRows:
     gray = dict(weights=p.gray_weights, round_integer=p.gray_round, channel_order=p.channel_order,
                 value_range=p.value_range)
     return GreyRows(img, **gray) if lazy else to_gray255(img, **gray)
-
 
 
 def corner_response(image, *, preset: str = "paper", device: str = "cpu", **params) -> np.ndarray:
@@ -69,21 +67,20 @@ def corner_response(image, *, preset: str = "paper", device: str = "cpu", **para
     if (gpu := _gpu(device)) is not None:
         return gpu.corner_response(image, preset=preset, **params)
     p = resolve_params(preset, **params)
-    return measure_of(_prepare(image, p), p.window_spec())
+    return soddc_measure(_prepare(image, p), p.measure_spec())
 
 
 def _floor(p: Params, spec: MeasureSpec, threshold: float | None) -> float | None:
     """The absolute threshold, when it alone decides which peaks pass (no relative or quantile one)."""
     if threshold is None or threshold <= 0 or p.threshold_rel is not None or p.quantile is not None:
         return None
-    # square windows (sogdd.response) and Gaussian ones (sogdd.weighted) prune; the authors' measure does not
-    return float(threshold) if not isinstance(spec, MeasureSpec) or supports_floor(spec) else None
+    return float(threshold) if supports_floor(spec) else None
 
 
 def _detect_level(grey: np.ndarray, p: Params, mask: np.ndarray | None) -> Corners:
-    # Exact wherever a peak above the threshold or its 3x3 neighbourhood can be, -inf
+    # Exact wherever a peak above the threshold or the 3x3 patch of one can be, -inf
     # where a bound proves the measure below it: the same corners as the full map.
-    spec = p.window_spec()  # a MeasureSpec, or a Gaussian-window spec (sogdd.weighted)
+    spec = p.measure_spec()
     grey_units = p.threshold_units == "grey"
     thr = p.threshold
     if grey_units and thr is not None:  # grey levels of corner contrast -> Upsilon (sogdd.saddles)
@@ -94,16 +91,16 @@ def _detect_level(grey: np.ndarray, p: Params, mask: np.ndarray | None) -> Corne
         rows, cols, values, qoff = peaks_in_bands(grey, spec, threshold=thr, floor=floor, border=p.border,
                                                   nms_radius=p.nms_radius, mask=mask, max_corners=top)
     else:  # a relative threshold prunes too (sogdd._relative_floor)
-        floor = relative_floor(grey, p, spec, mask, threshold=thr) if isinstance(spec, MeasureSpec) else None
+        floor = relative_floor(grey, p, spec, mask, threshold=thr)
         # one pass over bands, no H x W map (sogdd._banded_relative); None where only the full map can tell
-        got = None if not isinstance(spec, MeasureSpec) else peaks_relative_in_bands(
+        got = peaks_relative_in_bands(
             grey, spec, threshold=thr, threshold_rel=p.threshold_rel, quantile=p.quantile, floor=floor,
             nms_radius=p.nms_radius, border=p.border, mask=mask, max_corners=top,
             quadratic=p.subpixel != "none")
         if got is not None:
             rows, cols, values, qoff = got
         else:
-            resp = measure_of(np.asarray(grey), spec, floor=floor)
+            resp = soddc_measure(np.asarray(grey), spec, floor=floor)
             rows, cols = select_peaks(resp, threshold=thr, threshold_rel=p.threshold_rel, quantile=p.quantile,
                                       nms_radius=p.nms_radius, border=p.border, mask=mask, max_corners=top)
             values = resp[rows, cols]

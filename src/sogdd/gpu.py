@@ -207,6 +207,9 @@ def _detect_stack(s: GreyStack, p: Params, masks: list) -> list[Corners]:
 
 def _params(preset: str, params: dict) -> Params:
     p = resolve_params(preset, **params)
+    if p.window_shape == "gaussian":  # the device kernel sums with equal weights only
+        raise ValueError("window_shape='gaussian' (the hr preset) is not supported on device='cuda'; "
+                         "use device='cpu'")
     require_cuda()
     return p
 

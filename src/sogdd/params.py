@@ -15,6 +15,7 @@ import numpy as np
 from .filters import kernel_radius
 from .io import BT601, MATLAB_RGB2GRAY, check_value_range
 from .response import MeasureSpec
+from .weighted import gaussian_window_spec
 from .window import window_halfwidths
 
 __all__ = ["PRESETS", "Params", "resolve_params"]
@@ -54,17 +55,11 @@ class Params:
     x_junctions: bool = False
     value_range: tuple[float, float] | None = None  # input values mapped onto 0-255 (None: by dtype)
 
-    def window_spec(self):
-        """The measure's spec: :meth:`measure_spec`, or a Gaussian-window spec (:mod:`sogdd.weighted`)."""
-        if self.window_shape == "gaussian":
-            from .weighted import GaussianWindowSpec
-
-            return GaussianWindowSpec(float(self.sigma2), int(self.n_orientations), int(self.window),
-                                      self.kernel_radius_rule, bool(self.zero_mean))
-        return self.measure_spec()
-
     def measure_spec(self) -> MeasureSpec:
         """The resolved :class:`~sogdd.response.MeasureSpec` of these parameters."""
+        if self.window_shape == "gaussian":
+            return gaussian_window_spec(float(self.sigma2), int(self.n_orientations), int(self.window),
+                                        self.kernel_radius_rule, bool(self.zero_mean))
         return MeasureSpec(
             sigma2=float(self.sigma2),
             n_orientations=int(self.n_orientations),

@@ -321,13 +321,15 @@ def quadratic_offsets(patch: np.ndarray, *, log: bool = True) -> np.ndarray:
             lp = np.log(patch)
         ok = np.isfinite(lp).all(axis=(1, 2))
         patch = np.where(ok[:, None, None], lp, patch)
-    gx = (patch[:, 1, 2] - patch[:, 1, 0]) / 2
-    gy = (patch[:, 2, 1] - patch[:, 0, 1]) / 2
-    fxx = patch[:, 1, 2] - 2 * patch[:, 1, 1] + patch[:, 1, 0]
-    fyy = patch[:, 2, 1] - 2 * patch[:, 1, 1] + patch[:, 0, 1]
-    fxy = (patch[:, 2, 2] - patch[:, 2, 0] - patch[:, 0, 2] + patch[:, 0, 0]) / 4
-    det = fxx * fyy - fxy * fxy
+    # a patch holding -inf (a pruned pixel beside a band's provisional candidate in
+    # sogdd._banded_relative) gives NaN here and the fallback below; no warning for it
     with np.errstate(divide="ignore", invalid="ignore"):
+        gx = (patch[:, 1, 2] - patch[:, 1, 0]) / 2
+        gy = (patch[:, 2, 1] - patch[:, 0, 1]) / 2
+        fxx = patch[:, 1, 2] - 2 * patch[:, 1, 1] + patch[:, 1, 0]
+        fyy = patch[:, 2, 1] - 2 * patch[:, 1, 1] + patch[:, 0, 1]
+        fxy = (patch[:, 2, 2] - patch[:, 2, 0] - patch[:, 0, 2] + patch[:, 0, 0]) / 4
+        det = fxx * fyy - fxy * fxy
         ox = -(fyy * gx - fxy * gy) / det
         oy = -(fxx * gy - fxy * gx) / det
         good = (fxx < 0) & (det > 0) & (np.abs(ox) <= 1) & (np.abs(oy) <= 1)

@@ -19,7 +19,10 @@ __all__ = ["reference_lambda", "reference_measure"]
 
 
 def reference_lambda(image: np.ndarray, spec: MeasureSpec) -> np.ndarray:
-    """The SODDC matrices by the definition (eq. 24): (H, W, K, K) float64."""
+    """The SODDC matrices by the definition (eq. 24): (H, W, K, K) float64.
+
+    With ``spec.weights`` each offset's outer product is weighted by ``w(dy) w(dx)``.
+    """
     img = np.asarray(image, dtype=np.float64)
     H, W = img.shape
     rk = kernel_radius(spec.sigma2, spec.radius_rule)
@@ -40,9 +43,13 @@ def reference_lambda(image: np.ndarray, spec: MeasureSpec) -> np.ndarray:
     absl = np.abs(resp)
     K = len(kernels)
     lam = np.zeros((H, W, K, K))
+    w = spec.weights
     for dy, dx in offsets:
         v = absl[:, R + dy : R + dy + H, R + dx : R + dx + W]
-        lam += np.einsum("ihw,jhw->hwij", v, v)
+        if w:
+            lam += w[dy + R] * w[dx + R] * np.einsum("ihw,jhw->hwij", v, v)
+        else:
+            lam += np.einsum("ihw,jhw->hwij", v, v)
     return lam
 
 

@@ -70,6 +70,9 @@ class MeasureSpec:
         ``numpy.pad(..., "symmetric")``).
     authors_measure : bool
         Clamp tiny negative det to 0 and map non-finite values to -inf (authors).
+    weights : tuple of float
+        1-D weights of a separable window over a square (``w(dy) w(dx)``: the
+        Gaussian window of :mod:`sogdd.weighted`); empty for equal weights.
 
     Attributes
     ----------
@@ -91,11 +94,13 @@ class MeasureSpec:
     zero_mean: bool = False
     padding: str = "response"
     authors_measure: bool = False
+    weights: tuple[float, ...] = ()
     radius: int = field(init=False, repr=False, compare=False)
     coef: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "halfwidths", tuple(int(h) for h in self.halfwidths))
+        object.__setattr__(self, "weights", tuple(float(w) for w in self.weights))
         object.__setattr__(self, "radius", kernel_radius(self.sigma2, self.radius_rule))
         object.__setattr__(self, "coef", steering_coefficients(orientations(self.n_orientations)))
 
@@ -261,6 +266,7 @@ def soddc_measure(
     res = _tiled(
         H, W, domain, M, spec.coef, np.asarray(spec.halfwidths),
         parts=spec.authors_measure, floor=floor, tile_rows=tile_rows, threads=threads,
+        weights=np.asarray(spec.weights) if spec.weights else None,
     )
     if spec.authors_measure:
         return (res[1], res[2]) if raw else authors_measure(res[1], res[2], out=res[1])

@@ -43,7 +43,7 @@ import cv2
 import numpy as np
 
 from .filters import kernel_radius, steerable_basis
-from .response import MeasureSpec
+from .response import MeasureSpec, soddc_measure
 from .synthetic import Polygon, render_polygons
 
 __all__ = [
@@ -150,12 +150,10 @@ def _calibration_images() -> tuple[np.ndarray, np.ndarray]:
 def corner_unit(spec) -> float:
     """Peak Upsilon of an ideal right-angle L-corner of contrast 100 under ``spec``.
 
-    ``spec``: a :class:`~sogdd.response.MeasureSpec` or a :class:`~sogdd.weighted.GaussianWindowSpec`.
+    ``spec``: a :class:`~sogdd.response.MeasureSpec` (any window, equal or Gaussian weights).
     """
-    from .weighted import measure_of
-
     L, _ = _calibration_images()
-    return float(measure_of(L, spec).max())
+    return float(soddc_measure(L, spec).max())
 
 
 @lru_cache(maxsize=32)
