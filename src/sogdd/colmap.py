@@ -35,6 +35,7 @@ import numpy as np
 
 from .corners import Corners
 from .describe import describe
+from .features import read_features
 from .io import list_images, read_image
 
 __all__ = [
@@ -233,8 +234,6 @@ def _feature_files(folder: Path) -> dict[str, Path]:
 def _read_feature_file(path: Path) -> tuple[Corners, np.ndarray | None, np.ndarray | None]:
     """A ``sogdd detect --format npz`` file (:mod:`sogdd.features`): corners, the stored sizes and the
     optional ``descriptors`` (N, 128). A bad file is a one-line ``ValueError`` naming it."""
-    from .features import read_features
-
     recs = read_features(path)
     if len(recs) != 1:
         raise ValueError(f"{path}: holds {len(recs)} images; export takes one feature file per image")

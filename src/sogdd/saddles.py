@@ -42,6 +42,7 @@ from functools import lru_cache
 import cv2
 import numpy as np
 
+from .corners import Corners
 from .filters import kernel_radius, steerable_basis
 from .response import MeasureSpec, soddc_measure
 from .synthetic import Polygon, render_polygons
@@ -207,8 +208,6 @@ def add_x_junctions(corners, grey: np.ndarray, spec: MeasureSpec, *, threshold: 
     ``is_x`` marking the X-junctions. ``find``: :func:`find_saddles` or a function with
     its signature and results (:func:`sogdd._banded_saddles.saddles_in_bands`, no image-sized maps).
     """
-    from .corners import Corners
-
     r = kernel_radius(spec.sigma2, spec.radius_rule)
     unit = saddle_unit(spec.sigma2, r)
     raw_min = 0.0 if threshold is None else threshold * unit / CALIBRATION_CONTRAST
