@@ -1,7 +1,7 @@
 """The saddle points of :func:`sogdd.saddles.find_saddles` in bands of rows, without image-sized maps.
 
-:func:`~sogdd.saddles.find_saddles` filters the whole image into five float64
-derivative maps (and three more for the strength and its maxima): 1.5 GB at
+:func:`~sogdd.saddles.find_saddles` filters the whole image into three float64
+derivative maps (and one more for the strength): 1.5 GB at
 24 MP. Every step is local, so the same points come band by band:
 
 - the derivatives of a crop of full rows are those of the image, bit for bit,
@@ -10,26 +10,29 @@ derivative maps (and three more for the strength and its maxima): 1.5 GB at
   in the same order; tested), so a band's maps are exact on ``halo`` rows
   beyond the band;
 - the strength and its 3 x 3 maxima on the band's rows read rows +-1 only;
-- each Newton step reads the maps on two rows (bilinear interpolation). A point
+- each Newton step reads the maps on two rows (bilinear interpolation), and the
+  grey crop ``radius`` rows beyond them (the gradient at those pixels). A point
   whose step needs a row outside the band's exact rows (it wandered more than
   ``halo`` rows; almost always refused in the end) continues afterwards on crops
   filtered around the rows it reads (:func:`_finish`), so its path is the full maps' path.
 
 Candidates keep the raster order of the full maps; the result is
-``find_saddles(grey, ...)`` exactly, with maps of ``band_rows + 2 (halo +
-radius)`` rows. ``grey`` may be a :class:`sogdd._grey_rows.GreyRows`.
+``find_saddles(grey, ...)`` exactly, with three maps of ``band_rows + 2 halo``
+rows and a grey crop of ``band_rows + 2 (halo + radius)`` rows. ``grey`` may be a
+:class:`sogdd._grey_rows.GreyRows`.
 """
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
 
-from .saddles import bilinear_rows, derivatives
+from ._saddle_kernels import strength_maxima
+from .filters import steerable_basis
+from .saddles import newton_step, second_derivatives, strength_floor
 
 __all__ = ["saddles_in_bands"]
 
-BAND_ROWS = 256
+BAND_ROWS = 512  # OpenCV filters a crop of fewer rows on one thread only
 HALO = 16
 
 
@@ -38,16 +41,6 @@ def _rows_of(y: np.ndarray, H: int) -> tuple[np.ndarray, np.ndarray]:
     yc = np.clip(y, 0.0, H - 1.0)
     y0 = np.minimum(np.floor(yc).astype(np.int64), H - 2 if H > 1 else 0)
     return y0, np.minimum(y0 + 1, H - 1)
-
-
-def _newton_step(vals: list[np.ndarray], x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """One step of :func:`sogdd.saddles.find_saddles` from ``(g_x, g_y, g_xx, g_xy, g_yy)`` at the points."""
-    px, py, a, b, c = vals
-    det = a * c - b * b
-    with np.errstate(divide="ignore", invalid="ignore"):
-        dx = -(c * px - b * py) / det
-        dy = -(a * py - b * px) / det
-    return x + np.where(np.isfinite(dx), dx, 9.0), y + np.where(np.isfinite(dy), dy, 9.0)
 
 
 def _finish(grey, sigma2: float, r: int, x: np.ndarray, y: np.ndarray, steps: np.ndarray, iterations: int,
@@ -59,6 +52,7 @@ def _finish(grey, sigma2: float, r: int, x: np.ndarray, y: np.ndarray, steps: np
     that of a band however far the points went.
     """
     H, W = grey.shape
+    basis = steerable_basis(sigma2, r)
     x, y, steps = x.copy(), y.copy(), steps.copy()
     act = np.flatnonzero(steps < iterations)
     while len(act):
@@ -73,8 +67,9 @@ def _finish(grey, sigma2: float, r: int, x: np.ndarray, y: np.ndarray, steps: np
             sel = act[order[g0:g1]]
             ghi = int(hi[order[g0:g1]].max())
             c0, c1 = max(0, glo - r), min(H, ghi + 1 + r)  # rows glo .. ghi are the image's
-            maps = [m[glo - c0 : ghi + 1 - c0] for m in derivatives(np.asarray(grey[c0:c1]), sigma2, r)]
-            x[sel], y[sel] = _newton_step(bilinear_rows(maps, glo, H, W, x[sel], y[sel]), x[sel], y[sel])
+            crop = np.ascontiguousarray(grey[c0:c1], dtype=np.float64)
+            maps = [m[glo - c0 : ghi + 1 - c0] for m in second_derivatives(crop, sigma2, r)]
+            x[sel], y[sel] = newton_step(maps, glo, crop, c0, (H, W), x[sel], y[sel], basis)
             g0 = g1
         steps[act] += 1
         act = act[steps[act] < iterations]
@@ -87,29 +82,24 @@ def saddles_in_bands(grey, sigma2: float, radius: int, *, iterations: int = 4, m
     H, W = grey.shape
     r = int(radius)
     halo = max(int(halo), 1)
-    thr = max(float(min_strength), 0.0)
-    cand_x, cand_y, cand_s = [], [], []
+    t_n = strength_floor(sigma2, min_strength)
+    basis = steerable_basis(sigma2, r)
+    cand_x, cand_y, cand_n = [], [], []
     done_xy, done_idx, stray = [], [], []  # stray: (candidate index, x, y, steps done)
     n0 = 0
     for a in range(0, H, int(band_rows)):
         c = min(H, a + int(band_rows))
         ea, eb = max(0, a - halo), min(H, c + halo)  # rows where the band's maps are the image's
         y0, y1 = max(0, ea - r), min(H, eb + r)
-        d = derivatives(np.asarray(grey[y0:y1]), sigma2, r)
-        maps = [m[ea - y0 : eb - y0] for m in d]  # g_x, g_y, g_xx, g_xy, g_yy on rows ea .. eb - 1
-        gxx, gxy, gyy = maps[2], maps[3], maps[4]
-        neg = gxy * gxy - gxx * gyy
-        s = sigma2 * np.sqrt(np.maximum(neg, 0.0))
-        dil = cv2.dilate(s, np.ones((3, 3), np.uint8), borderType=cv2.BORDER_REPLICATE)
-        own = s[a - ea : c - ea]
-        rows, cols = np.nonzero((own >= dil[a - ea : c - ea]) & (own > thr))
-        del neg, dil
+        crop = np.ascontiguousarray(grey[y0:y1], dtype=np.float64)
+        maps = [m[ea - y0 : eb - y0] for m in second_derivatives(crop, sigma2, r)]  # rows ea .. eb - 1
+        rows, cols, n = strength_maxima(*maps, top=ea, height=H, first=a - ea, last=c - ea, t_n=t_n)
         idx = n0 + np.arange(len(rows))
         n0 += len(rows)
-        x0, yy0 = cols.astype(np.float64), (rows + a).astype(np.float64)
+        x0, yy0 = cols.astype(np.float64), rows.astype(np.float64)
         cand_x.append(x0)
         cand_y.append(yy0)
-        cand_s.append(own[rows, cols])
+        cand_n.append(n)
         x, y = x0.copy(), yy0.copy()
         for step in range(int(iterations)):
             lo, hi = _rows_of(y, H)
@@ -117,12 +107,12 @@ def saddles_in_bands(grey, sigma2: float, radius: int, *, iterations: int = 4, m
             if out.any():
                 stray += [(i, xi, yi, step) for i, xi, yi in zip(idx[out], x[out], y[out])]
                 x, y, idx = x[~out], y[~out], idx[~out]
-            x, y = _newton_step(bilinear_rows(maps, ea, H, W, x, y), x, y)
+            x, y = newton_step(maps, ea, crop, y0, (H, W), x, y, basis)
         done_xy.append(np.stack([x, y], axis=1))
         done_idx.append(idx)
     if n0 == 0:
         return np.zeros((0, 2)), np.zeros(0)
-    cx, cy, cs = np.concatenate(cand_x), np.concatenate(cand_y), np.concatenate(cand_s)
+    cx, cy, cn = np.concatenate(cand_x), np.concatenate(cand_y), np.concatenate(cand_n)
     fin = np.empty((n0, 2))
     di = np.concatenate(done_idx)
     fin[di] = np.concatenate(done_xy)
@@ -132,4 +122,4 @@ def saddles_in_bands(grey, sigma2: float, radius: int, *, iterations: int = 4, m
                          int(iterations), int(band_rows))
         fin[i.astype(np.int64)] = np.stack([sx, sy], axis=1)
     ok = (np.abs(fin[:, 0] - cx) <= 1.0) & (np.abs(fin[:, 1] - cy) <= 1.0)
-    return fin[ok], cs[ok]
+    return fin[ok], sigma2 * np.sqrt(cn[ok])

@@ -13,14 +13,17 @@ image ``G_sigma * I``: the gradient vanishes and ``det H < 0``.
 The stage (Chen and Zhang 2005, "A new sub-pixel detector for X-corners in
 camera calibration targets"; a Foerstner-style saddle fit):
 
-1. ``g_x, g_y, g_xx, g_xy, g_yy`` of ``G_sigma * I`` at the detector's scale;
+1. ``g_xx, g_xy, g_yy`` of ``G_sigma * I`` at the detector's scale (the
+   steerable basis);
 2. candidates: 3x3 maxima of the saddle strength
    ``s = sigma^2 sqrt(max(0, g_xy^2 - g_xx g_yy))`` (a scale-normalised second
-   derivative, linear in the image contrast);
+   derivative, linear in the image contrast), found in one compiled pass
+   (:mod:`sogdd._saddle_kernels`);
 3. the saddle point: Newton steps ``delta = -H^{-1} grad`` on bilinearly
-   interpolated derivative maps. A candidate is kept only when the iteration
-   stays within one pixel of it: an L-corner's apex also has ``det H < 0``
-   but a large gradient, so its step leaves the pixel.
+   interpolated derivatives (the gradient ``g_x, g_y`` evaluated from the image at
+   the four pixels each step reads; only candidates need it). A candidate is kept
+   only when the iteration stays within one pixel of it: an L-corner's apex also
+   has ``det H < 0`` but a large gradient, so its step leaves the pixel.
 
 Grey-level units
 ----------------
@@ -42,6 +45,7 @@ from functools import lru_cache
 import cv2
 import numpy as np
 
+from ._saddle_kernels import gradient_bilinear, strength_maxima
 from .corners import Corners
 from .filters import kernel_radius, steerable_basis
 from .response import MeasureSpec, soddc_measure
@@ -52,12 +56,14 @@ __all__ = [
     "X_RING_RADIUS",
     "add_x_junctions",
     "corner_unit",
-    "derivatives",
     "find_saddles",
     "grey_strength",
     "measure_threshold",
     "near_any",
+    "newton_step",
     "saddle_unit",
+    "second_derivatives",
+    "strength_floor",
 ]
 
 #: the contrast (grey levels) of the calibration corner and junction
@@ -68,10 +74,10 @@ X_RING_RADIUS = 2.0
 _BORDER = cv2.BORDER_REFLECT  # half-sample symmetric, as every other stage
 
 
-def derivatives(grey: np.ndarray, sigma2: float, radius: int) -> tuple[np.ndarray, ...]:
-    """``(g_x, g_y, g_xx, g_xy, g_yy)`` of ``G_sigma * I``: sampled Gaussian derivatives, reflect border.
+def second_derivatives(grey: np.ndarray, sigma2: float, radius: int) -> tuple[np.ndarray, ...]:
+    """``(g_xx, g_xy, g_yy)`` of ``G_sigma * I``: sampled Gaussian derivatives, reflect border.
 
-    The second derivatives are the steerable basis of :mod:`sogdd.filters`
+    They are the steerable basis of :mod:`sogdd.filters`
     (``l_theta = c^2 g_xx + 2 s c g_xy + s^2 g_yy``).
     """
     b = steerable_basis(sigma2, radius)
@@ -80,7 +86,7 @@ def derivatives(grey: np.ndarray, sigma2: float, radius: int) -> tuple[np.ndarra
     def f(kx: np.ndarray, ky: np.ndarray) -> np.ndarray:
         return cv2.sepFilter2D(img, cv2.CV_64F, kx, ky, borderType=_BORDER)
 
-    return f(b.d1, b.gauss), f(b.gauss, b.d1), f(b.d2, b.gauss), f(b.d1, b.d1), f(b.gauss, b.d2)
+    return f(b.d2, b.gauss), f(b.d1, b.d1), f(b.gauss, b.d2)
 
 
 def bilinear_rows(maps, off: int, H: int, W: int, x: np.ndarray, y: np.ndarray) -> list[np.ndarray]:
@@ -100,11 +106,34 @@ def bilinear_rows(maps, off: int, H: int, W: int, x: np.ndarray, y: np.ndarray) 
             for m in maps]
 
 
+def newton_step(maps, map_off: int, img: np.ndarray, img_off: int, shape: tuple[int, int], x: np.ndarray,
+                y: np.ndarray, basis) -> tuple[np.ndarray, np.ndarray]:
+    """One step ``delta = -H^{-1} grad`` from each point: the Hessian from ``maps`` (``g_xx, g_xy, g_yy`` on
+    image rows ``map_off ..``), the gradient from ``img`` (image rows ``img_off ..``).
+
+    A singular Hessian is no saddle: the point is sent 9 px away, so that it is refused.
+    """
+    H, W = shape
+    a, b, c = bilinear_rows(maps, map_off, H, W, x, y)
+    px, py = gradient_bilinear(img, img_off, H, W, x, y, basis.gauss, basis.d1)
+    det = a * c - b * b
+    with np.errstate(divide="ignore", invalid="ignore"):
+        dx = -(c * px - b * py) / det
+        dy = -(a * py - b * px) / det
+    return x + np.where(np.isfinite(dx), dx, 9.0), y + np.where(np.isfinite(dy), dy, 9.0)
+
+
+def strength_floor(sigma2: float, min_strength: float) -> float:
+    """The ``N = g_xy^2 - g_xx g_yy`` that candidates must exceed: ``s > min_strength`` in ``N`` units."""
+    t = max(float(min_strength), 0.0) / float(sigma2)
+    return t * t
+
+
 def find_saddles(grey: np.ndarray, sigma2: float, radius: int | None = None, *, iterations: int = 4,
                  min_strength: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Saddle points of the smoothed image: ``(xy (N, 2), strength (N,))``, strength ``s`` (module doc).
 
-    Candidates with ``s < min_strength`` are not fitted (a threshold, applied early).
+    Candidates with ``s <= min_strength`` are not fitted (a threshold, applied early).
 
     Examples
     --------
@@ -116,26 +145,20 @@ def find_saddles(grey: np.ndarray, sigma2: float, radius: int | None = None, *, 
     [20.3, 20.6]
     """
     r = kernel_radius(sigma2) if radius is None else int(radius)
-    gx, gy, gxx, gxy, gyy = derivatives(grey, sigma2, r)
-    neg = gxy * gxy - gxx * gyy
-    s = sigma2 * np.sqrt(np.maximum(neg, 0.0))
-    dil = cv2.dilate(s, np.ones((3, 3), np.uint8), borderType=cv2.BORDER_REPLICATE)
-    rows, cols = np.nonzero((s >= dil) & (s > max(float(min_strength), 0.0)))
+    img = np.ascontiguousarray(grey, dtype=np.float64)
+    H, W = img.shape
+    maps = second_derivatives(img, sigma2, r)
+    rows, cols, n = strength_maxima(*maps, top=0, height=H, first=0, last=H,
+                                    t_n=strength_floor(sigma2, min_strength))
     if len(rows) == 0:
         return np.zeros((0, 2)), np.zeros(0)
     x0, y0 = cols.astype(np.float64), rows.astype(np.float64)
     x, y = x0.copy(), y0.copy()
+    basis = steerable_basis(sigma2, r)
     for _ in range(int(iterations)):
-        a, b, c, px, py = bilinear_rows((gxx, gxy, gyy, gx, gy), 0, *gxx.shape, x, y)
-        det = a * c - b * b
-        with np.errstate(divide="ignore", invalid="ignore"):
-            dx = -(c * px - b * py) / det
-            dy = -(a * py - b * px) / det
-        # a singular Hessian is no saddle: send the point away so it is refused below
-        x = x + np.where(np.isfinite(dx), dx, 9.0)
-        y = y + np.where(np.isfinite(dy), dy, 9.0)
+        x, y = newton_step(maps, 0, img, 0, (H, W), x, y, basis)
     ok = (np.abs(x - x0) <= 1.0) & (np.abs(y - y0) <= 1.0)
-    return np.stack([x[ok], y[ok]], axis=1), s[rows, cols][ok]
+    return np.stack([x[ok], y[ok]], axis=1), sigma2 * np.sqrt(n[ok])
 
 
 def _calibration_images() -> tuple[np.ndarray, np.ndarray]:
