@@ -1,4 +1,4 @@
-"""The hr preset on the compiled kernel: weighted window sums, pruning, bands, banded saddles.
+"""The hr preset on the compiled kernel: weighted window sums, pruning, bands, saddles in bands.
 
 The Gaussian window's sums run in the tiled kernel (weighted column sums, then
 row sums, in a fixed order): ~1e-15 relative from the literal definition
@@ -6,18 +6,18 @@ row sums, in a fixed order): ~1e-15 relative from the literal definition
 masks and bands.
 """
 
+import cv2
 import numpy as np
 import pytest
 from scipy import ndimage
 
 import sogdd
-from sogdd import _banded_saddles
 from sogdd._banded import peaks_in_bands
-from sogdd._banded_saddles import saddles_in_bands
-from sogdd.filters import kernel_radius
+from sogdd._saddle_kernels import gradient_bilinear, strength_maxima
+from sogdd.filters import kernel_radius, steerable_basis
 from sogdd.peaks import refine_quadratic, select_peaks
 from sogdd.response import soddc_measure
-from sogdd.saddles import find_saddles, measure_threshold
+from sogdd.saddles import bilinear_rows, find_saddles, measure_threshold, second_derivatives
 from sogdd.weighted import gaussian_window_reference, gaussian_window_spec
 
 
@@ -60,7 +60,7 @@ def test_pruned_hr_measure_is_the_full_one_where_it_matters(tile_rows):
     img = np.clip(sogdd.synthetic.pattern_image((120, 160))[0] + rng.normal(0, 2, (120, 160)), 0, 255)
     floor = measure_threshold(20.0, HR)
     full = soddc_measure(img, HR)
-    pruned = soddc_measure(img, HR, floor=floor, tile_rows=tile_rows, threads=2)
+    pruned = soddc_measure(img, HR, floor=floor, tile_rows=tile_rows, threads=2, prune=True)
     exact = np.isfinite(pruned)
     np.testing.assert_array_equal(pruned[exact], full[exact])
     assert np.all(pruned[~exact] == -np.inf) and np.all(full[~exact] < floor)
@@ -87,21 +87,47 @@ def test_banded_hr_peaks_equal_the_full_map(band_rows):
     np.testing.assert_array_equal(got[3], refine_quadratic(full, rows, cols))
 
 
-@pytest.mark.parametrize("band_rows,halo", [(256, 16), (5, 1), (1, 1)])
-def test_banded_saddles_equal_find_saddles(band_rows, halo, monkeypatch):
+@pytest.mark.parametrize("band_rows", [256, 5, 2, 1])
+def test_saddles_in_bands_equal_the_whole_image(band_rows):
     img = _photo_like(60, 80)
     r = kernel_radius(1.5)
-    calls = []
-    finish = _banded_saddles._finish
-    monkeypatch.setattr(_banded_saddles, "_finish", lambda *a: calls.append(len(a[3])) or finish(*a))
     for ms in (0.0, 3.0):
-        want = find_saddles(img, 1.5, r, min_strength=ms)
-        got = saddles_in_bands(img, 1.5, r, min_strength=ms, band_rows=band_rows, halo=halo)
+        want = find_saddles(img, 1.5, r, min_strength=ms, band_rows=60)
+        got = find_saddles(img, 1.5, r, min_strength=ms, band_rows=band_rows)
         assert len(want[0]) > 5
         np.testing.assert_array_equal(got[0], want[0])
         np.testing.assert_array_equal(got[1], want[1])
-    if halo == 1:
-        assert calls and max(calls) > 0  # points that left their band took the second path
+
+
+@pytest.mark.parametrize("shape", [(1, 7), (7, 1), (2, 2), (30, 41)])
+def test_saddle_gradient_is_the_filtered_map_interpolated(shape):
+    """The gradient at Newton iterates, from the image, equals the sepFilter2D maps interpolated."""
+    rng = np.random.default_rng(1)
+    img = rng.uniform(0, 255, shape)
+    b = steerable_basis(1.5, 5)
+    H, W = shape
+    maps = [cv2.sepFilter2D(img, cv2.CV_64F, kx, ky, borderType=cv2.BORDER_REFLECT)
+            for kx, ky in ((b.d1, b.gauss), (b.gauss, b.d1))]
+    x, y = rng.uniform(-1, W, 50), rng.uniform(-1, H, 50)
+    want = bilinear_rows(maps, 0, H, W, x, y)
+    got = gradient_bilinear(img, 0, H, W, x, y, b.gauss, b.d1)
+    for g, w in zip(got, want):
+        np.testing.assert_allclose(g, w, rtol=0, atol=1e-12 * max(1.0, np.abs(w).max()))
+
+
+def test_saddle_candidates_are_the_dilation_maxima():
+    """One compiled pass gives the 3 x 3 maxima above the floor of the numpy definition, in raster order."""
+    img = _photo_like(50, 70)
+    gxx, gxy, gyy = second_derivatives(img, 1.5, kernel_radius(1.5))
+    n = np.maximum(gxy * gxy - gxx * gyy, 0.0)
+    dil = cv2.dilate(n, np.ones((3, 3), np.uint8), borderType=cv2.BORDER_REPLICATE)
+    t_n = float(np.quantile(n, 0.9))
+    rows, cols = np.nonzero((n >= dil) & (n > t_n))
+    got = strength_maxima(gxx, gxy, gyy, top=0, height=50, first=0, last=50, t_n=t_n)
+    assert len(rows) > 10
+    np.testing.assert_array_equal(got[0], rows)
+    np.testing.assert_array_equal(got[1], cols)
+    np.testing.assert_allclose(got[2], n[rows, cols], rtol=1e-12)  # fused multiply-adds: ulps apart
 
 
 def test_hr_detection_reads_the_grey_image_in_crops_only(monkeypatch):

@@ -11,8 +11,8 @@ millions of pixels. Here:
   ``N > t_N`` and ``N`` is not below any in-image 8-neighbour;
 - :func:`gradient_bilinear` gives ``(g_x, g_y)`` at the Newton iterates from the
   image itself (separable Gaussian-derivative sums at the four pixels the
-  bilinear interpolation reads), so the two first-derivative maps are never
-  filtered; only the candidates ever need them.
+  bilinear interpolation reads, sharing their row sums), so the two
+  first-derivative maps are never filtered; only the candidates ever need them.
 
 Every value is a function of the image and the pixel only (fixed summation
 order), so bands, crops and the whole image give the same bits.
@@ -83,39 +83,52 @@ def strength_maxima(gxx: np.ndarray, gxy: np.ndarray, gyy: np.ndarray, *, top: i
 
 
 @numba.njit(**JIT)
-def _gradient_at(img, off, height, width, y, x, gauss, d1):  # pragma: no cover - jit
-    """``(g_x, g_y)`` at pixel ``(y, x)``: d1 along x with gauss along y, and the reverse (correlation)."""
+def _row_sums(img, off, height, width, y0, x, gauss, d1, sg, s1):  # pragma: no cover - jit
+    """Row sums at column ``x`` of the ``2 r + 2`` image rows from ``y0 - r`` (reflected): gauss and d1."""
     r = (gauss.shape[0] - 1) // 2
-    gx = 0.0
-    gy = 0.0
-    for a in range(2 * r + 1):
-        row = reflect1(y + a - r, height) - off
-        sg = 0.0
-        s1 = 0.0
+    for a in range(2 * r + 2):
+        row = reflect1(y0 + a - r, height) - off
+        vg = 0.0
+        v1 = 0.0
         for b in range(2 * r + 1):
             v = img[row, reflect1(x + b - r, width)]
-            sg += gauss[b] * v
-            s1 += d1[b] * v
-        gx += gauss[a] * s1
-        gy += d1[a] * sg
+            vg += gauss[b] * v
+            v1 += d1[b] * v
+        sg[a] = vg
+        s1[a] = v1
+
+
+@numba.njit(**JIT)
+def _column(sg, s1, shift, gauss, d1):  # pragma: no cover - jit
+    """``(g_x, g_y)`` at the row ``shift`` below the first: d1 along x with gauss along y, and the reverse."""
+    gx = 0.0
+    gy = 0.0
+    for a in range(gauss.shape[0]):
+        gx += gauss[a] * s1[a + shift]
+        gy += d1[a] * sg[a + shift]
     return gx, gy
 
 
 @numba.njit(**JIT)
 def _gradient_bilinear(img, off, height, width, xs, ys, gauss, d1, gx, gy):  # pragma: no cover - jit
+    n = gauss.shape[0] + 1
+    sg0, s10, sg1, s11 = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
     for t in range(xs.shape[0]):
         x = min(max(xs[t], 0.0), width - 1.0)
         y = min(max(ys[t], 0.0), height - 1.0)
         x0 = min(int(math.floor(x)), width - 2 if width > 1 else 0)
         y0 = min(int(math.floor(y)), height - 2 if height > 1 else 0)
         x1 = min(x0 + 1, width - 1)
-        y1 = min(y0 + 1, height - 1)
+        dy = min(y0 + 1, height - 1) - y0  # 0 on a one-row image
         fx = x - x0
         fy = y - y0
-        ax00, ay00 = _gradient_at(img, off, height, width, y0, x0, gauss, d1)
-        ax01, ay01 = _gradient_at(img, off, height, width, y0, x1, gauss, d1)
-        ax10, ay10 = _gradient_at(img, off, height, width, y1, x0, gauss, d1)
-        ax11, ay11 = _gradient_at(img, off, height, width, y1, x1, gauss, d1)
+        # the four pixels share their rows: row sums once per column (correlation, as cv2.sepFilter2D)
+        _row_sums(img, off, height, width, y0, x0, gauss, d1, sg0, s10)
+        _row_sums(img, off, height, width, y0, x1, gauss, d1, sg1, s11)
+        ax00, ay00 = _column(sg0, s10, 0, gauss, d1)
+        ax01, ay01 = _column(sg1, s11, 0, gauss, d1)
+        ax10, ay10 = _column(sg0, s10, dy, gauss, d1)
+        ax11, ay11 = _column(sg1, s11, dy, gauss, d1)
         gx[t] = (ax00 * (1 - fx) + ax01 * fx) * (1 - fy) + (ax10 * (1 - fx) + ax11 * fx) * fy
         gy[t] = (ay00 * (1 - fx) + ay01 * fx) * (1 - fy) + (ay10 * (1 - fx) + ay11 * fx) * fy
 

@@ -13,7 +13,6 @@ import numpy as np
 
 from ._banded import peaks_in_bands
 from ._banded_relative import peaks_relative_in_bands
-from ._banded_saddles import saddles_in_bands
 from ._grey_rows import GreyRows
 from ._relative_floor import relative_floor
 from .corners import Corners
@@ -116,7 +115,7 @@ def _detect_level(grey: np.ndarray, p: Params, mask: np.ndarray | None) -> Corne
     is_x = np.zeros(len(out), bool)
     if p.x_junctions:
         out, is_x = add_x_junctions(out, grey, spec, threshold=p.threshold, rho=X_RING_RADIUS,
-                                    size=p.keypoint_size(), border=p.border, mask=mask, find=saddles_in_bands)
+                                    size=p.keypoint_size(), border=p.border, mask=mask)
         if p.max_corners is not None:
             out, is_x = out.subset(np.arange(min(len(out), p.max_corners))), is_x[: p.max_corners]
     if p.subpixel == "adaptive" and len(out):  # after the cut: windows see the final neighbours

@@ -22,8 +22,20 @@ camera calibration targets"; a Foerstner-style saddle fit):
 3. the saddle point: Newton steps ``delta = -H^{-1} grad`` on bilinearly
    interpolated derivatives (the gradient ``g_x, g_y`` evaluated from the image at
    the four pixels each step reads; only candidates need it). A candidate is kept
-   only when the iteration stays within one pixel of it: an L-corner's apex also
-   has ``det H < 0`` but a large gradient, so its step leaves the pixel.
+   only when every iterate stays within one pixel of it (it is dropped as soon as
+   one leaves): an L-corner's apex also has ``det H < 0`` but a large gradient,
+   so its step leaves the pixel.
+
+Bands
+-----
+Every step is local, so :func:`find_saddles` runs in bands of rows with three
+float64 maps of ``band_rows + 4`` rows, never image-sized ones, and gives the
+same points for any band height: the derivatives of a crop of full rows are
+those of the image, bit for bit, on every row at least ``radius`` rows from a
+crop edge that is not the image's (OpenCV's separable filter computes each
+pixel from the same values in the same order; tested); the maxima read rows
++-1, and an iterate that stays within 1 px of its candidate reads the maps on
+rows up to 2 beyond the band, and the image ``radius`` rows beyond those.
 
 Grey-level units
 ----------------
@@ -72,6 +84,8 @@ CALIBRATION_CONTRAST = 100.0
 #: (the hr study's choice, docs/hr.md)
 X_RING_RADIUS = 2.0
 _BORDER = cv2.BORDER_REFLECT  # half-sample symmetric, as every other stage
+#: rows per band of :func:`find_saddles` (OpenCV filters a crop of fewer rows on one thread only)
+BAND_ROWS = 512
 
 
 def second_derivatives(grey: np.ndarray, sigma2: float, radius: int) -> tuple[np.ndarray, ...]:
@@ -129,11 +143,26 @@ def strength_floor(sigma2: float, min_strength: float) -> float:
     return t * t
 
 
-def find_saddles(grey: np.ndarray, sigma2: float, radius: int | None = None, *, iterations: int = 4,
-                 min_strength: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+def _fit(maps, map_off: int, img: np.ndarray, img_off: int, shape: tuple[int, int], x0: np.ndarray,
+         y0: np.ndarray, basis, iterations: int) -> tuple[np.ndarray, np.ndarray]:
+    """Newton iterates from the candidates; ``ok``: never left the candidate's pixel (+-1 px)."""
+    x, y = x0.copy(), y0.copy()
+    ok = np.ones(len(x), dtype=bool)
+    for _ in range(int(iterations)):
+        i = np.flatnonzero(ok)
+        x[i], y[i] = newton_step(maps, map_off, img, img_off, shape, x[i], y[i], basis)
+        ok[i] = (np.abs(x[i] - x0[i]) <= 1.0) & (np.abs(y[i] - y0[i]) <= 1.0)
+    return np.stack([x, y], axis=1), ok
+
+
+def find_saddles(grey, sigma2: float, radius: int | None = None, *, iterations: int = 4,
+                 min_strength: float = 0.0, band_rows: int = BAND_ROWS) -> tuple[np.ndarray, np.ndarray]:
     """Saddle points of the smoothed image: ``(xy (N, 2), strength (N,))``, strength ``s`` (module doc).
 
-    Candidates with ``s <= min_strength`` are not fitted (a threshold, applied early).
+    Candidates with ``s <= min_strength`` are not fitted (a threshold, applied
+    early). The image is processed in bands of ``band_rows`` rows, with the same
+    result for any band height (module doc); ``grey`` may be a
+    :class:`sogdd._grey_rows.GreyRows`.
 
     Examples
     --------
@@ -145,20 +174,24 @@ def find_saddles(grey: np.ndarray, sigma2: float, radius: int | None = None, *, 
     [20.3, 20.6]
     """
     r = kernel_radius(sigma2) if radius is None else int(radius)
-    img = np.ascontiguousarray(grey, dtype=np.float64)
-    H, W = img.shape
-    maps = second_derivatives(img, sigma2, r)
-    rows, cols, n = strength_maxima(*maps, top=0, height=H, first=0, last=H,
-                                    t_n=strength_floor(sigma2, min_strength))
-    if len(rows) == 0:
-        return np.zeros((0, 2)), np.zeros(0)
-    x0, y0 = cols.astype(np.float64), rows.astype(np.float64)
-    x, y = x0.copy(), y0.copy()
+    H, W = grey.shape
+    t_n = strength_floor(sigma2, min_strength)
     basis = steerable_basis(sigma2, r)
-    for _ in range(int(iterations)):
-        x, y = newton_step(maps, 0, img, 0, (H, W), x, y, basis)
-    ok = (np.abs(x - x0) <= 1.0) & (np.abs(y - y0) <= 1.0)
-    return np.stack([x[ok], y[ok]], axis=1), sigma2 * np.sqrt(n[ok])
+    xy, n = [np.zeros((0, 2))], [np.zeros(0)]
+    for a in range(0, H, max(int(band_rows), 1)):
+        c = min(H, a + max(int(band_rows), 1))
+        # maps on rows ea .. eb - 1: the rows a - 1 .. c the maxima read, and the rows a - 1 .. c + 1
+        # the bilinear interpolation reads while an iterate stays within 1 px of its candidate
+        ea, eb = max(0, a - 2), min(H, c + 2)
+        y0, y1 = max(0, ea - r), min(H, eb + r)
+        crop = np.ascontiguousarray(grey[y0:y1], dtype=np.float64)
+        maps = [m[ea - y0 : eb - y0] for m in second_derivatives(crop, sigma2, r)]
+        rows, cols, nn = strength_maxima(*maps, top=ea, height=H, first=a - ea, last=c - ea, t_n=t_n)
+        p, ok = _fit(maps, ea, crop, y0, (H, W), cols.astype(np.float64), rows.astype(np.float64), basis,
+                     iterations)
+        xy.append(p[ok])
+        n.append(nn[ok])
+    return np.concatenate(xy), sigma2 * np.sqrt(np.concatenate(n))
 
 
 def _calibration_images() -> tuple[np.ndarray, np.ndarray]:
@@ -220,21 +253,20 @@ def near_any(xy: np.ndarray, centres: np.ndarray, radius: float) -> np.ndarray:
     return np.isfinite(d) & (d <= radius)
 
 
-def add_x_junctions(corners, grey: np.ndarray, spec: MeasureSpec, *, threshold: float | None,
-                    rho: float, size: float, border: int = 0, mask: np.ndarray | None = None,
-                    find=find_saddles):
+def add_x_junctions(corners, grey, spec: MeasureSpec, *, threshold: float | None, rho: float, size: float,
+                    border: int = 0, mask: np.ndarray | None = None):
     """Replace the ring of Upsilon peaks around each X-junction by the junction's saddle point.
 
     ``corners`` carry grey-level strengths (:func:`grey_strength`). Saddles of
     strength ``>= threshold`` (grey levels, :func:`saddle_unit` scale) are added;
     corners within ``rho`` px of one are dropped. Returns ``(Corners, is_x)``, strongest first,
-    ``is_x`` marking the X-junctions. ``find``: :func:`find_saddles` or a function with
-    its signature and results (:func:`sogdd._banded_saddles.saddles_in_bands`, no image-sized maps).
+    ``is_x`` marking the X-junctions. ``grey``: an array or a :class:`sogdd._grey_rows.GreyRows`
+    (:func:`find_saddles` reads it in bands).
     """
     r = kernel_radius(spec.sigma2, spec.radius_rule)
     unit = saddle_unit(spec.sigma2, r)
     raw_min = 0.0 if threshold is None else threshold * unit / CALIBRATION_CONTRAST
-    xy, s = find(grey, spec.sigma2, r, min_strength=raw_min)
+    xy, s = find_saddles(grey, spec.sigma2, r, min_strength=raw_min)
     s = CALIBRATION_CONTRAST * s / unit
     h, w = grey.shape
     col, row = np.rint(xy[:, 0]).astype(np.int64), np.rint(xy[:, 1]).astype(np.int64)
