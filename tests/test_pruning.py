@@ -20,7 +20,7 @@ from sogdd.window import reflect_index
 
 def _check_floor_contract(img, spec, floor, **kw):
     full = soddc_measure(img, spec)
-    pruned = soddc_measure(img, spec, floor=floor, **kw)
+    pruned = soddc_measure(img, spec, floor=floor, prune=True, **kw)
     exact = np.isfinite(pruned)
     np.testing.assert_array_equal(pruned[exact], full[exact])
     assert np.all(pruned[~exact] == -np.inf)
@@ -53,8 +53,8 @@ def test_floor_contract_on_a_pattern_and_pruning_pays(pattern):
 def test_floor_contract_does_not_depend_on_tiles_or_threads(rng, tile_rows):
     img = _photo_like(70, 300, rng)
     spec = sogdd.resolve_params("paper").measure_spec()
-    a = soddc_measure(img, spec, floor=1e8, tile_rows=tile_rows, threads=2)
-    b = soddc_measure(img, spec, floor=1e8, tile_rows=64, threads=1)
+    a = soddc_measure(img, spec, floor=1e8, tile_rows=tile_rows, threads=2, prune=True)
+    b = soddc_measure(img, spec, floor=1e8, tile_rows=64, threads=1, prune=True)
     fin = np.isfinite(a) & np.isfinite(b)
     np.testing.assert_array_equal(a[fin], b[fin])
     _check_floor_contract(img, spec, 1e8, tile_rows=tile_rows, threads=2)
@@ -238,3 +238,14 @@ def test_masks_cover_neighbours_across_tiles_and_edge_patches():
     out[0, 0] = 5.0  # image row 0 (r0 = 0): the patch is rows 0..2
     lo, hi = neighbour_need(out, 2.0, 0, 100, need)
     assert (lo, hi) == (0, 3) and need[:3, :3].sum() == 8 and need.sum() == 8 and need[0, 0] == 0
+
+
+def test_pruning_runs_where_it_pays_only(pattern):
+    """K = 8: the bound runs by default; K = 4 (hr): the full map, which meets the same contract."""
+    img = pattern[0].astype(np.float64)
+    k8 = sogdd.resolve_params("paper").measure_spec()
+    k4 = sogdd.resolve_params("hr").measure_spec()
+    assert np.isinf(soddc_measure(img, k8, floor=1e9)).any()
+    full4 = soddc_measure(img, k4)
+    np.testing.assert_array_equal(soddc_measure(img, k4, floor=float(np.quantile(full4, 0.99))), full4)
+    assert np.isinf(soddc_measure(img, k4, floor=float(np.quantile(full4, 0.99)), prune=True)).any()

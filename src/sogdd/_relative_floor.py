@@ -15,7 +15,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from .response import MeasureSpec, soddc_measure, supports_floor
+from .response import MeasureSpec, prune_pays, soddc_measure, supports_floor
 
 __all__ = ["max_lower_bound", "relative_floor"]
 
@@ -86,7 +86,9 @@ def relative_floor(
     threshold the full map gives.
     """
     rel = params.threshold_rel
-    if rel is None or params.quantile is not None or not supports_floor(spec) or not rel > 0:
+    if rel is None or params.quantile is not None or not rel > 0:
+        return None
+    if not (supports_floor(spec) and prune_pays(spec)):  # no pruning: no floor to compute
         return None
     levels = [float(threshold)] if threshold is not None else []
     lo = max_lower_bound(grey, spec, params.border, mask)

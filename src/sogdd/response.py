@@ -41,7 +41,7 @@ from .window import is_square, take_reflected, window_offsets
 
 __all__ = [
     "VARSIGMA", "MeasureSpec", "authors_apply", "authors_limit", "authors_measure", "soddc_at",
-    "abs_max", "soddc_from_responses", "soddc_measure", "supports_floor", "thread_count",
+    "abs_max", "prune_pays", "soddc_from_responses", "soddc_measure", "supports_floor", "thread_count",
 ]
 
 _EPS = float(np.finfo(np.float64).eps)
@@ -203,6 +203,20 @@ def _tiled(
     return (out, det, tr) if parts else out
 
 
+#: The Fischer bound costs six window sums per pixel, the exact kernel K(K+1)/2 and an
+#: elimination, so the bound pays only for enough orientations. Measured on the 6.3 MP facade
+#: photo (``benchmarks/bench_speed.py``'s), 2 threads, threshold 20 grey levels: K = 4 box 115 ms
+#: full / 154 ms pruned, K = 4 Gaussian (hr) 137 / 177 (also slower on the fountain and the mosaic),
+#: K = 6 box 178 / 194, K = 6 Gaussian 237 / 195, K = 8 box 277 / 264, K = 8 Gaussian 397 / 314;
+#: the paper preset (K = 8, its T_h) 0.34x / 0.25x SIFT (README).
+PRUNE_MIN_ORIENTATIONS = 6
+
+
+def prune_pays(spec: MeasureSpec) -> bool:
+    """Whether pruning below a floor is worth its bound for this spec (:data:`PRUNE_MIN_ORIENTATIONS`)."""
+    return spec.n_orientations >= PRUNE_MIN_ORIENTATIONS
+
+
 def supports_floor(spec: MeasureSpec) -> bool:
     """Whether :func:`soddc_measure` can prune below a floor for this spec (square windows)."""
     return not spec.authors_measure and is_square(spec.halfwidths)
@@ -216,6 +230,7 @@ def soddc_measure(
     tile_rows: int = 128,
     threads: int | None = None,
     raw: bool = False,
+    prune: bool | None = None,
 ) -> np.ndarray:
     """The corner measure Upsilon (eq. 25) of a float64 grey image, H x W float64.
 
@@ -234,7 +249,9 @@ def soddc_measure(
     maxima above ``floor`` (any radius: a pixel left out is below every peak),
     their values and their 3 x 3 patches are then those of the full map, at a
     fraction of the cost on photographs (most pixels are proven below ``T_h``
-    by six window sums instead of K(K+1)/2 and an elimination).
+    by six window sums instead of K(K+1)/2 and an elimination). ``prune``:
+    whether to run the bound; by default where it pays (:func:`prune_pays`).
+    Without it the full map is returned, which meets the same contract.
 
     Examples
     --------
@@ -243,7 +260,7 @@ def soddc_measure(
     >>> img = pattern_image((120, 160))[0].astype(float)
     >>> spec = MeasureSpec(1.2, 8, window_halfwidths("square", 7))
     >>> full = soddc_measure(img, spec)
-    >>> pruned = soddc_measure(img, spec, floor=1e9)
+    >>> pruned = soddc_measure(img, spec, floor=1e9)  # K = 8: the bound pays
     >>> bool(np.all((pruned == full) | (pruned == -np.inf)))
     True
     >>> bool(np.all(full[pruned == -np.inf] < 1e9))
@@ -254,8 +271,8 @@ def soddc_measure(
     R = spec.window_radius
     if floor is not None and not (floor > 0 and supports_floor(spec)):
         raise ValueError("floor needs a positive value, a square window and the paper's measure")
-    if min(H, W) < 3:  # too small for 3 x 3 patches: the full map is the pruned one
-        floor = None
+    if min(H, W) < 3 or not (prune_pays(spec) if prune is None else prune):
+        floor = None  # the full map meets the floor's contract (and 3 x 3 patches need 3 rows)
     basis = steerable_basis(spec.sigma2, spec.radius, zero_mean=spec.zero_mean)
     # one margin for both kernels, so the filter responses are computed identically
     M = R + 1
