@@ -12,6 +12,7 @@ import pytest
 from scipy import ndimage
 
 import sogdd
+from sogdd import saddles
 from sogdd._banded import peaks_in_bands
 from sogdd._saddle_kernels import gradient_bilinear, strength_maxima
 from sogdd.filters import kernel_radius, steerable_basis
@@ -87,16 +88,21 @@ def test_banded_hr_peaks_equal_the_full_map(band_rows):
     np.testing.assert_array_equal(got[3], refine_quadratic(full, rows, cols))
 
 
-@pytest.mark.parametrize("band_rows", [256, 5, 2, 1])
-def test_saddles_in_bands_equal_the_whole_image(band_rows):
+@pytest.mark.parametrize("band_rows,halo", [(256, 16), (5, 1), (1, 1), (2, 3)])
+def test_saddles_in_bands_equal_the_whole_image(band_rows, halo, monkeypatch):
     img = _photo_like(60, 80)
     r = kernel_radius(1.5)
+    calls = []
+    finish = saddles._finish
+    monkeypatch.setattr(saddles, "_finish", lambda *a: calls.append(len(a[4])) or finish(*a))
     for ms in (0.0, 3.0):
         want = find_saddles(img, 1.5, r, min_strength=ms, band_rows=60)
-        got = find_saddles(img, 1.5, r, min_strength=ms, band_rows=band_rows)
+        got = find_saddles(img, 1.5, r, min_strength=ms, band_rows=band_rows, halo=halo)
         assert len(want[0]) > 5
         np.testing.assert_array_equal(got[0], want[0])
         np.testing.assert_array_equal(got[1], want[1])
+    if halo == 1:
+        assert calls and max(calls) > 0  # points that left their band took the second path
 
 
 @pytest.mark.parametrize("shape", [(1, 7), (7, 1), (2, 2), (30, 41)])

@@ -22,20 +22,22 @@ camera calibration targets"; a Foerstner-style saddle fit):
 3. the saddle point: Newton steps ``delta = -H^{-1} grad`` on bilinearly
    interpolated derivatives (the gradient ``g_x, g_y`` evaluated from the image at
    the four pixels each step reads; only candidates need it). A candidate is kept
-   only when every iterate stays within one pixel of it (it is dropped as soon as
-   one leaves): an L-corner's apex also has ``det H < 0`` but a large gradient,
-   so its step leaves the pixel.
+   only when the last of four iterates is within one pixel of it: an L-corner's
+   apex also has ``det H < 0`` but a large gradient, so its step leaves the pixel.
 
 Bands
 -----
 Every step is local, so :func:`find_saddles` runs in bands of rows with three
-float64 maps of ``band_rows + 4`` rows, never image-sized ones, and gives the
-same points for any band height: the derivatives of a crop of full rows are
-those of the image, bit for bit, on every row at least ``radius`` rows from a
-crop edge that is not the image's (OpenCV's separable filter computes each
+float64 maps of ``band_rows + 2 halo`` rows, never image-sized ones, and gives
+the same points for any band height: the derivatives of a crop of full rows
+are those of the image, bit for bit, on every row at least ``radius`` rows from
+a crop edge that is not the image's (OpenCV's separable filter computes each
 pixel from the same values in the same order; tested); the maxima read rows
-+-1, and an iterate that stays within 1 px of its candidate reads the maps on
-rows up to 2 beyond the band, and the image ``radius`` rows beyond those.
++-1, and each Newton step reads the maps on two rows and the image ``radius``
+rows beyond them. A point whose step needs a row outside the band's maps (it
+wandered more than ``halo`` rows; almost always refused in the end) continues
+afterwards on crops filtered around the rows it reads, so its path is the
+whole image's path.
 
 Grey-level units
 ----------------
@@ -86,6 +88,9 @@ X_RING_RADIUS = 2.0
 _BORDER = cv2.BORDER_REFLECT  # half-sample symmetric, as every other stage
 #: rows per band of :func:`find_saddles` (OpenCV filters a crop of fewer rows on one thread only)
 BAND_ROWS = 512
+#: rows beyond a band where its maps are kept: a Newton iterate that reads farther (rare) continues
+#: on crops filtered around it (``_finish``)
+HALO = 16
 
 
 def second_derivatives(grey: np.ndarray, sigma2: float, radius: int) -> tuple[np.ndarray, ...]:
@@ -143,26 +148,70 @@ def strength_floor(sigma2: float, min_strength: float) -> float:
     return t * t
 
 
-def _fit(maps, map_off: int, img: np.ndarray, img_off: int, shape: tuple[int, int], x0: np.ndarray,
-         y0: np.ndarray, basis, iterations: int) -> tuple[np.ndarray, np.ndarray]:
-    """Newton iterates from the candidates; ``ok``: never left the candidate's pixel (+-1 px)."""
-    x, y = x0.copy(), y0.copy()
-    ok = np.ones(len(x), dtype=bool)
+def _rows_of(y: np.ndarray, H: int) -> tuple[np.ndarray, np.ndarray]:
+    """The two rows :func:`bilinear_rows` reads at ``y``."""
+    yc = np.clip(y, 0.0, H - 1.0)
+    y0 = np.minimum(np.floor(yc).astype(np.int64), H - 2 if H > 1 else 0)
+    return y0, np.minimum(y0 + 1, H - 1)
+
+
+def _steps_in_band(maps, ea: int, eb: int, crop: np.ndarray, c0: int, shape: tuple[int, int], x: np.ndarray,
+                   y: np.ndarray, basis, iterations: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Newton steps while each point reads rows ``ea .. eb - 1`` only; ``(x, y, steps done)``."""
+    x, y = x.copy(), y.copy()
+    steps = np.zeros(len(x), dtype=np.int64)
+    act = np.arange(len(x))
     for _ in range(int(iterations)):
-        i = np.flatnonzero(ok)
-        x[i], y[i] = newton_step(maps, map_off, img, img_off, shape, x[i], y[i], basis)
-        ok[i] = (np.abs(x[i] - x0[i]) <= 1.0) & (np.abs(y[i] - y0[i]) <= 1.0)
-    return np.stack([x, y], axis=1), ok
+        lo, hi = _rows_of(y[act], shape[0])
+        act = act[(lo >= ea) & (hi < eb)]  # a point that would read outside continues in _finish
+        x[act], y[act] = newton_step(maps, ea, crop, c0, shape, x[act], y[act], basis)
+        steps[act] += 1
+    return x, y, steps
+
+
+def _finish(grey, sigma2: float, r: int, basis, x: np.ndarray, y: np.ndarray, steps: np.ndarray,
+            iterations: int, band_rows: int) -> tuple[np.ndarray, np.ndarray]:
+    """Newton steps of the points that left their band, until each has done ``iterations``.
+
+    Each round sorts the points by the rows they read and filters crops of at most
+    ``band_rows`` rows (plus ``r`` on each side) around groups of them, so memory stays
+    that of a band however far the points went; a group ends where the next point's
+    crop would not overlap its own, so a few scattered points filter a few rows each.
+    """
+    H, W = grey.shape
+    x, y, steps = x.copy(), y.copy(), steps.copy()
+    act = np.flatnonzero(steps < iterations)
+    while len(act):
+        lo, hi = _rows_of(y[act], H)
+        order = np.argsort(lo, kind="stable")
+        g0 = 0
+        while g0 < len(order):
+            glo = ghi = int(lo[order[g0]])
+            g1 = g0
+            while g1 < len(order) and (g1 == g0 or (lo[order[g1]] <= ghi + 2 * r + 1
+                                                    and hi[order[g1]] < glo + band_rows)):
+                ghi = max(ghi, int(hi[order[g1]]))
+                g1 += 1
+            sel = act[order[g0:g1]]
+            c0, c1 = max(0, glo - r), min(H, ghi + 1 + r)  # rows glo .. ghi are the image's
+            crop = np.ascontiguousarray(grey[c0:c1], dtype=np.float64)
+            maps = [m[glo - c0 : ghi + 1 - c0] for m in second_derivatives(crop, sigma2, r)]
+            x[sel], y[sel] = newton_step(maps, glo, crop, c0, (H, W), x[sel], y[sel], basis)
+            g0 = g1
+        steps[act] += 1
+        act = act[steps[act] < iterations]
+    return x, y
 
 
 def find_saddles(grey, sigma2: float, radius: int | None = None, *, iterations: int = 4,
-                 min_strength: float = 0.0, band_rows: int = BAND_ROWS) -> tuple[np.ndarray, np.ndarray]:
+                 min_strength: float = 0.0, band_rows: int = BAND_ROWS,
+                 halo: int = HALO) -> tuple[np.ndarray, np.ndarray]:
     """Saddle points of the smoothed image: ``(xy (N, 2), strength (N,))``, strength ``s`` (module doc).
 
     Candidates with ``s <= min_strength`` are not fitted (a threshold, applied
-    early). The image is processed in bands of ``band_rows`` rows, with the same
-    result for any band height (module doc); ``grey`` may be a
-    :class:`sogdd._grey_rows.GreyRows`.
+    early). The image is processed in bands of ``band_rows`` rows with maps
+    ``halo`` rows beyond them, with the same result for any band height and halo
+    (module doc); ``grey`` may be a :class:`sogdd._grey_rows.GreyRows`.
 
     Examples
     --------
@@ -175,23 +224,26 @@ def find_saddles(grey, sigma2: float, radius: int | None = None, *, iterations: 
     """
     r = kernel_radius(sigma2) if radius is None else int(radius)
     H, W = grey.shape
+    rows_per_band, halo = max(int(band_rows), 1), max(int(halo), 1)
     t_n = strength_floor(sigma2, min_strength)
     basis = steerable_basis(sigma2, r)
-    xy, n = [np.zeros((0, 2))], [np.zeros(0)]
-    for a in range(0, H, max(int(band_rows), 1)):
-        c = min(H, a + max(int(band_rows), 1))
-        # maps on rows ea .. eb - 1: the rows a - 1 .. c the maxima read, and the rows a - 1 .. c + 1
-        # the bilinear interpolation reads while an iterate stays within 1 px of its candidate
-        ea, eb = max(0, a - 2), min(H, c + 2)
-        y0, y1 = max(0, ea - r), min(H, eb + r)
-        crop = np.ascontiguousarray(grey[y0:y1], dtype=np.float64)
-        maps = [m[ea - y0 : eb - y0] for m in second_derivatives(crop, sigma2, r)]
-        rows, cols, nn = strength_maxima(*maps, top=ea, height=H, first=a - ea, last=c - ea, t_n=t_n)
-        p, ok = _fit(maps, ea, crop, y0, (H, W), cols.astype(np.float64), rows.astype(np.float64), basis,
-                     iterations)
-        xy.append(p[ok])
-        n.append(nn[ok])
-    return np.concatenate(xy), sigma2 * np.sqrt(np.concatenate(n))
+    parts = []
+    for a in range(0, H, rows_per_band):
+        c = min(H, a + rows_per_band)
+        ea, eb = max(0, a - halo), min(H, c + halo)  # rows where the band's maps are the image's
+        c0, c1 = max(0, ea - r), min(H, eb + r)
+        crop = np.ascontiguousarray(grey[c0:c1], dtype=np.float64)
+        maps = [m[ea - c0 : eb - c0] for m in second_derivatives(crop, sigma2, r)]
+        rows, cols, n = strength_maxima(*maps, top=ea, height=H, first=a - ea, last=c - ea, t_n=t_n)
+        x0, y0 = cols.astype(np.float64), rows.astype(np.float64)
+        parts.append((x0, y0, n, *_steps_in_band(maps, ea, eb, crop, c0, (H, W), x0, y0, basis, iterations)))
+    x0, y0, n, x, y, steps = (np.concatenate([p[i] for p in parts]) for i in range(6))
+    out = steps < int(iterations)
+    if out.any():
+        x[out], y[out] = _finish(grey, sigma2, r, basis, x[out], y[out], steps[out], int(iterations),
+                                 rows_per_band)
+    ok = (np.abs(x - x0) <= 1.0) & (np.abs(y - y0) <= 1.0)
+    return np.stack([x[ok], y[ok]], axis=1), sigma2 * np.sqrt(n[ok])
 
 
 def _calibration_images() -> tuple[np.ndarray, np.ndarray]:
