@@ -214,9 +214,9 @@ def paper_measure(img: np.ndarray, cfg: Cfg) -> np.ndarray:
 
 # -- X-junctions ----------------------------------------------------------------
 def _bilinear(m: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    from sogdd.saddles import _bilinear as bil  # the core's float64 bilinear sampler
+    from sogdd.saddles import bilinear_rows  # the core's float64 bilinear sampler
 
-    return bil(m, x, y)
+    return bilinear_rows([m], 0, *m.shape, x, y)[0]
 
 
 def saddles(derivs: tuple, sigma2: float, iters: int = 4, measure: str = "det"
