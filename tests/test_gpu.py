@@ -163,3 +163,39 @@ def test_cli_device_cuda_without_cuda(tmp_path, capsys):
         assert main(args) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and err[0].startswith("sogdd: error:") and "device='cuda'" in err[0]
+
+
+def test_cli_batch_on_the_device_writes_the_cpu_corners(tmp_path):
+    """``sogdd detect DIR --device cuda --out OUT`` (simulator): a feature file per image, the CPU's corners."""
+    import cv2
+
+    from sogdd.features import read_features
+
+    for i in range(2):
+        u8 = np.round(shapes_image((24, 31), seed=i) * 255).astype(np.uint8)
+        cv2.imwrite(str(tmp_path / f"im{i}.png"), u8)
+    env = dict(os.environ, NUMBA_ENABLE_CUDASIM="1")
+    proc = subprocess.run([sys.executable, "-m", "sogdd", "detect", str(tmp_path), "--device", "cuda",
+                           "--threshold", "1e8", "--out", str(tmp_path / "out")],
+                          env=env, capture_output=True, text=True, timeout=300)
+    if proc.returncode != 0 and "simulator" in proc.stderr.lower() and "Error" in proc.stderr:
+        pytest.skip("numba's CUDA simulator is unavailable")
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    for i in range(2):
+        rec = read_features(tmp_path / "out" / f"im{i}.png.npz")[0]
+        img = cv2.imread(str(tmp_path / f"im{i}.png"), cv2.IMREAD_UNCHANGED)
+        cpu = sogdd.detect_corners(img, threshold=1e8)
+        assert len(cpu) >= 3 and len(rec.corners) == len(cpu)
+        assert np.abs(rec.corners.xy - cpu.xy).max() < 1e-6
+
+
+def test_batch_on_a_missing_gpu_fails_once_before_any_work(tmp_path):
+    from sogdd._cuda_input import cuda_runtime_available
+    from sogdd.collection import run_batch
+
+    if cuda_runtime_available():
+        pytest.skip("a CUDA device is present")
+    with pytest.raises(ValueError, match="device='cuda' needs an NVIDIA GPU"):
+        run_batch([str(tmp_path / "none.png")], tmp_path / "out", device="cuda")
+    with pytest.raises(ValueError, match="device must be"):
+        run_batch([str(tmp_path / "none.png")], tmp_path / "out", device="tpu")

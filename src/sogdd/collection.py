@@ -153,7 +153,7 @@ def _current(target: Path, image: str, params: dict) -> bool:
 
 
 def detect_to_file(image: str, target: str, fmt: str, preset: str, params: dict, resume: bool,
-                   read_options: dict | None = None) -> BatchItem:
+                   read_options: dict | None = None, device: str = "cpu") -> BatchItem:
     """Detect on one image and write its feature file (the unit of work, picklable)."""
     p = resolve_params(preset, **params)
     out = Path(target)
@@ -161,7 +161,7 @@ def detect_to_file(image: str, target: str, fmt: str, preset: str, params: dict,
         return BatchItem(image, "skipped")
     try:
         img = read_image(image, **(read_options or {}))
-        c = detect_corners(img, preset=preset, **params)
+        c = detect_corners(img, preset=preset, device=device, **params)
         out.parent.mkdir(parents=True, exist_ok=True)
         write_features(out, make_record(image, c, img.shape, preset, p), fmt)
     except (ValueError, OSError, cv2.error) as exc:
@@ -184,28 +184,26 @@ def run_batch(
     scheduler: str | None = None,
     progress: Callable[[BatchItem], None] | None = None,
     read_options: dict | None = None,
+    device: str = "cpu",
 ) -> list[BatchItem]:
     """Detect on every image, one feature file each; a bad image never stops the others.
 
     ``jobs`` local processes (the default path), or a Dask distributed cluster at
     ``scheduler`` (``pip install 'sogdd[distributed]'``). ``read_options`` go to
     :func:`sogdd.read_image` (``max_pixels``, ``allow_corrupt``,
-    ``ignore_orientation``). Returns one :class:`BatchItem` per image, in input
-    order. Raises :class:`BatchInterrupted` on ``SIGINT``/``SIGTERM``.
+    ``ignore_orientation``). ``device="cuda"`` detects on the GPU
+    (:mod:`sogdd.gpu`); each worker process opens its own CUDA context, so with
+    ``jobs > 1`` they share the GPU. Returns one :class:`BatchItem` per image, in
+    input order. Raises :class:`BatchInterrupted` on ``SIGINT``/``SIGTERM``.
     """
     params = dict(params or {})
-    resolve_params(preset, **params)  # bad parameters (and environment) fail before any work
-    thread_count()
-    if fmt not in FORMATS:
-        raise ValueError(f"unknown format {fmt!r}")
-    if jobs < 1:
-        raise ValueError(f"jobs must be >= 1, got {jobs}")
+    _check_batch(preset, params, fmt, jobs, device, in_process=jobs == 1 and not scheduler)
     names = [str(p) for p in images]
     rel = relative_names(names)  # collisions fail before any work
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     remove_stale_temporaries(out)
-    args = [(n, str(feature_path(out, r, fmt)), fmt, preset, params, resume, read_options)
+    args = [(n, str(feature_path(out, r, fmt)), fmt, preset, params, resume, read_options, device)
             for n, r in zip(names, rel)]
     results: dict[str, BatchItem] = {}
 
@@ -228,6 +226,24 @@ def run_batch(
         signum = exc.signum if isinstance(exc, BatchInterrupted) else int(signal.SIGINT)
         raise BatchInterrupted(signum, [results[n] for n in names if n in results]) from None
     return [results[n] for n in names]
+
+
+def _check_batch(preset: str, params: dict, fmt: str, jobs: int, device: str, in_process: bool) -> None:
+    """Bad parameters, environment, format, job count or device fail before any work."""
+    resolve_params(preset, **params)
+    thread_count()
+    if fmt not in FORMATS:
+        raise ValueError(f"unknown format {fmt!r}")
+    if jobs < 1:
+        raise ValueError(f"jobs must be >= 1, got {jobs}")
+    if device not in ("cpu", "cuda"):
+        raise ValueError(f"device must be 'cpu' or 'cuda', got {device!r}")
+    if device == "cuda" and in_process:
+        # one clear error, not one per image; only in-process (a parent that touched the CUDA
+        # driver would leave forked workers unable to use it)
+        from ._cuda_input import require_cuda
+
+        require_cuda()
 
 
 class _signals_raise:

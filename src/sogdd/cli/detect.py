@@ -97,8 +97,6 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("no input images")
     fmt = _check_options(args, len(paths))
     names = relative_names(paths)  # collisions fail before any work
-    if args.out and args.device != "cpu":
-        raise ValueError("--device cuda works without --out DIR for now")
     if args.out:
         return _run_folder(args, paths, params, fmt, reading)
     many = len(paths) > 1 or Path(args.images[0]).is_dir()
@@ -152,6 +150,7 @@ def _run_folder(args: argparse.Namespace, paths: list[Path], params: dict, fmt: 
         items = run_batch(
             paths, args.out, fmt=fmt, preset=args.preset, params=params, resume=args.resume,
             jobs=args.jobs, scheduler=args.scheduler, progress=progress, read_options=reading,
+            device=args.device,
         )
     except BatchInterrupted as exc:
         bar.close()
