@@ -20,7 +20,7 @@ import numba
 import numpy as np
 
 from ._jit import JIT
-from ._weighted_sums import wcolumn_sum, wrow_sum
+from ._weighted_sums import wcolumn_sums, wrow_sum
 
 __all__ = ["VARSIGMA", "det_trace", "row_sum", "column_sum", "steer", "tile_general", "tile_square"]
 
@@ -420,9 +420,7 @@ def tile_square(planes, off, coef, nr, need, colneed, rowneed, want_parts, out, 
                     if not weighted:
                         column_sums(pring[q], g0, nr, ng, vsum, ca[r], cb[r])
                         continue
-                    for i in range(ng):
-                        if ci[r] < 0 or ci[r] == i:
-                            wcolumn_sum(pring[q], g0 + i, wts, vsum[i], ca[r], cb[r])
+                    wcolumn_sums(pring[q], g0, wts, ng, ci[r], vsum, ca[r], cb[r])
                 p = pos
                 for r in range(nn):
                     w = nb[r] - na[r]
