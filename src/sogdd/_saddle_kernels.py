@@ -86,12 +86,13 @@ def strength_maxima(gxx: np.ndarray, gxy: np.ndarray, gyy: np.ndarray, *, top: i
 def _row_sums(img, off, height, width, y0, x, gauss, d1, sg, s1):  # pragma: no cover - jit
     """Row sums at column ``x`` of the ``2 r + 2`` image rows from ``y0 - r`` (reflected): gauss and d1."""
     r = (gauss.shape[0] - 1) // 2
+    inside = x - r >= 0 and x + r < width  # no column reflection: plain indices (the same sums)
     for a in range(2 * r + 2):
-        row = reflect1(y0 + a - r, height) - off
+        line = img[reflect1(y0 + a - r, height) - off]
         vg = 0.0
         v1 = 0.0
         for b in range(2 * r + 1):
-            v = img[row, reflect1(x + b - r, width)]
+            v = line[x - r + b] if inside else line[reflect1(x + b - r, width)]
             vg += gauss[b] * v
             v1 += d1[b] * v
         sg[a] = vg

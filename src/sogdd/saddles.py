@@ -86,8 +86,8 @@ CALIBRATION_CONTRAST = 100.0
 #: (the hr study's choice, docs/hr.md)
 X_RING_RADIUS = 2.0
 _BORDER = cv2.BORDER_REFLECT  # half-sample symmetric, as every other stage
-#: rows per band of :func:`find_saddles` (OpenCV filters a crop of fewer rows on one thread only)
-BAND_ROWS = 512
+#: pixels per band of :func:`find_saddles` (OpenCV filters a crop under ~2 MP on one thread only)
+BAND_PIXELS = 1 << 21
 #: rows beyond a band where its maps are kept: a Newton iterate that reads farther (rare) continues
 #: on crops filtered around it (``_finish``)
 HALO = 16
@@ -204,12 +204,13 @@ def _finish(grey, sigma2: float, r: int, basis, x: np.ndarray, y: np.ndarray, st
 
 
 def find_saddles(grey, sigma2: float, radius: int | None = None, *, iterations: int = 4,
-                 min_strength: float = 0.0, band_rows: int = BAND_ROWS,
+                 min_strength: float = 0.0, band_rows: int | None = None,
                  halo: int = HALO) -> tuple[np.ndarray, np.ndarray]:
     """Saddle points of the smoothed image: ``(xy (N, 2), strength (N,))``, strength ``s`` (module doc).
 
     Candidates with ``s <= min_strength`` are not fitted (a threshold, applied
-    early). The image is processed in bands of ``band_rows`` rows with maps
+    early). The image is processed in bands of ``band_rows`` rows (default: about
+    :data:`BAND_PIXELS` pixels, at least 64 rows) with maps
     ``halo`` rows beyond them, with the same result for any band height and halo
     (module doc); ``grey`` may be a :class:`sogdd._grey_rows.GreyRows`.
 
@@ -224,6 +225,8 @@ def find_saddles(grey, sigma2: float, radius: int | None = None, *, iterations: 
     """
     r = kernel_radius(sigma2) if radius is None else int(radius)
     H, W = grey.shape
+    if band_rows is None:
+        band_rows = max(64, -(-BAND_PIXELS // max(W, 1)))
     rows_per_band, halo = max(int(band_rows), 1), max(int(halo), 1)
     t_n = strength_floor(sigma2, min_strength)
     basis = steerable_basis(sigma2, r)
