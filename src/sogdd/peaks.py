@@ -7,9 +7,16 @@ parameters happens in :mod:`sogdd.detector`.
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
+
 import cv2
 import numba
 import numpy as np
+
+from .response import thread_count
+
+#: points per thread below which gradient refinement stays on one thread
+_REFINE_CHUNK = 512
 
 __all__ = [
     "break_ties",
@@ -368,10 +375,12 @@ def refine_gradient(
         return pts.copy()
     start = pts.astype(np.float32).reshape(-1, 1, 2).copy()
     crit = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_COUNT, int(iterations), float(eps))
-    out = cv2.cornerSubPix(
-        np.ascontiguousarray(grey, dtype=np.float32), start, (win, win), (-1, -1), crit
-    )
-    out = out.reshape(-1, 2).astype(np.float64)
+    img = np.ascontiguousarray(grey, dtype=np.float32)
+    # each point is refined on its own, and cv2 releases the GIL: chunks in threads, the same result
+    parts = np.array_split(start, max(1, min(thread_count(), len(start) // _REFINE_CHUNK)))
+    with ThreadPoolExecutor(len(parts)) as pool:
+        outs = list(pool.map(lambda s: cv2.cornerSubPix(img, s, (win, win), (-1, -1), crit), parts))
+    out = np.concatenate(outs).reshape(-1, 2).astype(np.float64)
     moved = np.linalg.norm(out - pts, axis=1)
     keep = ~np.isfinite(out).all(axis=1) | (moved > max_shift)
     out[keep] = pts[keep]
