@@ -15,12 +15,12 @@ from ._banded import peaks_in_bands
 from ._banded_relative import peaks_relative_in_bands
 from ._grey_rows import GreyRows
 from ._relative_floor import relative_floor
+from .assemble import assemble, peak_limit, peak_threshold
 from .corners import Corners
 from .io import check_mask, to_gray255, validate_image
 from .params import Params, resolve_params
-from .peaks import inside_allowed, refine_gradient, refine_gradient_adaptive, refine_quadratic, select_peaks
+from .peaks import inside_allowed, refine_quadratic, select_peaks
 from .response import MeasureSpec, soddc_measure, supports_floor
-from .saddles import X_RING_RADIUS, add_x_junctions, grey_strength, measure_threshold
 
 __all__ = ["corner_response", "detect_corners"]
 
@@ -80,12 +80,9 @@ def _detect_level(grey: np.ndarray, p: Params, mask: np.ndarray | None) -> Corne
     # Exact wherever a peak above the threshold or the 3x3 patch of one can be, -inf
     # where a bound proves the measure below it: the same corners as the full map.
     spec = p.measure_spec()
-    grey_units = p.threshold_units == "grey"
-    thr = p.threshold
-    if grey_units and thr is not None:  # grey levels of corner contrast -> Upsilon (sogdd.saddles)
-        thr = measure_threshold(thr, spec)
+    thr = peak_threshold(p, spec)
     floor = _floor(p, spec, thr)
-    top = None if p.x_junctions else p.max_corners
+    top = peak_limit(p)
     if floor is not None:  # absolute threshold: band by band, no H x W map (sogdd._banded)
         rows, cols, values, qoff = peaks_in_bands(grey, spec, threshold=thr, floor=floor, border=p.border,
                                                   nms_radius=p.nms_radius, mask=mask, max_corners=top)
@@ -105,26 +102,7 @@ def _detect_level(grey: np.ndarray, p: Params, mask: np.ndarray | None) -> Corne
             values = resp[rows, cols]
             qoff = refine_quadratic(resp, rows, cols) if p.subpixel != "none" else None
             del resp
-    xy = np.stack([cols, rows], axis=1).astype(np.float64)
-    if p.subpixel != "none" and len(rows):
-        xy += qoff
-        if p.subpixel == "gradient":
-            xy = refine_gradient(grey, xy)
-    strength = grey_strength(values, spec) if grey_units else values
-    out = Corners(xy, strength, np.full(len(rows), p.keypoint_size()))
-    is_x = np.zeros(len(out), bool)
-    if p.x_junctions:
-        out, is_x = add_x_junctions(out, grey, spec, threshold=p.threshold, rho=X_RING_RADIUS,
-                                    size=p.keypoint_size(), border=p.border, mask=mask)
-        if p.max_corners is not None:
-            out, is_x = out.subset(np.arange(min(len(out), p.max_corners))), is_x[: p.max_corners]
-    if p.subpixel == "adaptive" and len(out):  # after the cut: windows see the final neighbours
-        c = ~is_x
-        xy = out.xy.copy()
-        # the float32 image cornerSubPix reads, built once (band by band from a GreyRows)
-        xy[c] = refine_gradient_adaptive(np.asarray(grey, np.float32), xy[c], xy[is_x])
-        out = Corners(xy, out.response, out.size, out.level)
-    return out
+    return assemble(grey, p, spec, rows, cols, values, qoff, mask)
 
 
 def _gpu(device: str):
