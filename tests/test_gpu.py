@@ -40,7 +40,18 @@ RESPONSE_CASES = [
                                                 "zero_mean": True}),
     ("authors_disk", (21, 23), "authors", {}),
     ("tiny_reflect", (5, 7), "paper", {"n_orientations": 4}),
+    ("hr_gaussian_window", (24, 31), "hr", {}),
 ]
+
+
+def junction_image(shape=(36, 40)) -> np.ndarray:
+    """Two squares meeting at an X-junction (16.3, 17.6) beside a polygon's L-corners, uint8 with noise."""
+    h, w = shape
+    q = np.array([[16.3, 17.6], [40, 17.6], [40, 40], [16.3, 40]])
+    polys = [Polygon(q, 200.0), Polygon(2 * q[0] - q, 200.0),
+             Polygon(regular_polygon((w * 0.75, h * 0.3), h * 0.2, 4, 0.3), 140.0)]
+    img = render_polygons(shape, polys, background=40.0) + np.random.default_rng(2).normal(0, 1.5, shape)
+    return np.clip(np.round(img), 0, 255).astype(np.uint8)
 
 _SCRIPT = textwrap.dedent(
     """
@@ -63,6 +74,11 @@ _SCRIPT = textwrap.dedent(
     b = gpu.corner_response_batch(cuda.to_device(np.stack([u8[:, :16], u8[:, 15:]])), preset="paper",
                                   n_orientations=2, window=3)
     out["batch"] = b.copy_to_host()
+    from test_gpu import junction_image
+    xim = junction_image()
+    for key, im in (("hr", xim), ("hr_dev", cuda.to_device(xim))):  # X-junctions and refinement on the host
+        c = gpu.detect_corners(im, preset="hr")
+        out[key + "_xy"], out[key + "_resp"] = c.xy, c.response
     np.savez(sys.argv[1], **out)
     """
 )
@@ -111,6 +127,17 @@ def test_detection_matches_cpu(sim):
         assert np.allclose(resp, cpu.response, rtol=1e-10, atol=0)
         # host refinement is identical; refinement on device patches differs in float32 coordinates only
         assert np.abs(xy - cpu.xy).max() < (1e-6 if key == "det" else 1e-3)
+
+
+def test_hr_detection_matches_cpu(sim):
+    """hr on the device: Gaussian window in the kernel, grey units, the X-junction and adaptive refinement."""
+    cpu = sogdd.detect_corners(junction_image(), preset="hr")
+    d = np.hypot(*(cpu.xy - [16.3, 17.6]).T)
+    assert len(cpu) >= 4 and d.min() < 0.1  # the junction on its saddle, and the square's corners
+    for key in ("hr", "hr_dev"):
+        assert len(sim[key + "_resp"]) == len(cpu)
+        np.testing.assert_allclose(sim[key + "_resp"], cpu.response, rtol=1e-9)
+        assert np.abs(sim[key + "_xy"] - cpu.xy).max() < 1e-6
 
 
 def test_detection_with_border_matches_cpu(sim):

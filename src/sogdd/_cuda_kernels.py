@@ -18,8 +18,9 @@ memory, without writing any intermediate map to global memory:
    tap order as the CPU filter (taps ``b`` and ``2r - b`` share one multiply);
 3. steering to K orientations and absolute values, ``|l_k| = |sum_p c_kp g_p|``;
 4. per thread, the window sums of the K(K+1)/2 products ``|l_i| |l_j|`` in
-   registers, then det and trace by symmetric Gaussian elimination, written as
-   ``det / (tr + varsigma)``.
+   registers (each product times ``w[dy] w[dx]`` for a separable weighted window:
+   the Gaussian window of :mod:`sogdd.weighted`), then det and trace by
+   symmetric Gaussian elimination, written as ``det / (tr + varsigma)``.
 
 Everything is float64: det passes 1e40 at K = 8. Kernels are specialised (and
 cached) per K, window half-height, kernel radius, tile size and padding mode,
@@ -74,7 +75,8 @@ def _reflect(i, n):  # pragma: no cover - device code
 
 
 @cache
-def measure_kernel(K: int, R: int, rk: int, nf: int, T: int, image_mode: bool, parts: bool):
+def measure_kernel(K: int, R: int, rk: int, nf: int, T: int, image_mode: bool, parts: bool,
+                   weighted: bool = False):
     """The fused measure kernel of one specialisation.
 
     Launch with block (T, T) and grid (ceil(W / T), ceil(H / T), N).
@@ -83,6 +85,7 @@ def measure_kernel(K: int, R: int, rk: int, nf: int, T: int, image_mode: bool, p
     filter factors along x and y; ``odd`` (2 nf,) uint8 parity of each factor;
     ``means`` (3,) kernel means (zero-mean kernels, nf = 4); ``coef`` (K, 3)
     steering coefficients; ``halfw`` (2R+1,) window half-width per row offset;
+    ``wts`` (2R+1,) the separable window weights (read with ``weighted`` only);
     ``out`` (N, H, W) Upsilon, or with ``parts`` det and ``tr2`` the trace.
     """
     RH = T + 2 * R
@@ -95,7 +98,7 @@ def measure_kernel(K: int, R: int, rk: int, nf: int, T: int, image_mode: bool, p
     NT = T * T
 
     @cuda.jit
-    def kernel(img, fx, fy, odd, means, coef, halfw, out, tr2):  # pragma: no cover - device code
+    def kernel(img, fx, fy, odd, means, coef, halfw, wts, out, tr2):  # pragma: no cover - device code
         A = cuda.shared.array(SA, float64)
         B = cuda.shared.array(SB, float64)
         n = cuda.blockIdx.z
@@ -194,13 +197,17 @@ def measure_kernel(K: int, R: int, rk: int, nf: int, T: int, image_mode: bool, p
             hw = halfw[dy]
             for dx in range(R - hw, R + hw + 1):
                 o = (ty + dy) * RW + tx + dx
+                wgt = wts[dy] * wts[dx] if weighted else 1.0
                 for k in range(K):
                     lv[k] = B[k * RH * RW + o]
                 q = 0
                 for i in range(K):
                     li = lv[i]
                     for j in range(i, K):
-                        acc[q] += li * lv[j]
+                        if weighted:
+                            acc[q] += wgt * (li * lv[j])
+                        else:
+                            acc[q] += li * lv[j]
                         q += 1
         # symmetric elimination (LDL^T, no pivoting) as sogdd's CPU kernel; det = product of pivots
         tr = 0.0

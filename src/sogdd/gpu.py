@@ -8,12 +8,15 @@ libraries); CPU users need nothing of it. :func:`sogdd.corner_response` and
 The measure is the CPU one (eqs. 22-25): the same three separable steerable
 basis kernels, the same half-sample symmetric reflection (``padding="response"``
 or ``"image"``), |responses| at K orientations, window sums of
-``|l| |l|^T`` over a square or disk window and ``det / (tr + varsigma)``, in
-float64, by one fused kernel per image tile (:mod:`sogdd._cuda_kernels`); it
-agrees with the CPU map to rounding (the sums are taken in another order).
-Peaks above an absolute threshold are found on the device and only they come
-back, with their 3 x 3 neighbourhoods; the quadratic and gradient sub-pixel
-refinements then run on the host with :mod:`sogdd.peaks` on those few points.
+``|l| |l|^T`` over a square, disk or Gaussian-weighted window and ``det / (tr +
+varsigma)``, in float64, by one fused kernel per image tile
+(:mod:`sogdd._cuda_kernels`); it agrees with the CPU map to rounding (the sums
+are taken in another order). Peaks above an absolute threshold are found on the
+device and only they come back, with their 3 x 3 neighbourhoods; they are
+finished on the host as on the CPU (:mod:`sogdd.assemble`): quadratic and
+gradient refinement on those few points, and for ``hr`` the X-junction stage and
+the adaptive refinement, which read the whole grey image (copied back from the
+device for a device input).
 ``threshold_rel`` and ``quantile`` need the whole map: it is copied back and
 peaks are selected on the host. Not supported here (``ValueError``):
 ``levels > 1``, and settings whose tile does not fit in 48 KiB of shared memory
@@ -30,12 +33,14 @@ of images or an (N, H, W) stack; same-sized images share one launch.
 from __future__ import annotations
 
 import math
+from functools import partial
 
 import numpy as np
 from numba import cuda
 
 from . import _cuda_kernels as ck
 from ._cuda_input import GreyStack, cuda_runtime_available, require_cuda, to_grey_stacks
+from .assemble import assemble, peak_limit, peak_threshold
 from .corners import Corners
 from .filters import steerable_basis
 from .io import check_mask
@@ -45,7 +50,6 @@ from .peaks import inside_allowed, rank_peaks, refine_gradient, refine_quadratic
 __all__ = ["available", "corner_response", "corner_response_batch", "detect_corners", "detect_corners_batch"]
 
 _EPS = float(np.finfo(np.float64).eps)  # the authors' varsigma (sogdd.response.authors_measure)
-_CPU_ONLY = {"x_junctions": False, "threshold_units": "measure"}  # Params fields, with their default
 _PATCH = 16  # half-size of the image patches the gradient refinement reads around a device corner
 
 
@@ -78,14 +82,16 @@ def _measure(dev, spec):
         fy.append(np.ones(2 * rk + 1))
     # d1 is odd, the Gaussian, d2 and the box are even: the kernel pairs taps by this parity
     odd = np.array([0, 1, 0, 0][:nf] * 2, np.uint8)
+    weighted = bool(spec.weights)
+    wts = np.asarray(spec.weights) if weighted else np.ones(2 * R + 1)
     args = [cuda.to_device(np.ascontiguousarray(a, dtype=t)) for a, t in (
         (fx, np.float64), (fy, np.float64), (odd, np.uint8), (b.means, np.float64),
-        (spec.coef, np.float64), (np.asarray(spec.halfwidths), np.int64))]
+        (spec.coef, np.float64), (np.asarray(spec.halfwidths), np.int64), (wts, np.float64))]
     N, H, W = dev.shape
     parts = bool(spec.authors_measure)
     out = cuda.device_array((N, H, W))
     tr = cuda.device_array((N, H, W) if parts else (1, 1, 1))
-    kern = ck.measure_kernel(K, R, rk, nf, T, spec.padding == "image", parts)
+    kern = ck.measure_kernel(K, R, rk, nf, T, spec.padding == "image", parts, weighted)
     kern[(math.ceil(W / T), math.ceil(H / T), N), (T, T)](dev, *args, out, tr)
     if not parts:
         return out
@@ -129,7 +135,7 @@ def _select(rows, cols, vals, patches, shape, p: Params, mask):
     if mask is not None:
         inside &= mask[rows, cols]
     rows, cols, vals, patches = rows[inside], cols[inside], vals[inside], patches[inside]
-    sel = rank_peaks(vals, rows, cols, p.nms_radius, p.max_corners)
+    sel = rank_peaks(vals, rows, cols, p.nms_radius, peak_limit(p))
     return rows[sel], cols[sel], vals[sel], patches[sel]
 
 
@@ -171,45 +177,42 @@ def _gradient_on_device(dev, j: int, rows, cols, xy) -> np.ndarray:
     return refine_gradient(mosaic, xy + shift) - shift
 
 
-def _detect_map(resp: np.ndarray, grey: np.ndarray, p: Params, mask) -> Corners:
+def _detect_map(resp: np.ndarray, grey: np.ndarray, p: Params, thr: float | None, mask) -> Corners:
     """Host selection on a copied map (relative and quantile thresholds, tiny images): as the CPU path."""
-    rows, cols = select_peaks(resp, threshold=p.threshold, threshold_rel=p.threshold_rel, quantile=p.quantile,
-                              nms_radius=p.nms_radius, border=p.border, mask=mask, max_corners=p.max_corners)
-    xy = np.stack([cols, rows], axis=1).astype(np.float64)
-    if p.subpixel != "none" and len(rows):
-        xy += refine_quadratic(resp, rows, cols)
-        if p.subpixel == "gradient":
-            xy = refine_gradient(grey, xy)
-    return Corners(xy, resp[rows, cols], np.full(len(rows), p.keypoint_size()))
+    rows, cols = select_peaks(resp, threshold=thr, threshold_rel=p.threshold_rel, quantile=p.quantile,
+                              nms_radius=p.nms_radius, border=p.border, mask=mask, max_corners=peak_limit(p))
+    qoff = refine_quadratic(resp, rows, cols) if p.subpixel != "none" and len(rows) else None
+    return assemble(grey, p, p.measure_spec(), rows, cols, resp[rows, cols], qoff, mask)
 
 
 def _detect_stack(s: GreyStack, p: Params, masks: list) -> list[Corners]:
     """Corners of every image of one device stack."""
-    resp = _measure(s.dev, p.measure_spec())
+    spec = p.measure_spec()
+    resp = _measure(s.dev, spec)
     N, H, W = resp.shape
-    if p.threshold_rel is not None or p.quantile is not None or H < 3 or W < 3:
-        grey = s.host if s.host is not None else s.dev.copy_to_host()
-        out = [_detect_map(resp[j].copy_to_host(), grey[j], p, masks[j]) for j in range(N)]
+    thr = peak_threshold(p, spec)
+    # the host grey image: refinement reads it where it is at hand; X-junctions and the adaptive
+    # refinement need it whole (copied back for a device input)
+    whole = p.threshold_rel is not None or p.quantile is not None or H < 3 or W < 3
+    grey = s.host
+    if grey is None and (whole or p.x_junctions or p.subpixel == "adaptive"):
+        grey = s.dev.copy_to_host()
+    if whole:
+        out = [_detect_map(resp[j].copy_to_host(), grey[j], p, thr, masks[j]) for j in range(N)]
         return [c.subset(inside_allowed(c.xy, masks[j], p.border, (H, W))) for j, c in enumerate(out)]
-    thr = 0.0 if p.threshold is None else float(p.threshold)  # as sogdd.peaks.resolve_threshold
     out = []
-    for j, (rows, cols, vals, patches) in enumerate(_device_peaks(resp, thr, int(p.nms_radius), int(p.border))):
+    peaks = _device_peaks(resp, 0.0 if thr is None else float(thr), int(p.nms_radius), int(p.border))
+    for j, (rows, cols, vals, patches) in enumerate(peaks):  # thr None: as sogdd.peaks.resolve_threshold
         rows, cols, vals, patches = _select(rows, cols, vals, patches, (H, W), p, masks[j])
-        xy = np.stack([cols, rows], axis=1).astype(np.float64)
-        if p.subpixel != "none" and len(rows):
-            xy += _quadratic(patches, rows, cols, (H, W))
-            if p.subpixel == "gradient":
-                xy = refine_gradient(s.host[j], xy) if s.host is not None else \
-                    _gradient_on_device(s.dev, j, rows, cols, xy)
-        out.append(Corners(xy, vals, np.full(len(rows), p.keypoint_size())))
+        qoff = _quadratic(patches, rows, cols, (H, W)) if p.subpixel != "none" and len(rows) else None
+        on_device = None if grey is not None else partial(_gradient_on_device, s.dev, j, rows, cols)
+        out.append(assemble(None if grey is None else grey[j], p, spec, rows, cols, vals, qoff, masks[j],
+                            gradient=on_device))
     return [c.subset(inside_allowed(c.xy, masks[j], p.border, (H, W))) for j, c in enumerate(out)]
 
 
 def _params(preset: str, params: dict) -> Params:
     p = resolve_params(preset, **params)
-    if p.window_shape == "gaussian":  # the device kernel sums with equal weights only
-        raise ValueError("window_shape='gaussian' (the hr preset) is not supported on device='cuda'; "
-                         "use device='cpu'")
     require_cuda()
     return p
 
@@ -222,7 +225,7 @@ def corner_response(image, *, preset: str = "paper", **params):
     image : ndarray or device array
         A host image as :func:`sogdd.corner_response` takes, or a grey (H, W)
         device array (torch, CuPy, numba; uint8, uint16, float32 or float64).
-    preset : {"paper", "authors"}
+    preset : {"paper", "authors", "hr"}
         Starting parameter set; keyword arguments override it.
 
     Returns
@@ -286,9 +289,6 @@ def _detect(images, preset: str, masks, params: dict, *, batch: bool) -> list[Co
     p = _params(preset, params)
     if p.levels > 1:
         raise ValueError("levels > 1 is not supported on device='cuda'; use device='cpu'")
-    for name, default in _CPU_ONLY.items():  # detection options the device path does not implement
-        if getattr(p, name, default) != default:
-            raise ValueError(f"{name}={getattr(p, name)!r} is not supported on device='cuda'; use device='cpu'")
     stacks = to_grey_stacks(images, p, batch=batch)
     n = sum(len(s.index) for s in stacks)
     if masks is None:
