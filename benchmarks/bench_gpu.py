@@ -143,6 +143,11 @@ def main() -> int:
     res["agreement"]["corners"] = {"cpu": len(c_cpu), "gpu": len(c_gpu), "same_peaks": bool(same),
                                    "max_dxy": float(np.abs(c_cpu.xy - c_gpu.xy).max()) if same and len(c_cpu)
                                    else None}
+    h_cpu, h_gpu = sogdd.detect_corners(img, preset="hr"), gpu.detect_corners(img, preset="hr")
+    same = len(h_cpu) == len(h_gpu) and np.allclose(h_cpu.response, h_gpu.response, rtol=1e-9, atol=0)
+    res["agreement"]["hr_corners"] = {"cpu": len(h_cpu), "gpu": len(h_gpu), "same_peaks": bool(same),
+                                      "max_dxy": float(np.abs(h_cpu.xy - h_gpu.xy).max()) if same and len(h_cpu)
+                                      else None}
     if torch is not None:
         res["agreement"]["torch_vs_cpu"] = agreement(torch_anchor(img, torch).cpu().numpy(), cpu_map)
     print(json.dumps(res["agreement"], indent=1), flush=True)
@@ -157,6 +162,8 @@ def main() -> int:
             "map (device in)": lambda d=d_img: gpu.corner_response(d),
             "detect (device in)": lambda d=d_img: gpu.detect_corners(d),
             "detect (host in)": lambda h=img: gpu.detect_corners(h),
+            "hr detect (host in)": lambda h=img: gpu.detect_corners(h, preset="hr"),
+            "cpu hr detect": lambda h=img: sogdd.detect_corners(h, preset="hr"),
         }
         if torch is not None:
             cases["torch anchor"] = lambda h=img: torch_anchor(h, torch)
