@@ -93,19 +93,24 @@ BAND_PIXELS = 1 << 21
 HALO = 16
 
 
-def second_derivatives(grey: np.ndarray, sigma2: float, radius: int) -> tuple[np.ndarray, ...]:
+def second_derivatives(grey: np.ndarray, sigma2: float, radius: int,
+                       out: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
     """``(g_xx, g_xy, g_yy)`` of ``G_sigma * I``: sampled Gaussian derivatives, reflect border.
 
     They are the steerable basis of :mod:`sogdd.filters`
-    (``l_theta = c^2 g_xx + 2 s c g_xy + s^2 g_yy``).
+    (``l_theta = c^2 g_xx + 2 s c g_xy + s^2 g_yy``). ``out``: a (3, >= H, W)
+    float64 buffer to write them into (bands reuse one: fresh image-sized
+    allocations cost page faults every time).
     """
     b = steerable_basis(sigma2, radius)
     img = np.ascontiguousarray(grey, dtype=np.float64)
+    h = img.shape[0]
 
-    def f(kx: np.ndarray, ky: np.ndarray) -> np.ndarray:
-        return cv2.sepFilter2D(img, cv2.CV_64F, kx, ky, borderType=_BORDER)
+    def f(i: int, kx: np.ndarray, ky: np.ndarray) -> np.ndarray:
+        dst = None if out is None else out[i, :h]
+        return cv2.sepFilter2D(img, cv2.CV_64F, kx, ky, dst=dst, borderType=_BORDER)
 
-    return f(b.d2, b.gauss), f(b.d1, b.d1), f(b.gauss, b.d2)
+    return f(0, b.d2, b.gauss), f(1, b.d1, b.d1), f(2, b.gauss, b.d2)
 
 
 def bilinear_rows(maps, off: int, H: int, W: int, x: np.ndarray, y: np.ndarray) -> list[np.ndarray]:
@@ -231,12 +236,13 @@ def find_saddles(grey, sigma2: float, radius: int | None = None, *, iterations: 
     t_n = strength_floor(sigma2, min_strength)
     basis = steerable_basis(sigma2, r)
     parts = []
+    buf = np.empty((3, min(H, rows_per_band + 2 * (halo + r)), W))  # one set of maps for every band
     for a in range(0, H, rows_per_band):
         c = min(H, a + rows_per_band)
         ea, eb = max(0, a - halo), min(H, c + halo)  # rows where the band's maps are the image's
         c0, c1 = max(0, ea - r), min(H, eb + r)
         crop = np.ascontiguousarray(grey[c0:c1], dtype=np.float64)
-        maps = [m[ea - c0 : eb - c0] for m in second_derivatives(crop, sigma2, r)]
+        maps = [m[ea - c0 : eb - c0] for m in second_derivatives(crop, sigma2, r, out=buf)]
         rows, cols, n = strength_maxima(*maps, top=ea, height=H, first=a - ea, last=c - ea, t_n=t_n)
         x0, y0 = cols.astype(np.float64), rows.astype(np.float64)
         parts.append((x0, y0, n, *_steps_in_band(maps, ea, eb, crop, c0, (H, W), x0, y0, basis, iterations)))
