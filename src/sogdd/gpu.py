@@ -159,7 +159,7 @@ def _gradient_on_device(dev, j: int, rows, cols, xy) -> np.ndarray:
     """
     n = len(rows)
     H, W = dev.shape[1:]
-    if H < 9 or W < 9:  # refine_gradient's own minimum size (2 * half_window + 3)
+    if H < 11 or W < 11:  # refine_gradient's own minimum size (2 * half_window + 5)
         return xy
     S = 2 * _PATCH + 1
     d_rows = cuda.to_device(rows.astype(np.int64))

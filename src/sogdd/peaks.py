@@ -371,7 +371,7 @@ def refine_gradient(
         return pts.copy()
     h, w = grey.shape
     win = int(half_window)
-    if h < 2 * win + 3 or w < 2 * win + 3:
+    if h < 2 * win + 5 or w < 2 * win + 5:  # cv2.cornerSubPix's own minimum
         return pts.copy()
     start = pts.astype(np.float32).reshape(-1, 1, 2).copy()
     crit = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_COUNT, int(iterations), float(eps))
