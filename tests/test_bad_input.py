@@ -133,3 +133,25 @@ def test_small_images_detect_without_error(preset, kw, some):
             assert np.isfinite(c.xy).all()
             found += len(c)
     assert found > 0 or not some  # the authors' 0.99 quantile and clamp leave none on uniform noise
+
+
+@pytest.mark.parametrize("command", ["detect", "response"])
+def test_cli_opencv_error_is_one_line(command, tmp_path, capsys, monkeypatch):
+    """An OpenCV error inside detection is a one-line message and exit 2, never a traceback."""
+    import cv2
+
+    from sogdd.cli import detect as cli_detect
+    from sogdd.cli import response as cli_response
+
+    def boom(*a, **k):
+        cv2.cornerSubPix(np.zeros((5, 5), np.float32), np.zeros((1, 1, 2), np.float32), (3, 3), (-1, -1),
+                         (cv2.TERM_CRITERIA_COUNT, 1, 0))
+
+    monkeypatch.setattr(cli_detect, "detect_corners", boom)
+    monkeypatch.setattr(cli_response, "corner_response", boom)
+    img = tmp_path / "a.png"
+    cv2.imwrite(str(img), np.zeros((20, 20), np.uint8))
+    argv = [command, str(img)] + (["-o", str(tmp_path / "r.npy")] if command == "response" else [])
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("sogdd: error:") and "Assertion failed" in err[0]

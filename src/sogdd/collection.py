@@ -45,7 +45,7 @@ import cv2
 from ._version import __version__
 from .detector import detect_corners
 from .features import FORMATS, make_record, params_dict, read_features, remove_stale_temporaries, write_features
-from .io import list_images, read_image
+from .io import list_images, opencv_message, read_image
 from .params import resolve_params
 from .response import thread_count
 
@@ -165,7 +165,7 @@ def detect_to_file(image: str, target: str, fmt: str, preset: str, params: dict,
         out.parent.mkdir(parents=True, exist_ok=True)
         write_features(out, make_record(image, c, img.shape, preset, p), fmt)
     except (ValueError, OSError, cv2.error) as exc:
-        msg = str(exc).strip().splitlines()[-1] if isinstance(exc, cv2.error) else str(exc)
+        msg = opencv_message(exc) if isinstance(exc, cv2.error) else str(exc)
         return BatchItem(image, "failed", message=msg if str(image) in msg else f"{image}: {msg}")
     except MemoryError:
         return BatchItem(image, "failed", message=f"{image}: out of memory")

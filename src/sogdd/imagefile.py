@@ -26,7 +26,8 @@ import numpy as np
 
 from ._imageheader import probe
 
-__all__ = ["DEFAULT_MAX_PIXELS", "IMAGE_SUFFIXES", "list_images", "max_pixels_limit", "read_image"]
+__all__ = ["DEFAULT_MAX_PIXELS", "IMAGE_SUFFIXES", "list_images", "max_pixels_limit", "opencv_message",
+           "read_image"]
 
 # file suffixes that folder expansion treats as images (what cv2.imdecode reads)
 IMAGE_SUFFIXES = frozenset(
@@ -138,7 +139,7 @@ def _decode(data: bytes, flags: int, frame: int | None) -> tuple[np.ndarray | No
                 ok, mats = cv2.imdecodemulti(buf, flags, range=(frame, frame + 1))
                 img = mats[0] if ok and len(mats) else None
         except cv2.error as exc:
-            img, err = None, str(exc).strip().splitlines()[-1]
+            img, err = None, opencv_message(exc)
         else:
             err = ""
         finally:
@@ -245,3 +246,18 @@ def read_image(
     elif img.ndim == 3 and img.shape[2] == 4:
         img = cv2.cvtColor(img, cv2.COLOR_BGRA2RGB)
     return img
+
+def opencv_message(exc: BaseException) -> str:
+    """The one-line message of an OpenCV error (``cv2.error`` spreads it over lines; the last says it all).
+
+    Examples
+    --------
+    >>> try:
+    ...     cv2.cornerSubPix(np.zeros((5, 5), np.float32), np.zeros((1, 1, 2), np.float32), (3, 3), (-1, -1),
+    ...                      (cv2.TERM_CRITERIA_COUNT, 1, 0))
+    ... except cv2.error as exc:
+    ...     print(opencv_message(exc).split(": error: ")[1][:26])
+    (-215:Assertion failed) sr
+    """
+    lines = str(exc).strip().splitlines()
+    return lines[-1] if lines else type(exc).__name__

@@ -27,7 +27,14 @@ import os
 import numpy as np
 
 # reading files lives in sogdd.imagefile; re-exported here, where the rest of the package looks
-from .imagefile import DEFAULT_MAX_PIXELS, IMAGE_SUFFIXES, list_images, max_pixels_limit, read_image
+from .imagefile import (
+    DEFAULT_MAX_PIXELS,
+    IMAGE_SUFFIXES,
+    list_images,
+    max_pixels_limit,
+    opencv_message,
+    read_image,
+)
 
 __all__ = [
     "BT601",
@@ -38,6 +45,7 @@ __all__ = [
     "check_value_range",
     "intensity_hint",
     "list_images",
+    "opencv_message",
     "max_pixels_limit",
     "read_image",
     "to_gray255",
@@ -231,3 +239,4 @@ def check_mask(mask, shape: tuple[int, int]) -> np.ndarray | None:
     if m.shape != shape:
         raise ValueError(f"mask shape {m.shape} does not match image shape {shape}")
     return m.astype(bool)
+

@@ -13,13 +13,14 @@ import os
 import sys
 from pathlib import Path
 
+import cv2
 import numpy as np
 from tqdm import tqdm
 
 from ..collection import BatchInterrupted, expand_inputs, relative_names, run_batch
 from ..detector import detect_corners
 from ..features import FeatureRecord, encode_features, make_record, write_features
-from ..io import intensity_hint, read_image
+from ..io import intensity_hint, opencv_message, read_image
 from ..params import resolve_params
 from ..response import thread_count
 from .overlay import check_overlay_path, save_overlay
@@ -128,8 +129,9 @@ def _detect_one(path: Path, args, params: dict, p, reading: dict) -> tuple[Featu
     try:
         img = read_image(path, **reading)
         c = detect_corners(img, preset=args.preset, device=args.device, **params)
-    except (ValueError, OSError, MemoryError) as exc:
-        text = "out of memory" if isinstance(exc, MemoryError) else str(exc)
+    except (ValueError, OSError, MemoryError, cv2.error) as exc:
+        text = "out of memory" if isinstance(exc, MemoryError) else \
+            opencv_message(exc) if isinstance(exc, cv2.error) else str(exc)
         print(f"sogdd: error: {text if str(path) in text else f'{path}: {text}'}", file=sys.stderr)
         return None, None
     if args.overlay:

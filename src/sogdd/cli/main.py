@@ -80,6 +80,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (ValueError, OSError) as exc:
         print(f"sogdd: error: {exc}", file=sys.stderr)
         return 2
+    except Exception as exc:  # an OpenCV error is one line too (cv2 is not imported just to name it)
+        if type(exc).__module__ != "cv2":
+            raise
+        from ..io import opencv_message
+
+        print(f"sogdd: error: {opencv_message(exc)}", file=sys.stderr)
+        return 2
     except KeyboardInterrupt as exc:  # Ctrl-C: 130; a batch stopped by SIGTERM: 143 (128 + signal)
         return 128 + int(getattr(exc, "signum", 2))
 
