@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import sogdd
-from sogdd import detector
+from sogdd import pyramid
 from sogdd.cli.main import main
 from sogdd.features import read_features
 from sogdd.synthetic import pattern_image
@@ -165,7 +165,7 @@ def test_mask_and_border_hold_after_refinement_at_every_level(monkeypatch):
     c = sogdd.detect_corners(img, mask=mask, levels=3, border=7)
     assert len(c) > 10 and set(c.level.tolist()) >= {0, 1}
     assert outside(c) == 0
-    monkeypatch.setattr(detector, "inside_allowed", lambda xy, *a: np.ones(len(xy), bool))
+    monkeypatch.setattr(pyramid, "inside_allowed", lambda xy, *a: np.ones(len(xy), bool))
     assert outside(sogdd.detect_corners(img, mask=mask, levels=3, border=7)) > 0  # the scene does test it
 
 

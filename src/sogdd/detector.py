@@ -8,7 +8,6 @@ brought to grey on the 0-255 scale (:mod:`sogdd.io`), filtered and measured
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
 
 from ._banded import peaks_in_bands
@@ -19,7 +18,8 @@ from .assemble import assemble, peak_limit, peak_threshold
 from .corners import Corners
 from .io import check_mask, to_gray255, validate_image
 from .params import Params, resolve_params
-from .peaks import inside_allowed, refine_quadratic, select_peaks
+from .peaks import refine_quadratic, select_peaks
+from .pyramid import detect_pyramid
 from .response import MeasureSpec, soddc_measure, supports_floor
 
 __all__ = ["corner_response", "detect_corners"]
@@ -167,31 +167,4 @@ def detect_corners(image, *, preset: str = "paper", mask=None, device: str = "cp
     p = resolve_params(preset, **params)
     # one level reads the grey image in crops only (the pyramid resizes it whole)
     grey = _prepare(image, p, lazy=p.levels == 1)
-    m = check_mask(mask, grey.shape)
-    parts = []
-    h, w = grey.shape
-    for level in range(p.levels):
-        if level == 0:
-            g, mk, sx, sy = grey, m, 1.0, 1.0
-        else:
-            f = p.scale_factor**level
-            lw, lh = int(round(w / f)), int(round(h / f))
-            if min(lw, lh) < 2 * p.border + 3 or min(lw, lh) < 8:
-                break
-            g = cv2.resize(grey, (lw, lh), interpolation=cv2.INTER_AREA)
-            mk = None if m is None else cv2.resize(
-                m.astype(np.uint8), (lw, lh), interpolation=cv2.INTER_NEAREST
-            ).astype(bool)
-            sx, sy = w / lw, h / lh
-        c = _detect_level(g, p, mk)
-        # pixel centres at integers: x_full = (x_level + 0.5) * s - 0.5
-        xy = np.stack([(c.xy[:, 0] + 0.5) * sx - 0.5, (c.xy[:, 1] + 0.5) * sy - 0.5], axis=1)
-        c = Corners(xy, c.response, c.size * (sx + sy) / 2, np.full(len(c), level))
-        parts.append(c.subset(inside_allowed(xy, m, p.border, (h, w))))
-    out = Corners.concatenate(parts)
-    if p.levels > 1:
-        order = np.argsort(-out.response, kind="stable")
-        if p.max_corners is not None:
-            order = order[: p.max_corners]
-        out = out.subset(order)
-    return out
+    return detect_pyramid(grey, p, check_mask(mask, grey.shape), lambda g, mk: _detect_level(g, p, mk))
