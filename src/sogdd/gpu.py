@@ -18,9 +18,10 @@ gradient refinement on those few points, and for ``hr`` the X-junction stage and
 the adaptive refinement, which read the whole grey image (copied back from the
 device for a device input).
 ``threshold_rel`` and ``quantile`` need the whole map: it is copied back and
-peaks are selected on the host. Not supported here (``ValueError``):
-``levels > 1``, and settings whose tile does not fit in 48 KiB of shared memory
-(very large sigma2, windows or K).
+peaks are selected on the host. With ``levels > 1`` the pyramid's levels are
+resized on the host (:mod:`sogdd.pyramid`, as on the CPU) and each is detected
+on the device. Not supported here (``ValueError``): settings whose tile does not
+fit in 48 KiB of shared memory (very large sigma2, windows or K).
 
 Inputs: numpy arrays (any the CPU path takes), or grey device arrays with
 ``__cuda_array_interface__`` or DLPack (torch, CuPy, numba), which are read in
@@ -46,6 +47,7 @@ from .filters import steerable_basis
 from .io import check_mask
 from .params import Params, resolve_params
 from .peaks import inside_allowed, rank_peaks, refine_gradient, refine_quadratic, select_peaks
+from .pyramid import detect_pyramid
 
 __all__ = ["available", "corner_response", "corner_response_batch", "detect_corners", "detect_corners_batch"]
 
@@ -185,8 +187,9 @@ def _detect_map(resp: np.ndarray, grey: np.ndarray, p: Params, thr: float | None
     return assemble(grey, p, p.measure_spec(), rows, cols, resp[rows, cols], qoff, mask)
 
 
-def _detect_stack(s: GreyStack, p: Params, masks: list) -> list[Corners]:
-    """Corners of every image of one device stack."""
+def _detect_stack(s: GreyStack, p: Params, masks: list, clip: bool = True) -> list[Corners]:
+    """Corners of every image of one device stack; ``clip``: drop those that refinement moved out of the
+    mask or border (the pyramid does it at full resolution instead)."""
     spec = p.measure_spec()
     resp = _measure(s.dev, spec)
     N, H, W = resp.shape
@@ -199,7 +202,8 @@ def _detect_stack(s: GreyStack, p: Params, masks: list) -> list[Corners]:
         grey = s.dev.copy_to_host()
     if whole:
         out = [_detect_map(resp[j].copy_to_host(), grey[j], p, thr, masks[j]) for j in range(N)]
-        return [c.subset(inside_allowed(c.xy, masks[j], p.border, (H, W))) for j, c in enumerate(out)]
+        return [c.subset(inside_allowed(c.xy, masks[j], p.border, (H, W))) if clip else c
+                for j, c in enumerate(out)]
     out = []
     peaks = _device_peaks(resp, 0.0 if thr is None else float(thr), int(p.nms_radius), int(p.border))
     for j, (rows, cols, vals, patches) in enumerate(peaks):  # thr None: as sogdd.peaks.resolve_threshold
@@ -208,7 +212,8 @@ def _detect_stack(s: GreyStack, p: Params, masks: list) -> list[Corners]:
         on_device = None if grey is not None else partial(_gradient_on_device, s.dev, j, rows, cols)
         out.append(assemble(None if grey is None else grey[j], p, spec, rows, cols, vals, qoff, masks[j],
                             gradient=on_device))
-    return [c.subset(inside_allowed(c.xy, masks[j], p.border, (H, W))) for j, c in enumerate(out)]
+    return [c.subset(inside_allowed(c.xy, masks[j], p.border, (H, W))) if clip else c
+            for j, c in enumerate(out)]
 
 
 def _params(preset: str, params: dict) -> Params:
@@ -287,8 +292,6 @@ def detect_corners_batch(images, *, preset: str = "paper", masks=None, **params)
 
 def _detect(images, preset: str, masks, params: dict, *, batch: bool) -> list[Corners]:
     p = _params(preset, params)
-    if p.levels > 1:
-        raise ValueError("levels > 1 is not supported on device='cuda'; use device='cpu'")
     stacks = to_grey_stacks(images, p, batch=batch)
     n = sum(len(s.index) for s in stacks)
     if masks is None:
@@ -299,6 +302,18 @@ def _detect(images, preset: str, masks, params: dict, *, batch: bool) -> list[Co
     for s in stacks:
         shape = tuple(s.dev.shape[1:])
         ms = [check_mask(masks[i], shape) for i in s.index]
-        for i, c in zip(s.index, _detect_stack(s, p, ms)):
+        for i, c in zip(s.index, _detect_stack(s, p, ms) if p.levels == 1 else _detect_levels(s, p, ms)):
             res[i] = c
     return res
+
+
+def _detect_levels(s: GreyStack, p: Params, masks: list) -> list[Corners]:
+    """The image pyramid (:mod:`sogdd.pyramid`): levels resized on the host, each detected on the device."""
+    grey = s.host if s.host is not None else s.dev.copy_to_host()
+
+    def level(g: np.ndarray, mk) -> Corners:
+        g = np.ascontiguousarray(g[None], dtype=np.float64)
+        # mask and border hold for the full-resolution positions (the pyramid checks them), as on the CPU
+        return _detect_stack(GreyStack(cuda.to_device(g), [0], g, False), p, [mk], clip=False)[0]
+
+    return [detect_pyramid(grey[j], p, masks[j], level) for j in range(len(s.index))]
