@@ -34,7 +34,8 @@ import numba
 import numpy as np
 
 from ._jit import JIT
-from ._kernels import VARSIGMA, det_trace, pair_index, tile_general, tile_square
+from ._kernel_general import tile_general
+from ._kernels import VARSIGMA, det_trace, pair_index, tile_square
 from ._pruning import bound_mask, bound_tables, need_from_keep, neighbour_need, spread_masks
 from .filters import basis_tile, kernel_radius, orientations, steerable_basis, steering_coefficients
 from .window import is_square, take_reflected, window_offsets
