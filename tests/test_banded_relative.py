@@ -6,7 +6,7 @@ import pytest
 
 import sogdd
 from sogdd import detector
-from sogdd._banded_relative import peaks_relative_in_bands
+from sogdd._banded_relative import peaks_relative_in_bands, positives
 from sogdd._grey_rows import GreyRows
 from sogdd._stream_quantile import StreamQuantile, quantile_from_order_stats
 from sogdd.io import to_gray255
@@ -193,3 +193,20 @@ def test_detect_corners_falls_back_to_the_whole_map():
     """A black image with threshold_rel: no positive value, so the full map decides (nothing passes)."""
     black = np.zeros((80, 90, 3), np.uint8)
     assert len(sogdd.detect_corners(black, preset="authors", threshold_rel=0.5, quantile=None)) == 0
+
+
+@pytest.mark.parametrize("floor", [-np.inf, 0.0, 0.7, np.inf])
+def test_positives_split_at_the_floor_as_numpy(floor):
+    """One compiled pass: positive finite values (where the mask is) at or above the floor, the rest counted."""
+    rng = np.random.default_rng(4)
+    sub = rng.normal(0.5, 1.0, (37, 53))
+    sub[rng.random(sub.shape) < 0.05] = np.nan
+    sub[rng.random(sub.shape) < 0.02] = np.inf
+    mask = rng.random(sub.shape) < 0.7
+    view = sub[3:30, 5:48]  # not contiguous, as a band's valid columns
+    for m in (None, mask[3:30, 5:48]):
+        pos = (view > 0) & np.isfinite(view) & (True if m is None else m)
+        want = view[pos]
+        vals, below, top = positives(view, m, floor)
+        np.testing.assert_array_equal(vals, want[want >= floor])
+        assert below == int((want < floor).sum()) and top == want.max()

@@ -27,8 +27,10 @@ the full map.
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
+from ._jit import JIT
 from ._stream_quantile import StreamQuantile
 from .peaks import maxima_above, quadratic_offsets, rank_peaks, refine_quadratic
 from .response import (
@@ -39,7 +41,7 @@ from .response import (
     soddc_measure,
 )
 
-__all__ = ["BAND_ROWS", "peaks_relative_in_bands"]
+__all__ = ["BAND_ROWS", "peaks_relative_in_bands", "positives"]
 
 BAND_ROWS = 512  # three band-sized maps with the authors' measure (det, trace, Upsilon)
 _SAFE = 1.0 - 1e-9  # candidates kept a little below the bound, so a rounding in the lerp cannot matter
@@ -110,10 +112,12 @@ def peaks_relative_in_bands(
         else:
             resp = soddc_measure(grey[y0:y1], spec, floor=floor)[lo - y0 : hi - y0]
         s0, s1 = max(a, vr0), min(c, vr1)  # the band's rows of the valid area
-        vals = _positives(resp[s0 - lo : s1 - lo, vc0:vc1], None if mk is None else mk[s0:s1, vc0:vc1])
-        vmax = max(vmax, float(vals.max())) if len(vals) else vmax
+        vals, below, bmax = positives(resp[s0 - lo : s1 - lo, vc0:vc1],
+                                      None if mk is None else mk[s0:s1, vc0:vc1],
+                                      np.inf if sq is None else sq.floor)
+        vmax = max(vmax, bmax)
         if sq is not None and s1 > s0:
-            sq.add(vals, slots=int(per_row[s0:s1].sum()))
+            sq.add(vals, slots=int(per_row[s0:s1].sum()), dropped=below)
         del vals
         part = _band_peaks(resp, det, tr, lo, a, c, _bound(threshold, threshold_rel, vmax, sq), nms_radius,
                            border, mk, quadratic, (H, W))
@@ -135,12 +139,42 @@ def peaks_relative_in_bands(
     return _rank(cand, H, W, lim, int(nms_radius), quadratic, max_corners)
 
 
-def _positives(sub: np.ndarray, mask: np.ndarray | None) -> np.ndarray:
-    """The positive finite values of ``sub`` (where ``mask``), as resolve_threshold collects them."""
-    pos = (sub > 0) & np.isfinite(sub)
-    if mask is not None:
-        pos &= mask
-    return sub[pos]
+@numba.njit(**JIT)
+def _split_positives(sub, mask, use_mask, floor, out):  # pragma: no cover - jit
+    k = 0
+    below = 0
+    vmax = -np.inf
+    for i in range(sub.shape[0]):
+        for j in range(sub.shape[1]):
+            v = sub[i, j]
+            if v > 0.0 and v < np.inf and (not use_mask or mask[i, j]):
+                vmax = max(vmax, v)
+                if v >= floor:
+                    out[k] = v
+                    k += 1
+                else:
+                    below += 1
+    return k, below, vmax
+
+
+def positives(sub: np.ndarray, mask: np.ndarray | None,
+              floor: float = -np.inf) -> tuple[np.ndarray, int, float]:
+    """The positive finite values of ``sub`` (where ``mask``), as resolve_threshold collects them, in one pass.
+
+    Returns those at or above ``floor`` (raster order), how many were below it,
+    and the largest of all (``-inf`` if none).
+
+    Examples
+    --------
+    >>> sub = np.array([[0.5, -1.0, np.nan], [2.0, np.inf, 3.0]])
+    >>> vals, below, top = positives(sub, None, floor=1.0)
+    >>> vals.tolist(), below, top
+    ([2.0, 3.0], 1, 3.0)
+    """
+    m = np.zeros((1, 1), np.bool_) if mask is None else np.asarray(mask, dtype=np.bool_)
+    out = np.empty(sub.size)
+    k, below, vmax = _split_positives(sub, m, mask is not None, float(floor), out)
+    return out[:k], int(below), float(vmax)
 
 
 def _band_peaks(resp, det, tr, lo: int, a: int, c: int, bound: float, nms_radius: int, border: int,

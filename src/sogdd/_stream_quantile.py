@@ -80,12 +80,17 @@ class StreamQuantile:
         """The number of values added so far."""
         return self.dropped + self.kept
 
-    def add(self, values: np.ndarray, slots: int) -> None:
-        """Add a batch; ``slots`` is how much of the capacity it used (at least ``len(values)``)."""
+    def add(self, values: np.ndarray, slots: int, dropped: int = 0) -> None:
+        """Add a batch; ``slots`` is how much of the capacity it used (at least its size).
+
+        ``dropped``: values of the batch below :attr:`floor` that the caller left out
+        of ``values`` (they only count).
+        """
         values = np.asarray(values, dtype=np.float64).ravel()
-        if len(values) > slots:
+        if len(values) + dropped > slots:
             raise ValueError("a batch holds more values than its slots")
         self.rest -= int(slots)
+        self.dropped += int(dropped)
         below = values < self.floor
         if below.any():
             self.dropped += int(np.count_nonzero(below))
