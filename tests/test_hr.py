@@ -9,6 +9,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from scipy.spatial import cKDTree
 
 import sogdd
 from sogdd.params import PRESETS, resolve_params
@@ -122,3 +123,19 @@ def test_registry_and_spec_names():
     assert len(a) >= len(truth)
     with pytest.raises(ValueError, match="unknown preset"):
         baselines.get("sogdd", preset="nope")
+
+
+def test_hr_reports_one_point_per_corner(monkeypatch):
+    """Two Upsilon peaks of one vertex that the adaptive refinement brings together are one corner."""
+    from sogdd import assemble
+    from sogdd.synthetic import pattern_image
+
+    img = pattern_image((240, 320), seed=0)[0]
+    got = sogdd.detect_corners(img, preset="hr")
+    assert len(cKDTree(got.xy).query_pairs(assemble.COINCIDENT)) == 0
+    monkeypatch.setattr(assemble, "one_per_point", lambda xy, s, tol: np.arange(len(xy)))
+    every = sogdd.detect_corners(img, preset="hr")
+    assert len(cKDTree(every.xy).query_pairs(assemble.COINCIDENT)) > 0  # the image has such pairs
+    d, _ = cKDTree(got.xy).query(every.xy)
+    assert len(every) > len(got) and np.all(d < assemble.COINCIDENT)  # only coincident points went
+    np.testing.assert_array_equal(got.xy, every.xy[d == 0])  # the rest unchanged, in order

@@ -59,3 +59,16 @@ def test_x_junctions_need_grey_units():
         resolve_params("paper", x_junctions=True)
     with pytest.raises(ValueError, match="threshold_units must be"):
         resolve_params("paper", threshold_units="volts")
+
+
+def test_one_per_point_keeps_the_strongest_greedily():
+    """Points that converged together are one; a chain keeps what the strongest leaves."""
+    from sogdd.peaks import one_per_point
+
+    xy = np.array([[10.0, 10.0], [10.06, 10.0], [10.12, 10.0], [30.0, 5.0], [30.0, 5.05]])
+    s = np.array([2.0, 3.0, 1.0, 5.0, 5.0])
+    # 1 is strongest near 0 and 2 (0.06 px each): both dropped; 3 and 4 tie: the first is kept
+    assert one_per_point(xy, s, 0.1).tolist() == [1, 3]
+    s2 = np.array([3.0, 2.0, 1.0, 5.0, 4.0])
+    # 0 drops 1; 2 is 0.12 px from 0, so it stays (1, dropped, suppresses nothing)
+    assert one_per_point(xy, s2, 0.1).tolist() == [0, 2, 3]

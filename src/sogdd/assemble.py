@@ -9,7 +9,9 @@ them here, so a setting means the same on both:
    and how many peaks to keep before X-junctions are added (:func:`peak_limit`);
 2. :func:`assemble`: quadratic offsets and gradient refinement, strengths in
    grey levels, the X-junction stage (:func:`sogdd.saddles.add_x_junctions`) and
-   the adaptive gradient refinement, which needs the final neighbours.
+   the adaptive gradient refinement, which needs the final neighbours; after it,
+   corners it brought within :data:`COINCIDENT` px of a stronger one are merged
+   into it (one point per corner).
 """
 
 from __future__ import annotations
@@ -20,11 +22,15 @@ import numpy as np
 
 from .corners import Corners
 from .params import Params
-from .peaks import refine_gradient, refine_gradient_adaptive
+from .peaks import one_per_point, refine_gradient, refine_gradient_adaptive
 from .response import MeasureSpec
 from .saddles import X_RING_RADIUS, add_x_junctions, grey_strength, measure_threshold
 
-__all__ = ["assemble", "peak_limit", "peak_threshold"]
+__all__ = ["COINCIDENT", "assemble", "peak_limit", "peak_threshold"]
+
+#: with ``subpixel="adaptive"``, corners that refinement brings within this many px of a stronger
+#: one are that corner (two peaks of Upsilon around one vertex converge to ~0.005 px of each other)
+COINCIDENT = 0.1
 
 
 def peak_threshold(p: Params, spec: MeasureSpec) -> float | None:
@@ -78,4 +84,6 @@ def assemble(grey, p: Params, spec: MeasureSpec, rows: np.ndarray, cols: np.ndar
         # the float32 image cornerSubPix reads, built once (band by band from a GreyRows)
         xy[c] = refine_gradient_adaptive(np.asarray(grey, np.float32), xy[c], xy[is_x])
         out = Corners(xy, out.response, out.size, out.level)
+        # two peaks of one corner that the refinement brought together are one corner
+        out = out.subset(one_per_point(out.xy, out.response, COINCIDENT))
     return out

@@ -24,6 +24,7 @@ __all__ = [
     "rank_peaks",
     "local_maxima",
     "maxima_above",
+    "one_per_point",
     "refine_gradient",
     "refine_quadratic",
     "resolve_threshold",
@@ -416,3 +417,33 @@ def refine_gradient_adaptive(grey: np.ndarray, xy: np.ndarray, neighbours: np.nd
         if len(sel):
             out[sel] = refine_gradient(grey, pts[sel], half_window=int(hw), max_shift=float(hw))
     return out
+
+
+def one_per_point(xy: np.ndarray, strength: np.ndarray, tol: float) -> np.ndarray:
+    """Indices (ascending) of the points to keep when several reached the same point.
+
+    Of points closer than ``tol`` px the strongest is kept (the first among
+    equals), greedily from the strongest: a point dropped suppresses nothing.
+
+    Examples
+    --------
+    >>> xy = np.array([[5.0, 5.0], [5.0001, 5.0], [9.0, 9.0]])
+    >>> one_per_point(xy, np.array([1.0, 1.0, 2.0]), 0.1).tolist()
+    [0, 2]
+    """
+    if len(xy) < 2:
+        return np.arange(len(xy))
+    from scipy.spatial import cKDTree
+
+    pairs = cKDTree(xy).query_pairs(float(tol), output_type="ndarray")
+    if len(pairs) == 0:
+        return np.arange(len(xy))
+    order = np.argsort(-np.asarray(strength), kind="stable")
+    rank = np.empty(len(xy), np.int64)
+    rank[order] = np.arange(len(xy))
+    drop = np.zeros(len(xy), bool)
+    for i, j in sorted(map(tuple, pairs), key=lambda ij: min(rank[ij[0]], rank[ij[1]])):
+        a, b = (i, j) if rank[i] < rank[j] else (j, i)
+        if not drop[a]:
+            drop[b] = True
+    return np.flatnonzero(~drop)

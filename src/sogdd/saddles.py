@@ -62,6 +62,7 @@ import numpy as np
 from ._saddle_kernels import gradient_bilinear, strength_maxima
 from .corners import Corners
 from .filters import kernel_radius, steerable_basis
+from .peaks import one_per_point
 from .response import MeasureSpec, soddc_measure
 from .synthetic import Polygon, render_polygons
 
@@ -88,6 +89,10 @@ X_RING_RADIUS = 2.0
 _BORDER = cv2.BORDER_REFLECT  # half-sample symmetric, as every other stage
 #: pixels per band of :func:`find_saddles` (OpenCV filters a crop under ~2 MP on one thread only)
 BAND_PIXELS = 1 << 21
+#: saddle points closer than this (px) are one saddle, reached from tied candidates (a plateau of
+#: the strength, e.g. the pixels around a junction on a symmetric JPEG block corner; their iterates
+#: meet within ~1e-4 px)
+SADDLE_MERGE = 0.1
 #: rows beyond a band where its maps are kept: a Newton iterate that reads farther (rare) continues
 #: on crops filtered around it (``_finish``)
 HALO = 16
@@ -252,7 +257,9 @@ def find_saddles(grey, sigma2: float, radius: int | None = None, *, iterations: 
         x[out], y[out] = _finish(grey, sigma2, r, basis, x[out], y[out], steps[out], int(iterations),
                                  rows_per_band)
     ok = (np.abs(x - x0) <= 1.0) & (np.abs(y - y0) <= 1.0)
-    return np.stack([x[ok], y[ok]], axis=1), sigma2 * np.sqrt(n[ok])
+    xy, strength = np.stack([x[ok], y[ok]], axis=1), sigma2 * np.sqrt(n[ok])
+    keep = one_per_point(xy, strength, SADDLE_MERGE)  # tied candidates converge to one saddle
+    return xy[keep], strength[keep]
 
 
 def _calibration_images() -> tuple[np.ndarray, np.ndarray]:
