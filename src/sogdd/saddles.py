@@ -124,12 +124,9 @@ def bilinear_rows(maps, off: int, H: int, W: int, x: np.ndarray, y: np.ndarray) 
     The maps may hold only image rows ``off ..`` (a band), as long as they cover
     the two rows each point reads.
     """
-    x = np.clip(x, 0.0, W - 1.0)
-    y = np.clip(y, 0.0, H - 1.0)
-    x0 = np.minimum(np.floor(x).astype(np.int64), W - 2 if W > 1 else 0)
-    y0 = np.minimum(np.floor(y).astype(np.int64), H - 2 if H > 1 else 0)
-    x1, y1 = np.minimum(x0 + 1, W - 1), np.minimum(y0 + 1, H - 1)
-    fx, fy = x - x0, y - y0
+    x0, x1 = _rows_of(x, W)  # the same clamp along either axis
+    y0, y1 = _rows_of(y, H)
+    fx, fy = np.clip(x, 0.0, W - 1.0) - x0, np.clip(y, 0.0, H - 1.0) - y0
     r0, r1 = y0 - off, y1 - off
     return [((m[r0, x0] * (1 - fx) + m[r0, x1] * fx) * (1 - fy) + (m[r1, x0] * (1 - fx) + m[r1, x1] * fx) * fy)
             for m in maps]
@@ -159,7 +156,7 @@ def strength_floor(sigma2: float, min_strength: float) -> float:
 
 
 def _rows_of(y: np.ndarray, H: int) -> tuple[np.ndarray, np.ndarray]:
-    """The two rows :func:`bilinear_rows` reads at ``y``."""
+    """The two rows (or columns, with the width) :func:`bilinear_rows` reads at ``y``, edge-clamped."""
     yc = np.clip(y, 0.0, H - 1.0)
     y0 = np.minimum(np.floor(yc).astype(np.int64), H - 2 if H > 1 else 0)
     return y0, np.minimum(y0 + 1, H - 1)
