@@ -12,6 +12,7 @@ from concurrent.futures import ThreadPoolExecutor
 import cv2
 import numba
 import numpy as np
+from scipy.spatial import cKDTree
 
 from .response import thread_count
 
@@ -378,9 +379,13 @@ def refine_gradient(
     crit = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_COUNT, int(iterations), float(eps))
     img = np.ascontiguousarray(grey, dtype=np.float32)
     # each point is refined on its own, and cv2 releases the GIL: chunks in threads, the same result
-    parts = np.array_split(start, max(1, min(thread_count(), len(start) // _REFINE_CHUNK)))
-    with ThreadPoolExecutor(len(parts)) as pool:
-        outs = list(pool.map(lambda s: cv2.cornerSubPix(img, s, (win, win), (-1, -1), crit), parts))
+    n = max(1, min(thread_count(), len(start) // _REFINE_CHUNK))
+    if n == 1:  # few points: no thread pool to start
+        outs = [cv2.cornerSubPix(img, start, (win, win), (-1, -1), crit)]
+    else:
+        with ThreadPoolExecutor(n) as pool:
+            outs = list(pool.map(lambda s: cv2.cornerSubPix(img, s, (win, win), (-1, -1), crit),
+                                 np.array_split(start, n)))
     out = np.concatenate(outs).reshape(-1, 2).astype(np.float64)
     moved = np.linalg.norm(out - pts, axis=1)
     keep = ~np.isfinite(out).all(axis=1) | (moved > max_shift)
@@ -403,8 +408,6 @@ def refine_gradient_adaptive(grey: np.ndarray, xy: np.ndarray, neighbours: np.nd
         return pts.copy()
     allp = pts if neighbours is None or len(neighbours) == 0 else np.concatenate([pts, neighbours])
     if len(allp) > 1:
-        from scipy.spatial import cKDTree
-
         d = cKDTree(allp).query(pts, k=2)[0][:, 1]
     else:
         d = np.full(len(pts), np.inf)
@@ -433,14 +436,10 @@ def one_per_point(xy: np.ndarray, strength: np.ndarray, tol: float) -> np.ndarra
     """
     if len(xy) < 2:
         return np.arange(len(xy))
-    from scipy.spatial import cKDTree
-
     pairs = cKDTree(xy).query_pairs(float(tol), output_type="ndarray")
     if len(pairs) == 0:
         return np.arange(len(xy))
-    order = np.argsort(-np.asarray(strength), kind="stable")
-    rank = np.empty(len(xy), np.int64)
-    rank[order] = np.arange(len(xy))
+    rank = np.argsort(np.argsort(-np.asarray(strength), kind="stable"))  # 0 = strongest, then raster
     drop = np.zeros(len(xy), bool)
     for i, j in sorted(map(tuple, pairs), key=lambda ij: min(rank[ij[0]], rank[ij[1]])):
         a, b = (i, j) if rank[i] < rank[j] else (j, i)
