@@ -8,3 +8,10 @@ independent of tiling).
 """
 
 JIT = dict(cache=True, nogil=True, error_model="numpy", fastmath={"contract"})
+
+#: Doubles added to the rows of compiled scratch arrays whose natural length is a
+#: power of two (a block of 256 or 512 columns). Rows 2^k x 8 bytes apart map to the
+#: same L1 cache sets, so a loop reading many such rows at once (the elimination reads
+#: 36 at K = 8) evicts its own data: the paper preset's full map took 62 ms/MP on one
+#: thread with such rows and 50 with padded ones.
+ROW_PAD = 8

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from ._jit import JIT
+from ._jit import JIT, ROW_PAD
 from ._kernels import VARSIGMA, det_trace, pair_index, row_sum, steer
 
 __all__ = ["tile_general"]
@@ -48,8 +48,8 @@ def tile_general(planes, off, coef, halfw, want_parts, out, det_out, tr_out, blo
     WBP = block + 2 * R
     absl = np.empty((K, WBP))
     prod = np.empty(WBP)
-    ring = np.empty((nr, nu, P, block))  # row sums of the last nr rows
-    acc = np.empty((P, block))
+    ring = np.empty((nr, nu, P, block + ROW_PAD))  # row sums of the last nr rows
+    acc = np.empty((P, block + ROW_PAD))
     det = np.empty(block)
     f = np.empty(block)
     tr = np.empty(block)

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from ._jit import JIT
+from ._jit import JIT, ROW_PAD
 from .window import reflect1
 
 __all__ = [
@@ -142,10 +142,10 @@ def _basis_tile(img, r0, nrows, M, ext, fx, fy, odd, means, out, cblock):  # pra
     rk = (T - 1) // 2
     Wo = W + 2 * ext  # columns filtered, -ext .. W + ext
     rs = T + 1
-    ring = np.empty((nf, rs, cblock))
+    ring = np.empty((nf, rs, cblock + ROW_PAD))
     ring_id = np.empty(rs, np.int64)
     rowbuf = np.empty(cblock + 2 * rk)
-    vert = np.empty((nf, cblock))
+    vert = np.empty((nf, cblock + ROW_PAD))
     c0 = ext + rk  # position of image column 0 in padded coordinates
     for xs in range(0, Wo, cblock):
         cw = min(cblock, Wo - xs)
