@@ -17,8 +17,8 @@ import numba
 import numpy as np
 
 from ._jit import JIT
-from ._kernels import VARSIGMA, column_sum, row_sum
-from ._weighted_sums import wcolumn_sum, wrow_sum
+from ._kernels import VARSIGMA, column_sums, row_sum
+from ._weighted_sums import wcolumn_sums, wrow_sum
 
 __all__ = ["bound_mask", "bound_tables", "fischer_row", "need_from_keep", "neighbour_need", "spread_masks"]
 
@@ -186,23 +186,27 @@ def spread_masks(need, R, colneed, rowneed, lo, hi):  # pragma: no cover - jit
 def bound_mask(planes, nr, quad, pair, pi2, pj2, floor, keep, block, wts):  # pragma: no cover - jit
     """keep (Ht + 2, W + 2): the Fischer bound of tile rows -1..Ht, columns -1..W (margin R + 1).
 
-    The six products of the basis responses are kept for the last ``nr`` rows
-    (a ring), summed down the columns, then along the rows; with a non-empty
-    ``wts``, weighted sums as the kernel's (:func:`fischer_row` holds for positive weights).
+    The six products of the basis responses are kept for the last ``nr + 3`` rows
+    (a ring); groups of 4 keep rows sum them down the columns in one pass (as the
+    exact kernel does: :func:`sogdd._kernels.column_sums`), then each row along the
+    row; with a non-empty ``wts``, weighted sums as the kernel's (:func:`fischer_row`
+    holds for positive weights).
     """
     Hk, Wk = keep.shape
     nbm = block + 2
     WB = nbm + nr - 1
-    pring = np.empty((6, nr, WB))
-    scol = np.empty((6, WB))
+    G = 4  # keep rows per column pass
+    pring = np.empty((6, nr + G - 1, WB))
+    scol = np.empty((6, G, WB))
     srow = np.empty((6, nbm))
     work = (np.empty(nbm), np.empty(nbm), np.empty(nbm), np.empty(nbm))
     row = np.empty(nbm, np.bool_)
+    weighted = wts.shape[0] > 0
     for x0 in range(0, Wk - 2, block):
         nb = min(block, Wk - 2 - x0) + 2
         wcols = nb + nr - 1
         for y in range(Hk + nr - 1):
-            slot = y % nr
+            slot = y % (nr + G - 1)
             q = 0
             for p in range(3):
                 for pp in range(p, 3):
@@ -212,20 +216,26 @@ def bound_mask(planes, nr, quad, pair, pi2, pj2, floor, keep, block, wts):  # pr
                     for j in range(wcols):
                         dst[j] = a[j] * b[j]
                     q += 1
-            r = y - nr + 1  # keep row whose window ends at planes row y
-            if r < 0:
+            r = y - nr + 1  # the last keep row whose window ends at planes row y
+            if r < 0 or (r % G != G - 1 and r != Hk - 1):
                 continue
+            g0 = r - r % G  # keep rows g0 .. r: their column sums in one pass
+            ng = r - g0 + 1
             for q in range(6):
-                if wts.shape[0] > 0:
-                    wcolumn_sum(pring[q], r, wts, scol[q], 0, wcols)
-                    wrow_sum(scol[q], wts, srow[q], nb)
+                if weighted:
+                    wcolumn_sums(pring[q], g0, wts, ng, -1, scol[q], 0, wcols)
                 else:
-                    column_sum(pring[q], r, nr, scol[q], 0, wcols)
-                    row_sum(scol[q], nr, srow[q], nb)
-            fischer_row(srow, quad, pair, pi2, pj2, floor, row, nb, work)
-            kr = keep[r, x0 : x0 + nb]
-            for c in range(nb):
-                kr[c] = row[c]
+                    column_sums(pring[q], g0, nr, ng, scol[q], 0, wcols)
+            for i in range(ng):
+                for q in range(6):
+                    if weighted:
+                        wrow_sum(scol[q, i], wts, srow[q], nb)
+                    else:
+                        row_sum(scol[q, i], nr, srow[q], nb)
+                fischer_row(srow, quad, pair, pi2, pj2, floor, row, nb, work)
+                kr = keep[g0 + i, x0 : x0 + nb]
+                for c in range(nb):
+                    kr[c] = row[c]
 
 
 def bound_tables(coef: np.ndarray):
