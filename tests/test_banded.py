@@ -42,3 +42,20 @@ def test_bands_find_peaks_on_the_first_and_last_rows():
         r, c, v, off = peaks_in_bands(img, spec, threshold=thr, floor=thr, band_rows=band_rows)
         np.testing.assert_array_equal(np.stack([r, c]), np.stack([rows, cols]))
         np.testing.assert_array_equal(off, refine_quadratic(full, rows, cols))
+
+
+@pytest.mark.parametrize("preset", ["paper", "authors", "hr"])
+def test_uint8_grey_is_measured_as_it_is(pattern, rng, preset):
+    """A uint8 grey image reaches the filters without a float64 copy, with the float64 image's values."""
+    img8 = np.clip(pattern[0] + rng.normal(0, 4, pattern[0].shape), 0, 255).astype(np.uint8)
+    spec = sogdd.resolve_params(preset).measure_spec()
+    for kw in ({}, {"threads": 1, "tile_rows": 7}):
+        got = soddc_measure(img8, spec, raw=spec.authors_measure, **kw)
+        want = soddc_measure(img8.astype(np.float64), spec, raw=spec.authors_measure, **kw)
+        np.testing.assert_array_equal(got, want)
+    # the banded detector takes that path from a uint8 input; with a value range (the same grey
+    # values, converted to float64 band by band) it gives the same corners
+    a = sogdd.detect_corners(img8, preset=preset)
+    b = sogdd.detect_corners(img8, preset=preset, value_range=(0, 255))
+    assert len(a) > 10
+    np.testing.assert_array_equal(a.xy, b.xy)

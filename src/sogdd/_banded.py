@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._grey_rows import measure_rows
 from .peaks import maxima_above, rank_peaks, refine_quadratic
 from .response import MeasureSpec, soddc_measure
 
@@ -57,7 +58,7 @@ def peaks_in_bands(
         c = min(H, a + int(band_rows))
         lo, hi = max(0, a - halo), min(H, c + halo)  # rows whose values are used
         y0, y1 = max(0, lo - m), min(H, hi + m)
-        resp = soddc_measure(grey[y0:y1], spec, floor=floor)[lo - y0 : hi - y0]
+        resp = soddc_measure(measure_rows(grey, y0, y1), spec, floor=floor)[lo - y0 : hi - y0]
         n0, n1 = max(a - rad, rlo), min(c + rad, rhi)
         if n1 <= n0 or chi <= clo:
             continue

@@ -30,6 +30,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from ._grey_rows import measure_rows
 from ._jit import JIT
 from ._stream_quantile import StreamQuantile
 from .peaks import maxima_above, quadratic_offsets, rank_peaks, refine_quadratic
@@ -104,13 +105,13 @@ def peaks_relative_in_bands(
         y0, y1 = max(0, lo - m), min(H, hi + m)
         det = tr = None
         if spec.authors_measure:
-            det, tr = soddc_measure(grey[y0:y1], spec, raw=True)
+            det, tr = soddc_measure(measure_rows(grey, y0, y1), spec, raw=True)
             det, tr = det[lo - y0 : hi - y0], tr[lo - y0 : hi - y0]
             bb, bn = abs_max(det[a - lo : c - lo].reshape(-1))
             big, nan = max(big, bb), nan or bn
             resp = authors_apply(det, tr, np.nan)  # NaN: no clamp; values > 0 are the same either way
         else:
-            resp = soddc_measure(grey[y0:y1], spec, floor=floor)[lo - y0 : hi - y0]
+            resp = soddc_measure(measure_rows(grey, y0, y1), spec, floor=floor)[lo - y0 : hi - y0]
         s0, s1 = max(a, vr0), min(c, vr1)  # the band's rows of the valid area
         vals, below, bmax = positives(resp[s0 - lo : s1 - lo, vc0:vc1],
                                       None if mk is None else mk[s0:s1, vc0:vc1],

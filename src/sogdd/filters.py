@@ -34,6 +34,7 @@ from .window import reflect1
 __all__ = [
     "SteerableBasis",
     "basis_tile",
+    "exact_grey",
     "kernel_radius",
     "orientations",
     "sogdd_kernel",
@@ -226,6 +227,13 @@ def _parity(f: np.ndarray) -> bool:
     raise ValueError("basis factors must be even or odd")
 
 
+def exact_grey(image: np.ndarray) -> np.ndarray:
+    """A C-contiguous image the compiled filters read: uint8 as it is (each value exact), else float64."""
+    if isinstance(image, np.ndarray) and image.dtype == np.uint8:
+        return np.ascontiguousarray(image)
+    return np.ascontiguousarray(image, dtype=np.float64)
+
+
 def basis_tile(
     image: np.ndarray, r0: int, r1: int, margin: int, basis: SteerableBasis, *, reflect_image: bool
 ) -> np.ndarray:
@@ -236,9 +244,10 @@ def basis_tile(
     reflected (half-sample). ``reflect_image=True`` reflects the image and filters
     there (numpy ``symmetric`` padding); ``False`` filters the image with
     reflected borders and reflects the responses (scipy ``mode="reflect"``).
-    Correlation and convolution agree: every 2-D basis kernel is even.
+    Correlation and convolution agree: every 2-D basis kernel is even. A uint8
+    image is read as it is (:func:`exact_grey`), anything else as float64.
     """
-    img = np.ascontiguousarray(image, dtype=np.float64)
+    img = exact_grey(image)
     H, W = img.shape
     M = int(margin)
     fx = [basis.d2, basis.d1, basis.gauss]  # along x (columns)

@@ -37,7 +37,7 @@ from ._jit import JIT
 from ._kernel_general import tile_general
 from ._kernels import VARSIGMA, det_trace, pair_index, tile_square
 from ._pruning import bound_mask, bound_tables, need_from_keep, neighbour_need, spread_masks
-from .filters import basis_tile, kernel_radius, orientations, steerable_basis, steering_coefficients
+from .filters import basis_tile, exact_grey, kernel_radius, orientations, steerable_basis, steering_coefficients
 from .window import is_square, take_reflected, window_offsets
 
 __all__ = [
@@ -233,7 +233,7 @@ def soddc_measure(
     raw: bool = False,
     prune: bool | None = None,
 ) -> np.ndarray:
-    """The corner measure Upsilon (eq. 25) of a float64 grey image, H x W float64.
+    """The measure Upsilon (eq. 25) of a grey 0-255 image (float64, or uint8 read exactly), H x W float64.
 
     Inputs are assumed valid (see :func:`sogdd.corner_response` for the checked
     public entry point). With ``raw`` and the authors' measure the maps
@@ -267,7 +267,7 @@ def soddc_measure(
     >>> bool(np.all(full[pruned == -np.inf] < 1e9))
     True
     """
-    img = np.ascontiguousarray(image, dtype=np.float64)
+    img = exact_grey(image)  # uint8 is read as it is: no float64 copy
     H, W = img.shape
     R = spec.window_radius
     if floor is not None and not (floor > 0 and supports_floor(spec)):
