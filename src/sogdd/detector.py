@@ -66,7 +66,8 @@ def corner_response(image, *, preset: str = "paper", device: str = "cpu", **para
     if (gpu := _gpu(device)) is not None:
         return gpu.corner_response(image, preset=preset, **params)
     p = resolve_params(preset, **params)
-    return soddc_measure(_prepare(image, p), p.measure_spec())
+    grey = _prepare(image, p, lazy=True)  # a uint8 grey image is measured as it is (no float64 copy)
+    return soddc_measure(grey.exact_rows(0, grey.shape[0]), p.measure_spec())
 
 
 def _floor(p: Params, spec: MeasureSpec, threshold: float | None) -> float | None:
