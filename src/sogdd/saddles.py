@@ -59,6 +59,7 @@ from functools import lru_cache
 import cv2
 import numpy as np
 
+from ._grey_rows import float_rows
 from ._saddle_kernels import gradient_bilinear, strength_maxima
 from .corners import Corners
 from .filters import kernel_radius, steerable_basis
@@ -238,13 +239,13 @@ def find_saddles(grey, sigma2: float, radius: int | None = None, *, iterations: 
     t_n = strength_floor(sigma2, min_strength)
     basis = steerable_basis(sigma2, r)
     parts = []
-    buf = np.empty((3, min(H, rows_per_band + 2 * (halo + r)), W))  # one set of maps for every band
+    buf = np.empty((4, min(H, rows_per_band + 2 * (halo + r)), W))  # one set of maps and crop for every band
     for a in range(0, H, rows_per_band):
         c = min(H, a + rows_per_band)
         ea, eb = max(0, a - halo), min(H, c + halo)  # rows where the band's maps are the image's
         c0, c1 = max(0, ea - r), min(H, eb + r)
-        crop = np.ascontiguousarray(grey[c0:c1], dtype=np.float64)
-        maps = [m[ea - c0 : eb - c0] for m in second_derivatives(crop, sigma2, r, out=buf)]
+        crop = float_rows(grey, c0, c1, buf[3])
+        maps = [m[ea - c0 : eb - c0] for m in second_derivatives(crop, sigma2, r, out=buf[:3])]
         rows, cols, n = strength_maxima(*maps, top=ea, height=H, first=a - ea, last=c - ea, t_n=t_n)
         x0, y0 = cols.astype(np.float64), rows.astype(np.float64)
         parts.append((x0, y0, n, *_steps_in_band(maps, ea, eb, crop, c0, (H, W), x0, y0, basis, iterations)))
