@@ -8,7 +8,7 @@ import sogdd
 from sogdd import detector
 from sogdd._banded_relative import peaks_relative_in_bands, positives
 from sogdd._grey_rows import GreyRows
-from sogdd._stream_quantile import StreamQuantile, quantile_from_order_stats
+from sogdd._stream_quantile import StreamQuantile, quantile_from_order_stats, rank_floor
 from sogdd.io import to_gray255
 from sogdd.peaks import refine_quadratic, select_peaks
 from sogdd.response import authors_measure, soddc_measure
@@ -54,6 +54,22 @@ def test_stream_quantile_keeps_little_for_high_q(rng):
     assert sq.result() == np.quantile(x, 0.99)
     assert sq.kept < 0.05 * len(x)  # about (1 - q) of the values, not all of them
     assert sq.floor <= sq.result()
+
+
+@pytest.mark.parametrize("kind", ["lognormal", "signed", "ties"])
+def test_rank_floor_is_a_close_lower_bound_of_the_order_statistic(rng, kind):
+    n = 5000
+    x = {"lognormal": rng.lognormal(0, 4, n), "signed": rng.normal(0, 100, n),
+         "ties": rng.integers(-3, 4, n).astype(float)}[kind]
+    s = np.sort(x)
+    for r in [0, 1, n // 2, n - 2, n - 1, *rng.integers(0, n, 20)]:
+        lo = rank_floor(x, int(r))
+        assert lo in x and lo <= s[r]
+        # the same bucket (16 leading bits: the sign, the octave and its sixteenth), so close to it
+        assert np.sign(lo) == np.sign(s[r]) or lo == s[r] or s[r] == 0
+        assert lo >= s[r] * (16 / 17 if s[r] > 0 else 17 / 16)
+    with pytest.raises(ValueError, match="rank"):
+        rank_floor(x, n)
 
 
 def test_stream_quantile_of_nothing():
