@@ -162,9 +162,11 @@ def test_peak_scan_equals_the_dilation_definition(h, w, radius, border, levels, 
     got = set(zip(rows.tolist(), cols.tolist()))
     assert got <= set(zip(*np.nonzero(cand)))
     # the scan of the few pixels above the threshold and the dilation give the same maxima
-    from sogdd.peaks import _maxima_above
+    from sogdd._nms import count_above, maxima_scan_sparse
 
-    scan = _maxima_above(resp, thr, radius)
+    scan = maxima_scan_sparse(resp, thr, radius)
+    assert count_above(resp, thr, resp.size + 1) == np.count_nonzero(resp > thr)
+    assert count_above(resp, thr, 2) == min(2, np.count_nonzero(resp > thr))
     dense = np.nonzero((resp > thr) & local_maxima(resp, radius))
     np.testing.assert_array_equal(np.stack(scan), np.stack(dense))
     # every candidate is kept or lies within the radius of a kept one of equal value

@@ -14,10 +14,13 @@ import numba
 import numpy as np
 from scipy.spatial import cKDTree
 
+from ._nms import count_above, maxima_scan_sparse
 from .response import thread_count
 
 #: points per thread below which gradient refinement stays on one thread
 _REFINE_CHUNK = 512
+#: maxima_above examines only the pixels above the threshold while at most 1 in this many pass
+_SCAN_FRACTION = 10
 
 __all__ = [
     "break_ties",
@@ -112,52 +115,17 @@ def _valid_values(response, valid, use_valid, want_pos):  # pragma: no cover - j
     return nfin, vmax, pos[:n]
 
 
-@numba.njit(cache=True, nogil=True)
-def _maxima_above(response, thr, radius):  # pragma: no cover - jit
-    """Rows and columns of pixels above ``thr`` that no pixel of their square exceeds.
-
-    The same points as ``(response > thr) & local_maxima(response, radius)``, but
-    only pixels above the threshold (few, on a detector's map) look at their
-    neighbours, so nothing the size of the image is allocated.
-    """
-    H, W = response.shape
-    rows = np.empty(64, np.int64)
-    cols = np.empty(64, np.int64)
-    n = 0
-    for y in range(H):
-        row = response[y]
-        for x in range(W):
-            v = row[x]
-            if not v > thr:
-                continue
-            peak = True
-            for yy in range(max(0, y - radius), min(H, y + radius + 1)):
-                nb = response[yy]
-                for xx in range(max(0, x - radius), min(W, x + radius + 1)):
-                    if nb[xx] > v:
-                        peak = False
-                        break
-                if not peak:
-                    break
-            if peak:
-                if n == rows.shape[0]:
-                    rows = np.concatenate((rows, np.empty(n, np.int64)))
-                    cols = np.concatenate((cols, np.empty(n, np.int64)))
-                rows[n] = y
-                cols[n] = x
-                n += 1
-    return rows[:n], cols[:n]
-
-
 def maxima_above(response: np.ndarray, threshold: float, radius: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """Rows and columns of the local maxima (:func:`local_maxima`) strictly above ``threshold``, raster order.
 
-    Where few pixels pass (a detector's threshold) only they are examined; where
-    many do, one dilation of the whole map is cheaper. Both give the same points.
+    Where few pixels pass (up to 1 in 10: a detector's threshold) only they are
+    examined (:mod:`sogdd._nms`); where many do, one dilation of the whole map is
+    cheaper. Both give the same points.
     """
-    above = int(np.count_nonzero(response > threshold))
-    if above * 64 < response.size:
-        return _maxima_above(response, float(threshold), int(radius))
+    resp = np.ascontiguousarray(response, dtype=np.float64)
+    limit = resp.size // _SCAN_FRACTION + 1
+    if count_above(resp, float(threshold), limit) < limit:
+        return maxima_scan_sparse(resp, float(threshold), int(radius))
     # in bands of rows (with the radius as overlap), so no image-sized float copy is made
     H, r, band = response.shape[0], int(radius), 512
     rows, cols = [], []

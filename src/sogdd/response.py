@@ -205,11 +205,12 @@ def _tiled(
 
 
 #: The Fischer bound costs six window sums per pixel, the exact kernel K(K+1)/2 and an
-#: elimination, so the bound pays only for enough orientations. Measured on the 6.3 MP facade
-#: photo (``benchmarks/bench_speed.py``'s), 2 threads, threshold 20 grey levels: K = 4 box 115 ms
-#: full / 154 ms pruned, K = 4 Gaussian (hr) 137 / 177 (also slower on the fountain and the mosaic),
-#: K = 6 box 178 / 194, K = 6 Gaussian 237 / 195, K = 8 box 277 / 264, K = 8 Gaussian 397 / 314;
-#: the paper preset (K = 8, its T_h) 0.34x / 0.25x SIFT (README).
+#: elimination, so the bound pays only for enough orientations and a high enough threshold.
+#: Measured on the 6.3 MP facade photo (``benchmarks/bench_speed.py``'s), 2 threads, ms full /
+#: pruned: at a threshold of 20 grey levels K = 4 box 89 / 123, K = 4 Gaussian (hr) 157 / 197,
+#: K = 6 box 127 / 152, K = 6 Gaussian 273 / 307, K = 8 box 194 / 216, K = 8 Gaussian 456 / 451;
+#: at the paper preset's T_h (K = 8 box) 198 / 150. (Before the unrolled elimination the full
+#: kernel was slower and pruning paid at 20 grey levels from K = 6 on.)
 PRUNE_MIN_ORIENTATIONS = 6
 
 
