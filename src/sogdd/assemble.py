@@ -56,14 +56,16 @@ def peak_limit(p: Params) -> int | None:
 
 def assemble(grey, p: Params, spec: MeasureSpec, rows: np.ndarray, cols: np.ndarray, values: np.ndarray,
              qoff: np.ndarray | None, mask: np.ndarray | None = None, *,
-             gradient: Callable[[np.ndarray], np.ndarray] | None = None) -> Corners:
+             gradient: Callable[[np.ndarray], np.ndarray] | None = None,
+             saddles: tuple[np.ndarray, np.ndarray] | None = None) -> Corners:
     """Corners from peaks (strongest first) with their values and quadratic offsets (dx, dy).
 
     ``grey``: the grey 0-255 image (an array or a :class:`sogdd._grey_rows.GreyRows`),
     read by the X-junction stage, the gradient and the adaptive refinements.
     ``gradient``: ``subpixel="gradient"`` refinement of an (N, 2) array of points
     (default :func:`sogdd.peaks.refine_gradient` on ``grey``). Strengths are in
-    grey levels with ``threshold_units="grey"``.
+    grey levels with ``threshold_units="grey"``. ``saddles``: the X-junction
+    stage's :func:`sogdd.saddles.saddle_search`, if already computed.
     """
     xy = np.stack([cols, rows], axis=1).astype(np.float64)
     if p.subpixel != "none" and len(rows):
@@ -75,7 +77,7 @@ def assemble(grey, p: Params, spec: MeasureSpec, rows: np.ndarray, cols: np.ndar
     is_x = np.zeros(len(out), bool)
     if p.x_junctions:
         out, is_x = add_x_junctions(out, grey, spec, threshold=p.threshold, rho=X_RING_RADIUS,
-                                    size=p.keypoint_size(), border=p.border, mask=mask)
+                                    size=p.keypoint_size(), border=p.border, mask=mask, found=saddles)
         if p.max_corners is not None:
             out, is_x = out.subset(np.arange(min(len(out), p.max_corners))), is_x[: p.max_corners]
     if p.subpixel == "adaptive" and len(out):  # after the cut: windows see the final neighbours

@@ -8,6 +8,8 @@ brought to grey on the 0-255 scale (:mod:`sogdd.io`), filtered and measured
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 
 from ._banded import peaks_in_bands
@@ -21,6 +23,7 @@ from .params import Params, resolve_params
 from .peaks import refine_quadratic, select_peaks
 from .pyramid import detect_pyramid
 from .response import MeasureSpec, soddc_measure, supports_floor
+from .saddles import saddle_search
 
 __all__ = ["corner_response", "detect_corners"]
 
@@ -78,9 +81,19 @@ def _floor(p: Params, spec: MeasureSpec, threshold: float | None) -> float | Non
 
 
 def _detect_level(grey: np.ndarray, p: Params, mask: np.ndarray | None) -> Corners:
+    spec = p.measure_spec()
+    if not p.x_junctions:
+        return _measure_and_assemble(grey, p, spec, mask, None)
+    # the saddle search reads the image only: beside the measure, its single-threaded
+    # steps fill the cores the measure's tiles leave idle (same result either way)
+    with ThreadPoolExecutor(1) as pool:
+        saddles = pool.submit(saddle_search, grey, spec, p.threshold)
+        return _measure_and_assemble(grey, p, spec, mask, saddles)
+
+
+def _measure_and_assemble(grey, p: Params, spec: MeasureSpec, mask: np.ndarray | None, saddles) -> Corners:
     # Exact wherever a peak above the threshold or the 3x3 patch of one can be, -inf
     # where a bound proves the measure below it: the same corners as the full map.
-    spec = p.measure_spec()
     thr = peak_threshold(p, spec)
     floor = _floor(p, spec, thr)
     top = peak_limit(p)
@@ -103,7 +116,8 @@ def _detect_level(grey: np.ndarray, p: Params, mask: np.ndarray | None) -> Corne
             values = resp[rows, cols]
             qoff = refine_quadratic(resp, rows, cols) if p.subpixel != "none" else None
             del resp
-    return assemble(grey, p, spec, rows, cols, values, qoff, mask)
+    return assemble(grey, p, spec, rows, cols, values, qoff, mask,
+                    saddles=None if saddles is None else saddles.result())
 
 
 def _gpu(device: str):

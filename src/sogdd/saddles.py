@@ -319,21 +319,31 @@ def near_any(xy: np.ndarray, centres: np.ndarray, radius: float) -> np.ndarray:
     return np.isfinite(d) & (d <= radius)
 
 
+def saddle_search(grey, spec: MeasureSpec, threshold: float | None) -> tuple[np.ndarray, np.ndarray]:
+    """The saddles :func:`add_x_junctions` starts from: ``(xy, strength in grey levels)``.
+
+    Only the image is read, so detection runs it beside the measure (``found=``).
+    """
+    r = kernel_radius(spec.sigma2, spec.radius_rule)
+    unit = saddle_unit(spec.sigma2, r)
+    raw_min = 0.0 if threshold is None else threshold * unit / CALIBRATION_CONTRAST
+    xy, s = find_saddles(grey, spec.sigma2, r, min_strength=raw_min)
+    return xy, CALIBRATION_CONTRAST * s / unit
+
+
 def add_x_junctions(corners, grey, spec: MeasureSpec, *, threshold: float | None, rho: float, size: float,
-                    border: int = 0, mask: np.ndarray | None = None):
+                    border: int = 0, mask: np.ndarray | None = None,
+                    found: tuple[np.ndarray, np.ndarray] | None = None):
     """Replace the ring of Upsilon peaks around each X-junction by the junction's saddle point.
 
     ``corners`` carry grey-level strengths (:func:`grey_strength`). Saddles of
     strength ``>= threshold`` (grey levels, :func:`saddle_unit` scale) are added;
     corners within ``rho`` px of one are dropped. Returns ``(Corners, is_x)``, strongest first,
     ``is_x`` marking the X-junctions. ``grey``: an array or a :class:`sogdd._grey_rows.GreyRows`
-    (:func:`find_saddles` reads it in bands).
+    (:func:`find_saddles` reads it in bands). ``found``: :func:`saddle_search`'s result for
+    this ``grey``, ``spec`` and ``threshold``, if already computed.
     """
-    r = kernel_radius(spec.sigma2, spec.radius_rule)
-    unit = saddle_unit(spec.sigma2, r)
-    raw_min = 0.0 if threshold is None else threshold * unit / CALIBRATION_CONTRAST
-    xy, s = find_saddles(grey, spec.sigma2, r, min_strength=raw_min)
-    s = CALIBRATION_CONTRAST * s / unit
+    xy, s = saddle_search(grey, spec, threshold) if found is None else found
     h, w = grey.shape
     col, row = np.rint(xy[:, 0]).astype(np.int64), np.rint(xy[:, 1]).astype(np.int64)
     keep = (col >= border) & (col <= w - 1 - border) & (row >= border) & (row <= h - 1 - border)
