@@ -139,3 +139,17 @@ def test_hr_reports_one_point_per_corner(monkeypatch):
     d, _ = cKDTree(got.xy).query(every.xy)
     assert len(every) > len(got) and np.all(d < assemble.COINCIDENT)  # only coincident points went
     np.testing.assert_array_equal(got.xy, every.xy[d == 0])  # the rest unchanged, in order
+
+
+def test_saddles_beside_the_measure_give_the_sequential_result(monkeypatch):
+    """The X-junction search runs in a thread beside the measure up to CONCURRENT_SADDLES pixels."""
+    from sogdd import detector
+
+    img, _ = checkerboard(9.0, shape=(120, 140))
+    img = np.clip(img + np.random.default_rng(3).normal(0, 2, img.shape), 0, 255).astype(np.uint8)
+    beside = sogdd.detect_corners(img, preset="hr")
+    monkeypatch.setattr(detector, "CONCURRENT_SADDLES", 0)  # the sequential order
+    after = sogdd.detect_corners(img, preset="hr")
+    assert len(beside) > 20
+    np.testing.assert_array_equal(beside.xy, after.xy)
+    np.testing.assert_array_equal(beside.response, after.response)
