@@ -29,7 +29,7 @@ __all__ = ["corner_response", "detect_corners"]
 
 #: Pixels up to which the X-junction saddle search (``hr``) runs beside the measure rather
 #: than after it: both stages' bands then exist at once, ~70 MB more at 24 MP (peak RSS
-#: 629 -> 673-731 MB on a 6000 x 4000 JPEG, against the 700 MB bound), so larger
+#: 614 -> 657-714 MiB on a 6000 x 4000 JPEG, against the 700 MB bound), so larger
 #: images keep the sequential order (facade 6.3 MP: 32.6 -> 29.5 ms/MP beside the measure)
 CONCURRENT_SADDLES = 1 << 24
 
