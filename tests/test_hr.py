@@ -147,9 +147,25 @@ def test_saddles_beside_the_measure_give_the_sequential_result(monkeypatch):
 
     img, _ = checkerboard(9.0, shape=(120, 140))
     img = np.clip(img + np.random.default_rng(3).normal(0, 2, img.shape), 0, 255).astype(np.uint8)
+    import threading
+
+    where = []
+    search = detector.saddle_search
+
+    def spy(*args):
+        where.append(threading.current_thread() is threading.main_thread())
+        return search(*args)
+
+    monkeypatch.setattr(detector, "saddle_search", spy)
+    monkeypatch.setenv("SOGDD_NUM_THREADS", "2")  # one thread keeps the sequential order
     beside = sogdd.detect_corners(img, preset="hr")
     monkeypatch.setattr(detector, "CONCURRENT_SADDLES", 0)  # the sequential order
     after = sogdd.detect_corners(img, preset="hr")
+    monkeypatch.setattr(detector, "CONCURRENT_SADDLES", 1 << 24)
+    monkeypatch.setenv("SOGDD_NUM_THREADS", "1")  # as in collection's worker processes
+    one = sogdd.detect_corners(img, preset="hr")
+    assert where == [False]  # beside the measure in a thread; else found inside add_x_junctions
+    np.testing.assert_array_equal(one.xy, after.xy)
     assert len(beside) > 20
     np.testing.assert_array_equal(beside.xy, after.xy)
     np.testing.assert_array_equal(beside.response, after.response)

@@ -22,7 +22,7 @@ from .io import check_mask, to_gray255, validate_image
 from .params import Params, resolve_params
 from .peaks import refine_quadratic, select_peaks
 from .pyramid import detect_pyramid
-from .response import MeasureSpec, soddc_measure, supports_floor
+from .response import MeasureSpec, soddc_measure, supports_floor, thread_count
 from .saddles import saddle_search
 
 __all__ = ["corner_response", "detect_corners"]
@@ -88,10 +88,11 @@ def _floor(p: Params, spec: MeasureSpec, threshold: float | None) -> float | Non
 
 def _detect_level(grey: np.ndarray, p: Params, mask: np.ndarray | None) -> Corners:
     spec = p.measure_spec()
-    if not p.x_junctions or grey.shape[0] * grey.shape[1] > CONCURRENT_SADDLES:
+    if not p.x_junctions or grey.shape[0] * grey.shape[1] > CONCURRENT_SADDLES or thread_count() == 1:
         return _measure_and_assemble(grey, p, spec, mask, None)
     # the saddle search reads the image only: beside the measure, its single-threaded
-    # steps fill the cores the measure's tiles leave idle (same result either way)
+    # steps fill the cores the measure's tiles leave idle (same result either way; one
+    # thread asked for, as in collection's worker processes, keeps the sequential order)
     with ThreadPoolExecutor(1) as pool:
         saddles = pool.submit(saddle_search, grey, spec, p.threshold)
         return _measure_and_assemble(grey, p, spec, mask, saddles)
