@@ -63,7 +63,7 @@ from ._grey_rows import float_rows
 from ._saddle_kernels import gradient_bilinear, strength_maxima
 from .corners import Corners
 from .filters import kernel_radius, steerable_basis
-from .peaks import one_per_point
+from .peaks import inside_allowed, one_per_point
 from .response import MeasureSpec, soddc_measure
 from .synthetic import Polygon, render_polygons
 
@@ -344,13 +344,9 @@ def add_x_junctions(corners, grey, spec: MeasureSpec, *, threshold: float | None
     this ``grey``, ``spec`` and ``threshold``, if already computed.
     """
     xy, s = saddle_search(grey, spec, threshold) if found is None else found
-    h, w = grey.shape
-    col, row = np.rint(xy[:, 0]).astype(np.int64), np.rint(xy[:, 1]).astype(np.int64)
-    keep = (col >= border) & (col <= w - 1 - border) & (row >= border) & (row <= h - 1 - border)
+    keep = inside_allowed(xy, mask, border, grey.shape)
     if threshold is not None:
         keep &= s >= threshold
-    if mask is not None:
-        keep[keep] = mask[row[keep], col[keep]]
     xy, s = xy[keep], s[keep]
     c = corners.subset(~near_any(corners.xy, xy, rho))
     out = Corners.concatenate([c, Corners(xy, s, np.full(len(s), float(size)))])
