@@ -253,13 +253,13 @@ def tile_square(planes, off, coef, nr, need, colneed, rowneed, want_parts, out, 
                 block, gap, y0, y1, clear, wts):  # pragma: no cover - jit
     """Fill ``out`` (Ht, W) with det/(tr + varsigma) for an ``nr x nr`` square window.
 
-    ``planes`` as in :func:`tile_general`. Products of the K absolute
+    ``planes`` as in :func:`sogdd._kernel_general.tile_general`. Products of the K absolute
     responses are kept for the last ``nr + 3`` rows (a ring); groups of 4 output
     rows sum them down the columns in one pass (:func:`column_sums`, over the
     union of their column masks), then each row along the row, both directly in a fixed
     pair-wise order (no running sums: the result must not depend on where a
     tile starts, and must not cancel). ``need``, ``colneed`` and ``rowneed``
-    (:func:`dilate_masks`) say which pixels, column sums and products to compute;
+    (:func:`sogdd._pruning.spread_masks`) say which pixels, column sums and products to compute;
     with ``clear``, pixels outside the (gap-merged) runs of ``need`` get ``-inf``
     (without it they keep their value: a second pass adds pixels). An empty
     ``need`` (shape (0, 0)) means all. Only output rows ``y0 .. y1 - 1`` are
