@@ -141,31 +141,29 @@ def test_hr_reports_one_point_per_corner(monkeypatch):
     np.testing.assert_array_equal(got.xy, every.xy[d == 0])  # the rest unchanged, in order
 
 
-def test_saddles_beside_the_measure_give_the_sequential_result(monkeypatch):
-    """The X-junction search runs in a thread beside the measure up to CONCURRENT_SADDLES pixels."""
-    from sogdd import detector
+@pytest.mark.parametrize("threads,band_rows", [("1", 1024), ("2", 1024), ("2", 37)])
+def test_saddles_from_the_measures_responses_equal_the_search(monkeypatch, threads, band_rows):
+    """Detection takes the X-junction candidates from the measure's tiles: saddle_search's result exactly."""
+    from sogdd import _banded, detector
 
     img, _ = checkerboard(9.0, shape=(120, 140))
     img = np.clip(img + np.random.default_rng(3).normal(0, 2, img.shape), 0, 255).astype(np.uint8)
-    import threading
+    monkeypatch.setenv("SOGDD_NUM_THREADS", threads)
+    banded = _banded.peaks_in_bands
+    monkeypatch.setattr(detector, "peaks_in_bands", lambda *a, **k: banded(*a, band_rows=band_rows, **k))
+    tiles = []
+    cls = detector.SaddleCandidates
 
-    where = []
-    search = detector.saddle_search
+    class Spy(cls):
+        def __call__(self, top, lo, hi, planes):
+            tiles.append(hi - lo)
+            return super().__call__(top, lo, hi, planes)
 
-    def spy(*args):
-        where.append(threading.current_thread() is threading.main_thread())
-        return search(*args)
-
-    monkeypatch.setattr(detector, "saddle_search", spy)
-    monkeypatch.setenv("SOGDD_NUM_THREADS", "2")  # one thread keeps the sequential order
-    beside = sogdd.detect_corners(img, preset="hr")
-    monkeypatch.setattr(detector, "CONCURRENT_SADDLES", 0)  # the sequential order
-    after = sogdd.detect_corners(img, preset="hr")
-    monkeypatch.setattr(detector, "CONCURRENT_SADDLES", 1 << 24)
-    monkeypatch.setenv("SOGDD_NUM_THREADS", "1")  # as in collection's worker processes
-    one = sogdd.detect_corners(img, preset="hr")
-    assert where == [False]  # beside the measure in a thread; else found inside add_x_junctions
-    np.testing.assert_array_equal(one.xy, after.xy)
-    assert len(beside) > 20
-    np.testing.assert_array_equal(beside.xy, after.xy)
-    np.testing.assert_array_equal(beside.response, after.response)
+    monkeypatch.setattr(detector, "SaddleCandidates", Spy)
+    shared = sogdd.detect_corners(img, preset="hr")
+    assert sum(tiles) == img.shape[0]  # every row's candidates, from one tile each
+    monkeypatch.setattr(detector, "SaddleCandidates", lambda *a: None)  # add_x_junctions searches itself
+    searched = sogdd.detect_corners(img, preset="hr")
+    assert len(shared) > 20
+    np.testing.assert_array_equal(shared.xy, searched.xy)
+    np.testing.assert_array_equal(shared.response, searched.response)

@@ -14,7 +14,7 @@ from scipy import ndimage
 import sogdd
 from sogdd import saddles
 from sogdd._banded import peaks_in_bands
-from sogdd._saddle_kernels import gradient_bilinear, strength_maxima
+from sogdd._saddle_kernels import derivatives_bilinear, strength_maxima
 from sogdd.filters import kernel_radius, steerable_basis
 from sogdd.peaks import refine_quadratic, select_peaks
 from sogdd.response import soddc_measure
@@ -88,37 +88,50 @@ def test_banded_hr_peaks_equal_the_full_map(band_rows):
     np.testing.assert_array_equal(got[3], refine_quadratic(full, rows, cols))
 
 
-@pytest.mark.parametrize("band_rows,halo", [(256, 16), (5, 1), (1, 1), (2, 3)])
-def test_saddles_in_bands_equal_the_whole_image(band_rows, halo, monkeypatch):
+@pytest.mark.parametrize("band_rows,slack", [(256, 16), (5, 0), (1, 0), (2, 3)])
+def test_saddles_in_bands_equal_the_whole_image(band_rows, slack, monkeypatch):
+    """Maps in bands, Newton steps in crops: the whole image's points, for any band and crop size."""
     img = _photo_like(60, 80)
     r = kernel_radius(1.5)
-    calls = []
-    finish = saddles._finish
-    monkeypatch.setattr(saddles, "_finish", lambda *a: calls.append(len(a[4])) or finish(*a))
-    for ms in (0.0, 3.0):
-        want = find_saddles(img, 1.5, r, min_strength=ms, band_rows=60)
-        got = find_saddles(img, 1.5, r, min_strength=ms, band_rows=band_rows, halo=halo)
-        assert len(want[0]) > 5
-        np.testing.assert_array_equal(got[0], want[0])
-        np.testing.assert_array_equal(got[1], want[1])
-    if halo == 1:
-        assert calls and max(calls) > 0  # points that left their band took the second path
+    continued = []
+    steps = saddles.newton_steps
+
+    def spy(*a):
+        continued.append(bool((a[6] > 0).any()))  # a point that left a crop and goes on in another
+        return steps(*a)
+
+    want = [find_saddles(img, 1.5, r, min_strength=ms, band_rows=60) for ms in (0.0, 3.0)]
+    monkeypatch.setattr(saddles, "newton_steps", spy)
+    monkeypatch.setattr(saddles, "SLACK", slack)
+    for ms, w in zip((0.0, 3.0), want):
+        got = find_saddles(img, 1.5, r, min_strength=ms, band_rows=band_rows)
+        assert len(w[0]) > 5
+        np.testing.assert_array_equal(got[0], w[0])
+        np.testing.assert_array_equal(got[1], w[1])
+    if slack == 0:
+        assert any(continued)  # points that left their crop took the second path
 
 
 @pytest.mark.parametrize("shape", [(1, 7), (7, 1), (2, 2), (30, 41)])
-def test_saddle_gradient_is_the_filtered_map_interpolated(shape):
-    """The gradient at Newton iterates, from the image, equals the sepFilter2D maps interpolated."""
+def test_saddle_derivatives_are_the_filtered_maps_interpolated(shape):
+    """Hessian and gradient at Newton iterates, from the image, equal the filtered maps interpolated."""
     rng = np.random.default_rng(1)
     img = rng.uniform(0, 255, shape)
     b = steerable_basis(1.5, 5)
     H, W = shape
-    maps = [cv2.sepFilter2D(img, cv2.CV_64F, kx, ky, borderType=cv2.BORDER_REFLECT)
-            for kx, ky in ((b.d1, b.gauss), (b.gauss, b.d1))]
+    maps = list(second_derivatives(img, 1.5, 5)) + [
+        cv2.sepFilter2D(img, cv2.CV_64F, kx, ky, borderType=cv2.BORDER_REFLECT)
+        for kx, ky in ((b.d1, b.gauss), (b.gauss, b.d1))]
     x, y = rng.uniform(-1, W, 50), rng.uniform(-1, H, 50)
     want = bilinear_rows(maps, 0, H, W, x, y)
-    got = gradient_bilinear(img, 0, H, W, x, y, b.gauss, b.d1)
+    got = derivatives_bilinear(img, 0, H, W, x, y, b.gauss, b.d1, b.d2)
+    assert got.shape == (5, 50)
     for g, w in zip(got, want):
         np.testing.assert_allclose(g, w, rtol=0, atol=1e-12 * max(1.0, np.abs(w).max()))
+    if H > 20:  # rows read from a crop: the same bits as from the image
+        y = np.clip(y, 8, None)
+        np.testing.assert_array_equal(derivatives_bilinear(img[2:], 2, H, W, x, y, b.gauss, b.d1, b.d2),
+                                      derivatives_bilinear(img, 0, H, W, x, y, b.gauss, b.d1, b.d2))
 
 
 def test_saddle_candidates_are_the_dilation_maxima():
@@ -147,3 +160,20 @@ def test_hr_detection_reads_the_grey_image_in_crops_only(monkeypatch):
                         or whole(self, dtype, copy))
     got = sogdd.detect_corners(img, preset="hr")
     assert len(got) > 10 and asked == [np.float32]
+
+
+@pytest.mark.parametrize("band_rows", [1, 6, 1024])
+@pytest.mark.parametrize("threshold", [None, 4.0])
+def test_saddle_candidates_from_measured_bands_equal_the_search(band_rows, threshold):
+    """The measure's tiles, in any bands, give the X-junction stage saddle_search's points, bit for bit."""
+    img = _photo_like(64, 90)
+    thr = measure_threshold(20.0, HR)
+    found = saddles.SaddleCandidates(img.shape, HR, threshold)
+    peaks_in_bands(img, HR, threshold=thr, floor=thr, band_rows=band_rows, on_planes=found)
+    want = saddles.saddle_search(img, HR, threshold)
+    got = found.result(img)
+    assert sum(len(p[0]) for p in found.parts) > 20 and len(want[0]) > 5
+    np.testing.assert_array_equal(got[0], want[0])
+    np.testing.assert_array_equal(got[1], want[1])
+    with pytest.raises(ValueError, match="zero-mean"):
+        saddles.SaddleCandidates(img.shape, sogdd.resolve_params("authors").measure_spec(), threshold)

@@ -36,6 +36,7 @@ def peaks_in_bands(
     mask: np.ndarray | None = None,
     max_corners: int | None = None,
     band_rows: int = BAND_ROWS,
+    on_planes=None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Rows, columns, values and quadratic offsets (dx, dy) of the peaks above ``threshold``.
 
@@ -44,7 +45,11 @@ def peaks_in_bands(
     ``select_peaks(soddc_measure(grey, spec, floor=floor),
     threshold=threshold, nms_radius=..., border=..., mask=..., max_corners=...)``
     (``floor <= threshold``), strongest first, and the offsets those of
-    :func:`sogdd.peaks.refine_quadratic` on that map.
+    :func:`sogdd.peaks.refine_quadratic` on that map. ``on_planes(top, lo, hi,
+    planes)`` receives the filter responses of every tile the bands measure, as
+    :func:`~sogdd.response.soddc_measure`'s, in image rows, with ``lo .. hi - 1``
+    the rows of the tile that are its band's own (each image row is in one band's
+    own rows, and its responses there are the image's).
     """
     H, W = grey.shape
     rad = int(nms_radius)
@@ -58,7 +63,11 @@ def peaks_in_bands(
         c = min(H, a + int(band_rows))
         lo, hi = max(0, a - halo), min(H, c + halo)  # rows whose values are used
         y0, y1 = max(0, lo - m), min(H, hi + m)
-        resp = soddc_measure(measure_rows(grey, y0, y1), spec, floor=floor)[lo - y0 : hi - y0]
+        hook = None
+        if on_planes is not None:
+            def hook(top, r0, r1, planes, y0=y0, a=a, c=c):
+                on_planes(top + y0, max(r0 + y0, a), min(r1 + y0, c), planes)
+        resp = soddc_measure(measure_rows(grey, y0, y1), spec, floor=floor, on_planes=hook)[lo - y0 : hi - y0]
         n0, n1 = max(a - rad, rlo), min(c + rad, rhi)
         if n1 <= n0 or chi <= clo:
             continue

@@ -9,10 +9,13 @@ millions of pixels. Here:
   second-derivative maps: ``N = g_xy^2 - g_xx g_yy`` (the saddle strength is
   ``sigma^2 sqrt(max(N, 0))``, monotone in ``N``), and a pixel is a candidate when
   ``N > t_N`` and ``N`` is not below any in-image 8-neighbour;
-- :func:`gradient_bilinear` gives ``(g_x, g_y)`` at the Newton iterates from the
+- :func:`newton_steps` runs the Newton steps of every candidate in one
+  compiled loop, with the Hessian and the gradient at each iterate from the
   image itself (separable Gaussian-derivative sums at the four pixels the
-  bilinear interpolation reads, sharing their row sums), so the two
-  first-derivative maps are never filtered; only the candidates ever need them.
+  bilinear interpolation reads, sharing their row sums,
+  :func:`derivatives_bilinear`): only the candidates need them, so the
+  derivative maps are needed for the candidates only, and detection takes
+  those from the measure's own filter responses (:mod:`sogdd.saddles`).
 
 Every value is a function of the image and the pixel only (fixed summation
 order), so bands, crops and the whole image give the same bits.
@@ -28,7 +31,7 @@ import numpy as np
 from ._jit import JIT
 from .window import reflect1
 
-__all__ = ["gradient_bilinear", "strength_maxima"]
+__all__ = ["derivatives_bilinear", "newton_steps", "row_groups", "strength_maxima"]
 
 
 @numba.njit(**JIT)
@@ -83,70 +86,186 @@ def strength_maxima(gxx: np.ndarray, gxy: np.ndarray, gyy: np.ndarray, *, top: i
 
 
 @numba.njit(**JIT)
-def _row_sums(img, off, height, width, y0, x, gauss, d1, sg, s1):  # pragma: no cover - jit
-    """Row sums at column ``x`` of the ``2 r + 2`` image rows from ``y0 - r`` (reflected): gauss and d1."""
+def _row_sums(img, off, height, width, y0, x, gauss, d1, d2, sums):  # pragma: no cover - jit
+    """Row sums at column ``x`` of the ``2 r + 2`` image rows from ``y0 - r`` (reflected): gauss, d1, d2."""
     r = (gauss.shape[0] - 1) // 2
     inside = x - r >= 0 and x + r < width  # no column reflection: plain indices (the same sums)
     for a in range(2 * r + 2):
         line = img[reflect1(y0 + a - r, height) - off]
         vg = 0.0
         v1 = 0.0
+        v2 = 0.0
         for b in range(2 * r + 1):
             v = line[x - r + b] if inside else line[reflect1(x + b - r, width)]
             vg += gauss[b] * v
             v1 += d1[b] * v
-        sg[a] = vg
-        s1[a] = v1
+            v2 += d2[b] * v
+        sums[0, a] = vg
+        sums[1, a] = v1
+        sums[2, a] = v2
 
 
 @numba.njit(**JIT)
-def _column(sg, s1, shift, gauss, d1):  # pragma: no cover - jit
-    """``(g_x, g_y)`` at the row ``shift`` below the first: d1 along x with gauss along y, and the reverse."""
+def _column(sums, shift, gauss, d1, d2, out, i):  # pragma: no cover - jit
+    """The five derivatives at row ``shift`` (below the first), from one column's row sums, into ``out[:, i]``.
+
+    ``g_xx`` (d2 along x, gauss along y), ``g_xy`` (d1, d1), ``g_yy`` (gauss, d2),
+    ``g_x`` (d1, gauss), ``g_y`` (gauss, d1): correlations, as ``cv2.sepFilter2D``'s.
+    """
+    gxx = 0.0
+    gxy = 0.0
+    gyy = 0.0
     gx = 0.0
     gy = 0.0
     for a in range(gauss.shape[0]):
-        gx += gauss[a] * s1[a + shift]
-        gy += d1[a] * sg[a + shift]
-    return gx, gy
+        sg = sums[0, a + shift]
+        s1 = sums[1, a + shift]
+        gxx += gauss[a] * sums[2, a + shift]
+        gxy += d1[a] * s1
+        gyy += d2[a] * sg
+        gx += gauss[a] * s1
+        gy += d1[a] * sg
+    out[0, i] = gxx
+    out[1, i] = gxy
+    out[2, i] = gyy
+    out[3, i] = gx
+    out[4, i] = gy
 
 
 @numba.njit(**JIT)
-def _gradient_bilinear(img, off, height, width, xs, ys, gauss, d1, gx, gy):  # pragma: no cover - jit
+def _at(img, off, height, width, x, y, gauss, d1, d2, s0, s1, corners, val):  # pragma: no cover - jit
+    """The five derivatives bilinearly interpolated at ``(x, y)`` (edge-clamped) into ``val``."""
+    x = min(max(x, 0.0), width - 1.0)
+    y = min(max(y, 0.0), height - 1.0)
+    x0 = min(int(math.floor(x)), width - 2 if width > 1 else 0)
+    y0 = min(int(math.floor(y)), height - 2 if height > 1 else 0)
+    x1 = min(x0 + 1, width - 1)
+    dy = min(y0 + 1, height - 1) - y0  # 0 on a one-row image
+    fx = x - x0
+    fy = y - y0
+    # the four pixels share their rows: row sums once per column
+    _row_sums(img, off, height, width, y0, x0, gauss, d1, d2, s0)
+    _row_sums(img, off, height, width, y0, x1, gauss, d1, d2, s1)
+    _column(s0, 0, gauss, d1, d2, corners, 0)
+    _column(s1, 0, gauss, d1, d2, corners, 1)
+    _column(s0, dy, gauss, d1, d2, corners, 2)
+    _column(s1, dy, gauss, d1, d2, corners, 3)
+    for k in range(5):
+        val[k] = (corners[k, 0] * (1 - fx) + corners[k, 1] * fx) * (1 - fy) + (
+            corners[k, 2] * (1 - fx) + corners[k, 3] * fx) * fy
+
+
+@numba.njit(**JIT)
+def _readable(off, rows, height, y, r):  # pragma: no cover - jit
+    """Whether the image rows a step at ``y`` reads (reflected) are among rows ``off .. off + rows - 1``."""
+    yc = min(max(y, 0.0), height - 1.0)
+    y0 = min(int(math.floor(yc)), height - 2 if height > 1 else 0)
+    for a in range(2 * r + 2):
+        ri = reflect1(y0 + a - r, height)
+        if ri < off or ri >= off + rows:
+            return False
+    return True
+
+
+@numba.njit(**JIT)
+def _derivatives(img, off, height, width, xs, ys, gauss, d1, d2, out):  # pragma: no cover - jit
     n = gauss.shape[0] + 1
-    sg0, s10, sg1, s11 = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+    s0, s1, corners, val = np.empty((3, n)), np.empty((3, n)), np.empty((5, 4)), np.empty(5)
     for t in range(xs.shape[0]):
-        x = min(max(xs[t], 0.0), width - 1.0)
-        y = min(max(ys[t], 0.0), height - 1.0)
-        x0 = min(int(math.floor(x)), width - 2 if width > 1 else 0)
-        y0 = min(int(math.floor(y)), height - 2 if height > 1 else 0)
-        x1 = min(x0 + 1, width - 1)
-        dy = min(y0 + 1, height - 1) - y0  # 0 on a one-row image
-        fx = x - x0
-        fy = y - y0
-        # the four pixels share their rows: row sums once per column (correlation, as cv2.sepFilter2D)
-        _row_sums(img, off, height, width, y0, x0, gauss, d1, sg0, s10)
-        _row_sums(img, off, height, width, y0, x1, gauss, d1, sg1, s11)
-        ax00, ay00 = _column(sg0, s10, 0, gauss, d1)
-        ax01, ay01 = _column(sg1, s11, 0, gauss, d1)
-        ax10, ay10 = _column(sg0, s10, dy, gauss, d1)
-        ax11, ay11 = _column(sg1, s11, dy, gauss, d1)
-        gx[t] = (ax00 * (1 - fx) + ax01 * fx) * (1 - fy) + (ax10 * (1 - fx) + ax11 * fx) * fy
-        gy[t] = (ay00 * (1 - fx) + ay01 * fx) * (1 - fy) + (ay10 * (1 - fx) + ay11 * fx) * fy
+        _at(img, off, height, width, xs[t], ys[t], gauss, d1, d2, s0, s1, corners, val)
+        for k in range(5):
+            out[k, t] = val[k]
 
 
-def gradient_bilinear(img: np.ndarray, off: int, height: int, width: int, x: np.ndarray, y: np.ndarray,
-                      gauss: np.ndarray, d1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(g_x, g_y)`` of ``G_sigma * I`` bilinearly interpolated at ``(x, y)`` (edge-clamped).
+@numba.njit(**JIT)
+def _newton(img, off, height, width, xs, ys, steps, iterations, gauss, d1, d2):  # pragma: no cover - jit
+    r = (gauss.shape[0] - 1) // 2
+    n = gauss.shape[0] + 1
+    s0, s1, corners, v = np.empty((3, n)), np.empty((3, n)), np.empty((5, 4)), np.empty(5)
+    rows = img.shape[0]
+    for t in range(xs.shape[0]):
+        while steps[t] < iterations and _readable(off, rows, height, ys[t], r):
+            _at(img, off, height, width, xs[t], ys[t], gauss, d1, d2, s0, s1, corners, v)
+            a, b, c, px, py = v[0], v[1], v[2], v[3], v[4]
+            det = a * c - b * b
+            dx = -(c * px - b * py) / det
+            dy = -(a * py - b * px) / det
+            # a singular Hessian is no saddle: the point is sent 9 px away, so that it is refused
+            xs[t] += dx if math.isfinite(dx) else 9.0
+            ys[t] += dy if math.isfinite(dy) else 9.0
+            steps[t] += 1
 
-    ``img`` holds image rows ``off ..`` of a ``height x width`` image, enough to
-    reach ``radius`` rows beyond the two rows each point reads (reflected at the
-    image's edges). The interpolation is that of
-    :func:`sogdd.saddles.bilinear_rows`.
+
+@numba.njit(**JIT)
+def _row_groups(lo, hi, reach, band_rows, ends):  # pragma: no cover - jit
+    k = 0
+    g0 = 0
+    n = lo.shape[0]
+    while g0 < n:
+        glo = lo[g0]
+        ghi = hi[g0]
+        g1 = g0 + 1
+        while g1 < n and lo[g1] <= ghi + 2 * reach + 1 and hi[g1] < glo + band_rows:
+            ghi = max(ghi, hi[g1])
+            g1 += 1
+        ends[k] = g1
+        k += 1
+        g0 = g1
+    return k
+
+
+def row_groups(lo: np.ndarray, hi: np.ndarray, reach: int, band_rows: int) -> np.ndarray:
+    """Ends of the groups of points, sorted by the first row ``lo`` they read (``hi``: the last).
+
+    A group grows while the next point's rows, widened by ``reach``, overlap its own
+    widened rows and span fewer than ``band_rows`` rows; its points then share one
+    crop of rows ``min(lo) - reach .. max(hi) + reach``.
+
+    Examples
+    --------
+    >>> row_groups(np.array([0, 1, 50, 51]), np.array([1, 2, 51, 52]), 3, 100).tolist()
+    [2, 4]
+    """
+    ends = np.empty(len(lo), np.int64)
+    k = _row_groups(np.ascontiguousarray(lo, dtype=np.int64), np.ascontiguousarray(hi, dtype=np.int64),
+                    int(reach), int(band_rows), ends)
+    return ends[:k]
+
+
+def derivatives_bilinear(img: np.ndarray, off: int, height: int, width: int, x: np.ndarray, y: np.ndarray,
+                         gauss: np.ndarray, d1: np.ndarray, d2: np.ndarray) -> np.ndarray:
+    """``(g_xx, g_xy, g_yy, g_x, g_y)`` of ``G_sigma * I`` bilinearly interpolated at ``(x, y)``: (5, N).
+
+    Each derivative at the four pixels the interpolation reads (edge-clamped) is
+    a separable sum over the image itself (half-sample reflected at its edges),
+    the four pixels sharing their row sums, so no derivative map is filtered;
+    ``img`` holds image rows ``off ..`` of a ``height x width`` image (uint8 or
+    float64), enough to reach ``radius`` rows beyond the two rows each point reads.
+    Bilinear weights as :func:`sogdd.saddles.bilinear_rows`.
     """
     xs = np.ascontiguousarray(x, dtype=np.float64)
     ys = np.ascontiguousarray(y, dtype=np.float64)
-    gx, gy = np.empty(len(xs)), np.empty(len(xs))
-    f64 = np.float64
-    _gradient_bilinear(np.ascontiguousarray(img, dtype=f64), int(off), int(height), int(width), xs, ys,
-                       np.ascontiguousarray(gauss, dtype=f64), np.ascontiguousarray(d1, dtype=f64), gx, gy)
-    return gx, gy
+    out = np.empty((5, len(xs)))
+    f = [np.ascontiguousarray(k, dtype=np.float64) for k in (gauss, d1, d2)]
+    _derivatives(_readable_image(img), int(off), int(height), int(width), xs, ys, *f, out)
+    return out
+
+
+def newton_steps(img: np.ndarray, off: int, height: int, width: int, x: np.ndarray, y: np.ndarray,
+                 steps: np.ndarray, iterations: int, gauss: np.ndarray, d1: np.ndarray, d2: np.ndarray) -> None:
+    """Newton steps ``delta = -H^{-1} grad`` from each point, in place, until ``steps`` reaches ``iterations``.
+
+    H and grad are :func:`derivatives_bilinear`'s. A point stops early where its
+    next step would read an image row that ``img`` (rows ``off ..``) does not
+    hold; its ``steps`` then tell how far it got, and another crop continues it
+    with the same result (every value is a function of the image and the point).
+    ``x``, ``y`` (float64) and ``steps`` (int64) are C-contiguous and updated in place.
+    """
+    f = [np.ascontiguousarray(k, dtype=np.float64) for k in (gauss, d1, d2)]
+    _newton(_readable_image(img), int(off), int(height), int(width), x, y, steps, int(iterations), *f)
+
+
+def _readable_image(img: np.ndarray) -> np.ndarray:
+    """uint8 as it is (each value exact), anything else as C-contiguous float64."""
+    img = np.asarray(img)
+    return np.ascontiguousarray(img if img.dtype == np.uint8 else img.astype(np.float64, copy=False))

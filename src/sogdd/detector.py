@@ -8,8 +8,6 @@ brought to grey on the 0-255 scale (:mod:`sogdd.io`), filtered and measured
 
 from __future__ import annotations
 
-from concurrent.futures import ThreadPoolExecutor
-
 import numpy as np
 
 from ._banded import peaks_in_bands
@@ -22,17 +20,10 @@ from .io import check_mask, to_gray255, validate_image
 from .params import Params, resolve_params
 from .peaks import refine_quadratic, select_peaks
 from .pyramid import detect_pyramid
-from .response import MeasureSpec, soddc_measure, supports_floor, thread_count
-from .saddles import saddle_search
+from .response import MeasureSpec, soddc_measure, supports_floor
+from .saddles import SaddleCandidates
 
 __all__ = ["corner_response", "detect_corners"]
-
-#: Pixels up to which the X-junction saddle search (``hr``) runs beside the measure rather
-#: than after it: both stages' bands then exist at once, ~70 MB more at 24 MP (peak RSS
-#: 614 -> 657-714 MiB on a 6000 x 4000 JPEG, against the 700 MB bound), so larger
-#: images keep the sequential order (facade 6.3 MP: 32.6 -> 29.5 ms/MP beside the measure)
-CONCURRENT_SADDLES = 1 << 24
-
 
 def _prepare(image, p: Params, lazy: bool = False) -> np.ndarray | GreyRows:
     """The grey 0-255 image; ``lazy``: converted crop by crop when read (no H x W float64 copy)."""
@@ -88,25 +79,19 @@ def _floor(p: Params, spec: MeasureSpec, threshold: float | None) -> float | Non
 
 def _detect_level(grey: np.ndarray, p: Params, mask: np.ndarray | None) -> Corners:
     spec = p.measure_spec()
-    if not p.x_junctions or grey.shape[0] * grey.shape[1] > CONCURRENT_SADDLES or thread_count() == 1:
-        return _measure_and_assemble(grey, p, spec, mask, None)
-    # the saddle search reads the image only: beside the measure, its single-threaded
-    # steps fill the cores the measure's tiles leave idle (same result either way; one
-    # thread asked for, as in collection's worker processes, keeps the sequential order)
-    with ThreadPoolExecutor(1) as pool:
-        saddles = pool.submit(saddle_search, grey, spec, p.threshold)
-        return _measure_and_assemble(grey, p, spec, mask, saddles)
-
-
-def _measure_and_assemble(grey, p: Params, spec: MeasureSpec, mask: np.ndarray | None, saddles) -> Corners:
     # Exact wherever a peak above the threshold or the 3x3 patch of one can be, -inf
     # where a bound proves the measure below it: the same corners as the full map.
     thr = peak_threshold(p, spec)
     floor = _floor(p, spec, thr)
     top = peak_limit(p)
+    saddles = None
     if floor is not None:  # absolute threshold: band by band, no H x W map (sogdd._banded)
+        # hr's X-junction candidates from the measure's own filter responses (not filtered twice)
+        if p.x_junctions and not spec.zero_mean:
+            saddles = SaddleCandidates(grey.shape, spec, p.threshold)
         rows, cols, values, qoff = peaks_in_bands(grey, spec, threshold=thr, floor=floor, border=p.border,
-                                                  nms_radius=p.nms_radius, mask=mask, max_corners=top)
+                                                  nms_radius=p.nms_radius, mask=mask, max_corners=top,
+                                                  on_planes=saddles)
     else:  # a relative threshold prunes too (sogdd._relative_floor)
         floor = relative_floor(grey, p, spec, mask, threshold=thr)
         # one pass over bands, no H x W map (sogdd._banded_relative); None where only the full map can tell
@@ -124,7 +109,7 @@ def _measure_and_assemble(grey, p: Params, spec: MeasureSpec, mask: np.ndarray |
             qoff = refine_quadratic(resp, rows, cols) if p.subpixel != "none" else None
             del resp
     return assemble(grey, p, spec, rows, cols, values, qoff, mask,
-                    saddles=None if saddles is None else saddles.result())
+                    saddles=None if saddles is None else saddles.result(grey))
 
 
 def _gpu(device: str):

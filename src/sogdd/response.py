@@ -137,6 +137,7 @@ def _tiled(
     tile_rows: int = 128,
     threads: int | None = None,
     weights: np.ndarray | None = None,
+    on_planes=None,
 ) -> np.ndarray | tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Run the compiled tile kernel over row tiles, in threads.
 
@@ -144,7 +145,9 @@ def _tiled(
     ``margin`` extra rows and columns on each side (at least the window
     half-height R; R + 1 for ``floor``). With ``parts`` the raw det and trace
     maps are returned too; with ``floor`` the pruned kernel runs. ``weights``: the 1-D
-    weights of a separable square window (:mod:`sogdd.weighted`).
+    weights of a separable square window (:mod:`sogdd.weighted`). ``on_planes(top, r0,
+    r1, planes)`` is called with each tile's planes (rows ``top = r0 - margin ..``), from
+    the tiles' threads.
     """
     halfw = np.ascontiguousarray(halfwidths, dtype=np.int64)
     R = (len(halfw) - 1) // 2
@@ -167,6 +170,8 @@ def _tiled(
 
     def run(r0: int, r1: int) -> None:
         planes = domain(r0, r1)
+        if on_planes is not None:
+            on_planes(r0 - margin, r0, r1, planes)
         o = np.empty((r1 - r0, W)) if out is None else out[r0:r1]
         d, t = (det[r0:r1], tr[r0:r1]) if parts else (det, tr)
         if not square:
@@ -233,6 +238,7 @@ def soddc_measure(
     threads: int | None = None,
     raw: bool = False,
     prune: bool | None = None,
+    on_planes=None,
 ) -> np.ndarray:
     """The measure Upsilon (eq. 25) of a grey 0-255 image (float64, or uint8 read exactly), H x W float64.
 
@@ -254,6 +260,9 @@ def soddc_measure(
     by six window sums instead of K(K+1)/2 and an elimination). ``prune``:
     whether to run the bound; by default where it pays (:func:`prune_pays`).
     Without it the full map is returned, which meets the same contract.
+    ``on_planes(top, r0, r1, planes)``: called from the tiles' threads with the
+    filter responses of each tile of rows ``r0 .. r1 - 1``: ``(3, rows, W + 2M)``
+    planes of image rows ``top ..`` and columns ``-M ..`` (the X-junction stage reads them).
 
     Examples
     --------
@@ -285,7 +294,7 @@ def soddc_measure(
     res = _tiled(
         H, W, domain, M, spec.coef, np.asarray(spec.halfwidths),
         parts=spec.authors_measure, floor=floor, tile_rows=tile_rows, threads=threads,
-        weights=np.asarray(spec.weights) if spec.weights else None,
+        weights=np.asarray(spec.weights) if spec.weights else None, on_planes=on_planes,
     )
     if spec.authors_measure:
         return (res[1], res[2]) if raw else authors_measure(res[1], res[2], out=res[1])

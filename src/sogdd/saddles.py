@@ -20,24 +20,24 @@ camera calibration targets"; a Foerstner-style saddle fit):
    derivative, linear in the image contrast), found in one compiled pass
    (:mod:`sogdd._saddle_kernels`);
 3. the saddle point: Newton steps ``delta = -H^{-1} grad`` on bilinearly
-   interpolated derivatives (the gradient ``g_x, g_y`` evaluated from the image at
-   the four pixels each step reads; only candidates need it). A candidate is kept
-   only when the last of four iterates is within one pixel of it: an L-corner's
-   apex also has ``det H < 0`` but a large gradient, so its step leaves the pixel.
+   interpolated derivatives, each evaluated from the image at the four pixels
+   the step reads (:mod:`sogdd._saddle_kernels`; only candidates need them). A
+   candidate is kept only when the last of four iterates is within one pixel of
+   it: an L-corner's apex also has ``det H < 0`` but a large gradient, so its
+   step leaves the pixel.
 
-Bands
------
-Every step is local, so :func:`find_saddles` runs in bands of rows with three
-float64 maps of ``band_rows + 2 halo`` rows, never image-sized ones, and gives
-the same points for any band height: the derivatives of a crop of full rows
-are those of the image, bit for bit, on every row at least ``radius`` rows from
-a crop edge that is not the image's (OpenCV's separable filter computes each
-pixel from the same values in the same order; tested); the maxima read rows
-+-1, and each Newton step reads the maps on two rows and the image ``radius``
-rows beyond them. A point whose step needs a row outside the band's maps (it
-wandered more than ``halo`` rows; almost always refused in the end) continues
-afterwards on crops filtered around the rows it reads, so its path is the
-whole image's path.
+Bands and the measure's responses
+---------------------------------
+Every step is local. :func:`find_saddles` filters the three maps in bands of
+rows (never image-sized float64 maps), and the Newton steps read the image in
+crops of rows around groups of iterates; an iterate that would read beyond its
+crop continues on another, so the points are the same for any band height: the
+derivatives of a crop of full rows are those of the image, bit for bit, on
+every row at least ``radius`` rows from a crop edge that is not the image's
+(:func:`sogdd.filters.basis_tile` computes each pixel from the same values in
+the same order; tested). The measure filters the image with the same basis and
+the same function, so detection takes the candidates from the measure's own
+responses, tile by tile (:class:`SaddleCandidates`), and filters nothing twice.
 
 Grey-level units
 ----------------
@@ -54,21 +54,22 @@ by ``a`` exactly.
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from functools import lru_cache
 
-import cv2
 import numpy as np
 
-from ._grey_rows import float_rows
-from ._saddle_kernels import gradient_bilinear, strength_maxima
+from ._grey_rows import measure_rows
+from ._saddle_kernels import newton_steps, row_groups, strength_maxima
 from .corners import Corners
-from .filters import kernel_radius, steerable_basis
+from .filters import basis_tile, kernel_radius, steerable_basis
 from .peaks import inside_allowed, one_per_point
-from .response import MeasureSpec, soddc_measure
+from .response import MeasureSpec, soddc_measure, thread_count
 from .synthetic import Polygon, render_polygons
 
 __all__ = [
     "CALIBRATION_CONTRAST",
+    "SaddleCandidates",
     "X_RING_RADIUS",
     "add_x_junctions",
     "corner_unit",
@@ -76,7 +77,7 @@ __all__ = [
     "grey_strength",
     "measure_threshold",
     "near_any",
-    "newton_step",
+    "saddle_search",
     "saddle_unit",
     "second_derivatives",
     "strength_floor",
@@ -87,36 +88,27 @@ CALIBRATION_CONTRAST = 100.0
 #: Upsilon peaks closer than this (px) to a reported X-junction belong to its ring and are dropped
 #: (the hr study's choice, docs/hr.md)
 X_RING_RADIUS = 2.0
-_BORDER = cv2.BORDER_REFLECT  # half-sample symmetric, as every other stage
 #: pixels per band of :func:`find_saddles` (OpenCV filters a crop under ~2 MP on one thread only)
 BAND_PIXELS = 1 << 21
 #: saddle points closer than this (px) are one saddle, reached from tied candidates (a plateau of
 #: the strength, e.g. the pixels around a junction on a symmetric JPEG block corner; their iterates
 #: meet within ~1e-4 px)
 SADDLE_MERGE = 0.1
-#: rows beyond a band where its maps are kept: a Newton iterate that reads farther (rare) continues
-#: on crops filtered around it (``_finish``)
-HALO = 16
+#: rows of image read beyond those a group of Newton iterates reads (:func:`_converge`): an iterate
+#: that moves farther (rare) continues on another crop
+SLACK = 16
 
 
-def second_derivatives(grey: np.ndarray, sigma2: float, radius: int,
-                       out: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
+def second_derivatives(grey: np.ndarray, sigma2: float, radius: int) -> tuple[np.ndarray, ...]:
     """``(g_xx, g_xy, g_yy)`` of ``G_sigma * I``: sampled Gaussian derivatives, reflect border.
 
     They are the steerable basis of :mod:`sogdd.filters`
-    (``l_theta = c^2 g_xx + 2 s c g_xy + s^2 g_yy``). ``out``: a (3, >= H, W)
-    float64 buffer to write them into (bands reuse one: fresh image-sized
-    allocations cost page faults every time).
+    (``l_theta = c^2 g_xx + 2 s c g_xy + s^2 g_yy``), filtered as the measure filters
+    it (:func:`sogdd.filters.basis_tile`), so detection can take the candidates from
+    the measure's own responses (:class:`SaddleCandidates`) with the same bits.
     """
-    b = steerable_basis(sigma2, radius)
-    img = np.ascontiguousarray(grey, dtype=np.float64)
-    h = img.shape[0]
-
-    def f(i: int, kx: np.ndarray, ky: np.ndarray) -> np.ndarray:
-        dst = None if out is None else out[i, :h]
-        return cv2.sepFilter2D(img, cv2.CV_64F, kx, ky, dst=dst, borderType=_BORDER)
-
-    return f(0, b.d2, b.gauss), f(1, b.d1, b.d1), f(2, b.gauss, b.d2)
+    g = basis_tile(grey, 0, grey.shape[0], 0, steerable_basis(sigma2, radius), reflect_image=False)
+    return g[0], g[1], g[2]
 
 
 def bilinear_rows(maps, off: int, H: int, W: int, x: np.ndarray, y: np.ndarray) -> list[np.ndarray]:
@@ -133,23 +125,6 @@ def bilinear_rows(maps, off: int, H: int, W: int, x: np.ndarray, y: np.ndarray) 
             for m in maps]
 
 
-def newton_step(maps, map_off: int, img: np.ndarray, img_off: int, shape: tuple[int, int], x: np.ndarray,
-                y: np.ndarray, basis) -> tuple[np.ndarray, np.ndarray]:
-    """One step ``delta = -H^{-1} grad`` from each point: the Hessian from ``maps`` (``g_xx, g_xy, g_yy`` on
-    image rows ``map_off ..``), the gradient from ``img`` (image rows ``img_off ..``).
-
-    A singular Hessian is no saddle: the point is sent 9 px away, so that it is refused.
-    """
-    H, W = shape
-    a, b, c = bilinear_rows(maps, map_off, H, W, x, y)
-    px, py = gradient_bilinear(img, img_off, H, W, x, y, basis.gauss, basis.d1)
-    det = a * c - b * b
-    with np.errstate(divide="ignore", invalid="ignore"):
-        dx = -(c * px - b * py) / det
-        dy = -(a * py - b * px) / det
-    return x + np.where(np.isfinite(dx), dx, 9.0), y + np.where(np.isfinite(dy), dy, 9.0)
-
-
 def strength_floor(sigma2: float, min_strength: float) -> float:
     """The ``N = g_xy^2 - g_xx g_yy`` that candidates must exceed: ``s > min_strength`` in ``N`` units."""
     t = max(float(min_strength), 0.0) / float(sigma2)
@@ -163,63 +138,69 @@ def _rows_of(y: np.ndarray, H: int) -> tuple[np.ndarray, np.ndarray]:
     return y0, np.minimum(y0 + 1, H - 1)
 
 
-def _steps_in_band(maps, ea: int, eb: int, crop: np.ndarray, c0: int, shape: tuple[int, int], x: np.ndarray,
-                   y: np.ndarray, basis, iterations: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Newton steps while each point reads rows ``ea .. eb - 1`` only; ``(x, y, steps done)``."""
-    x, y = x.copy(), y.copy()
-    steps = np.zeros(len(x), dtype=np.int64)
-    act = np.arange(len(x))
-    for _ in range(int(iterations)):
-        lo, hi = _rows_of(y[act], shape[0])
-        act = act[(lo >= ea) & (hi < eb)]  # a point that would read outside continues in _finish
-        x[act], y[act] = newton_step(maps, ea, crop, c0, shape, x[act], y[act], basis)
-        steps[act] += 1
-    return x, y, steps
+def _converge(grey, basis, x: np.ndarray, y: np.ndarray, iterations: int, band_rows: int) -> None:
+    """``iterations`` Newton steps from every point (in place), reading the image in crops of rows.
 
-
-def _finish(grey, sigma2: float, r: int, basis, x: np.ndarray, y: np.ndarray, steps: np.ndarray,
-            iterations: int, band_rows: int) -> tuple[np.ndarray, np.ndarray]:
-    """Newton steps of the points that left their band, until each has done ``iterations``.
-
-    Each round sorts the points by the rows they read and filters crops of at most
-    ``band_rows`` rows (plus ``r`` on each side) around groups of them, so memory stays
-    that of a band however far the points went; a group ends where the next point's
-    crop would not overlap its own, so a few scattered points filter a few rows each.
+    Each round sorts the points by the rows they read and gives groups of them a crop
+    of at most ``band_rows`` rows (plus ``radius + SLACK`` on each side); a group ends
+    where the next point's crop would not overlap its own, so a few scattered points
+    read a few rows each (:func:`sogdd._saddle_kernels.row_groups`). A point stops where
+    its next step would read outside its crop (:func:`sogdd._saddle_kernels.newton_steps`)
+    and the next round continues it: every step is a function of the image and the
+    point, so its path is the whole image's path. Groups run in threads.
     """
     H, W = grey.shape
-    x, y, steps = x.copy(), y.copy(), steps.copy()
-    act = np.flatnonzero(steps < iterations)
+    reach = basis.radius + SLACK
+    steps = np.zeros(len(x), dtype=np.int64)
+
+    def run(sel: np.ndarray) -> None:
+        lo, hi = _rows_of(y[sel], H)
+        c0, c1 = max(0, int(lo.min()) - reach), min(H, int(hi.max()) + 1 + reach)
+        xs, ys, st = x[sel], y[sel], steps[sel]
+        newton_steps(measure_rows(grey, c0, c1), c0, H, W, xs, ys, st, iterations, basis.gauss, basis.d1,
+                     basis.d2)
+        x[sel], y[sel], steps[sel] = xs, ys, st  # groups are disjoint
+
+    act = np.arange(len(x))
     while len(act):
         lo, hi = _rows_of(y[act], H)
         order = np.argsort(lo, kind="stable")
-        g0 = 0
-        while g0 < len(order):
-            glo = ghi = int(lo[order[g0]])
-            g1 = g0
-            while g1 < len(order) and (g1 == g0 or (lo[order[g1]] <= ghi + 2 * r + 1
-                                                    and hi[order[g1]] < glo + band_rows)):
-                ghi = max(ghi, int(hi[order[g1]]))
-                g1 += 1
-            sel = act[order[g0:g1]]
-            c0, c1 = max(0, glo - r), min(H, ghi + 1 + r)  # rows glo .. ghi are the image's
-            crop = np.ascontiguousarray(grey[c0:c1], dtype=np.float64)
-            maps = [m[glo - c0 : ghi + 1 - c0] for m in second_derivatives(crop, sigma2, r)]
-            x[sel], y[sel] = newton_step(maps, glo, crop, c0, (H, W), x[sel], y[sel], basis)
-            g0 = g1
-        steps[act] += 1
+        ends = row_groups(lo[order], hi[order], reach, band_rows)
+        groups = [act[order[g0:g1]] for g0, g1 in zip(np.r_[0, ends[:-1]], ends)]
+        n = min(thread_count(), len(groups))
+        if n > 1:
+            with ThreadPoolExecutor(n) as pool:
+                list(pool.map(run, groups))
+        else:
+            for sel in groups:
+                run(sel)
         act = act[steps[act] < iterations]
-    return x, y
+
+
+def _fit(grey, basis, rows: np.ndarray, cols: np.ndarray, n: np.ndarray, iterations: int,
+         band_rows: int) -> tuple[np.ndarray, np.ndarray]:
+    """Saddle points and strengths ``s`` from candidates in raster order (module doc, step 3)."""
+    x0, y0 = cols.astype(np.float64), rows.astype(np.float64)
+    x, y = x0.copy(), y0.copy()
+    _converge(grey, basis, x, y, int(iterations), band_rows)
+    ok = (np.abs(x - x0) <= 1.0) & (np.abs(y - y0) <= 1.0)
+    xy, strength = np.stack([x[ok], y[ok]], axis=1), basis.sigma2 * np.sqrt(n[ok])
+    keep = one_per_point(xy, strength, SADDLE_MERGE)  # tied candidates converge to one saddle
+    return xy[keep], strength[keep]
+
+
+def _band_rows(W: int, band_rows: int | None) -> int:
+    return max(1, int(band_rows)) if band_rows is not None else max(64, -(-BAND_PIXELS // max(W, 1)))
 
 
 def find_saddles(grey, sigma2: float, radius: int | None = None, *, iterations: int = 4,
-                 min_strength: float = 0.0, band_rows: int | None = None,
-                 halo: int = HALO) -> tuple[np.ndarray, np.ndarray]:
+                 min_strength: float = 0.0, band_rows: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Saddle points of the smoothed image: ``(xy (N, 2), strength (N,))``, strength ``s`` (module doc).
 
     Candidates with ``s <= min_strength`` are not fitted (a threshold, applied
-    early). The image is processed in bands of ``band_rows`` rows (default: about
-    :data:`BAND_PIXELS` pixels, at least 64 rows) with maps
-    ``halo`` rows beyond them, with the same result for any band height and halo
+    early). The derivative maps are filtered in bands of ``band_rows`` rows
+    (default: about :data:`BAND_PIXELS` pixels, at least 64 rows), and the Newton
+    steps read the image in crops, with the same result for any band height
     (module doc); ``grey`` may be a :class:`sogdd._grey_rows.GreyRows`.
 
     Examples
@@ -233,31 +214,61 @@ def find_saddles(grey, sigma2: float, radius: int | None = None, *, iterations: 
     """
     r = kernel_radius(sigma2) if radius is None else int(radius)
     H, W = grey.shape
-    if band_rows is None:
-        band_rows = max(64, -(-BAND_PIXELS // max(W, 1)))
-    rows_per_band, halo = max(int(band_rows), 1), max(int(halo), 1)
+    rows_per_band = _band_rows(W, band_rows)
     t_n = strength_floor(sigma2, min_strength)
     basis = steerable_basis(sigma2, r)
     parts = []
-    buf = np.empty((4, min(H, rows_per_band + 2 * (halo + r)), W))  # one set of maps and crop for every band
     for a in range(0, H, rows_per_band):
         c = min(H, a + rows_per_band)
-        ea, eb = max(0, a - halo), min(H, c + halo)  # rows where the band's maps are the image's
-        c0, c1 = max(0, ea - r), min(H, eb + r)
-        crop = float_rows(grey, c0, c1, buf[3])
-        maps = [m[ea - c0 : eb - c0] for m in second_derivatives(crop, sigma2, r, out=buf[:3])]
-        rows, cols, n = strength_maxima(*maps, top=ea, height=H, first=a - ea, last=c - ea, t_n=t_n)
-        x0, y0 = cols.astype(np.float64), rows.astype(np.float64)
-        parts.append((x0, y0, n, *_steps_in_band(maps, ea, eb, crop, c0, (H, W), x0, y0, basis, iterations)))
-    x0, y0, n, x, y, steps = (np.concatenate([p[i] for p in parts]) for i in range(6))
-    out = steps < int(iterations)
-    if out.any():
-        x[out], y[out] = _finish(grey, sigma2, r, basis, x[out], y[out], steps[out], int(iterations),
-                                 rows_per_band)
-    ok = (np.abs(x - x0) <= 1.0) & (np.abs(y - y0) <= 1.0)
-    xy, strength = np.stack([x[ok], y[ok]], axis=1), sigma2 * np.sqrt(n[ok])
-    keep = one_per_point(xy, strength, SADDLE_MERGE)  # tied candidates converge to one saddle
-    return xy[keep], strength[keep]
+        ma, mb = max(0, a - 1), min(H, c + 1)  # the rows whose strength the maxima of rows a .. c - 1 read
+        c0, c1 = max(0, ma - r), min(H, mb + r)  # a map row at least r rows inside the crop is the image's
+        g = basis_tile(measure_rows(grey, c0, c1), ma - c0, mb - c0, 0, basis, reflect_image=False)
+        parts.append(strength_maxima(g[0], g[1], g[2], top=ma, height=H, first=a - ma, last=c - ma, t_n=t_n))
+    rows, cols, n = (np.concatenate([q[i] for q in parts]) for i in range(3))
+    return _fit(grey, basis, rows, cols, n, iterations, rows_per_band)
+
+
+class SaddleCandidates:
+    """The X-junction stage fed by the measure: candidates from its own filter responses.
+
+    The measure filters the image with the same steerable basis, and
+    :func:`sogdd.filters.basis_tile` gives every in-image response the same bits
+    whatever the tile, so the 3 x 3 strength maxima found on the measure's tiles
+    are :func:`find_saddles`' candidates, and :meth:`result` is
+    :func:`saddle_search`'s result, without filtering the image a second time
+    (about a fifth of ``hr``'s work on photos). Call the object with the tiles'
+    responses (``on_planes`` of :func:`sogdd._banded.peaks_in_bands`): ``(top, lo,
+    hi, planes)``, ``planes`` of image rows ``top ..`` and columns ``-M .. W + M - 1``
+    (a margin ``M``), candidates taken on rows ``lo .. hi - 1``; tiles may come in
+    any order and from several threads.
+    """
+
+    def __init__(self, shape: tuple[int, int], spec: MeasureSpec, threshold: float | None) -> None:
+        if spec.zero_mean:
+            raise ValueError("zero-mean kernels are not the saddle stage's derivatives")
+        self.shape = tuple(shape)
+        self.spec = spec
+        self.threshold = threshold
+        self.t_n = strength_floor(spec.sigma2, _raw_min(spec, threshold))
+        self.parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+
+    def __call__(self, top: int, lo: int, hi: int, planes: np.ndarray) -> None:
+        if lo >= hi:
+            return
+        H, W = self.shape
+        M = (planes.shape[2] - W) // 2
+        g = planes[:, :, M : M + W]
+        self.parts.append(strength_maxima(g[0], g[1], g[2], top=top, height=H, first=lo - top, last=hi - top,
+                                          t_n=self.t_n))  # list.append: safe from the tiles' threads
+
+    def result(self, grey) -> tuple[np.ndarray, np.ndarray]:
+        """:func:`saddle_search`'s ``(xy, strength in grey levels)`` for the image the tiles came from."""
+        basis = steerable_basis(self.spec.sigma2, self.spec.radius)
+        rows, cols, n = (np.concatenate([np.zeros(0, dt)] + [q[i] for q in self.parts])
+                         for i, dt in enumerate((np.int64, np.int64, np.float64)))
+        order = np.lexsort((cols, rows))  # raster order, as find_saddles'
+        xy, s = _fit(grey, basis, rows[order], cols[order], n[order], 4, _band_rows(self.shape[1], None))
+        return xy, CALIBRATION_CONTRAST * s / saddle_unit(self.spec.sigma2, self.spec.radius)
 
 
 def _calibration_images() -> tuple[np.ndarray, np.ndarray]:
@@ -319,16 +330,19 @@ def near_any(xy: np.ndarray, centres: np.ndarray, radius: float) -> np.ndarray:
     return np.isfinite(d) & (d <= radius)
 
 
+def _raw_min(spec: MeasureSpec, threshold: float | None) -> float:
+    """A grey-level saddle threshold in units of ``s``."""
+    unit = saddle_unit(spec.sigma2, spec.radius)
+    return 0.0 if threshold is None else threshold * unit / CALIBRATION_CONTRAST
+
+
 def saddle_search(grey, spec: MeasureSpec, threshold: float | None) -> tuple[np.ndarray, np.ndarray]:
     """The saddles :func:`add_x_junctions` starts from: ``(xy, strength in grey levels)``.
 
-    Only the image is read, so detection runs it beside the measure (``found=``).
+    Detection gets the same from the measure's responses (:class:`SaddleCandidates`).
     """
-    r = kernel_radius(spec.sigma2, spec.radius_rule)
-    unit = saddle_unit(spec.sigma2, r)
-    raw_min = 0.0 if threshold is None else threshold * unit / CALIBRATION_CONTRAST
-    xy, s = find_saddles(grey, spec.sigma2, r, min_strength=raw_min)
-    return xy, CALIBRATION_CONTRAST * s / unit
+    xy, s = find_saddles(grey, spec.sigma2, spec.radius, min_strength=_raw_min(spec, threshold))
+    return xy, CALIBRATION_CONTRAST * s / saddle_unit(spec.sigma2, spec.radius)
 
 
 def add_x_junctions(corners, grey, spec: MeasureSpec, *, threshold: float | None, rho: float, size: float,
