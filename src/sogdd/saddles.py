@@ -88,7 +88,8 @@ CALIBRATION_CONTRAST = 100.0
 #: Upsilon peaks closer than this (px) to a reported X-junction belong to its ring and are dropped
 #: (the hr study's choice, docs/hr.md)
 X_RING_RADIUS = 2.0
-#: pixels per band of :func:`find_saddles` (OpenCV filters a crop under ~2 MP on one thread only)
+#: pixels per band of :func:`find_saddles` (three float64 maps of a band: 48 MB), and the most rows
+#: one crop of Newton iterates spans
 BAND_PIXELS = 1 << 21
 #: saddle points closer than this (px) are one saddle, reached from tied candidates (a plateau of
 #: the strength, e.g. the pixels around a junction on a symmetric JPEG block corner; their iterates
@@ -248,7 +249,6 @@ class SaddleCandidates:
             raise ValueError("zero-mean kernels are not the saddle stage's derivatives")
         self.shape = tuple(shape)
         self.spec = spec
-        self.threshold = threshold
         self.t_n = strength_floor(spec.sigma2, _raw_min(spec, threshold))
         self.parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
 
