@@ -18,7 +18,7 @@ import numpy as np
 
 from ._grey_rows import measure_rows
 from .peaks import maxima_above, rank_peaks, refine_quadratic
-from .response import MeasureSpec, soddc_measure
+from .response import MeasureSpec, PlanesHook, soddc_measure
 
 __all__ = ["BAND_ROWS", "peaks_in_bands"]
 
@@ -36,7 +36,7 @@ def peaks_in_bands(
     mask: np.ndarray | None = None,
     max_corners: int | None = None,
     band_rows: int = BAND_ROWS,
-    on_planes=None,
+    on_planes: PlanesHook | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Rows, columns, values and quadratic offsets (dx, dy) of the peaks above ``threshold``.
 

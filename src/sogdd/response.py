@@ -27,6 +27,7 @@ exactly (see :func:`soddc_measure`).
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
@@ -111,6 +112,10 @@ class MeasureSpec:
         return (len(self.halfwidths) - 1) // 2
 
 
+#: ``(top, r0, r1, planes)``: a tile's filter responses (``soddc_measure``'s ``on_planes``)
+PlanesHook = Callable[[int, int, int, np.ndarray], None]
+
+
 def thread_count() -> int:
     """Threads for the tiled measure: ``$SOGDD_NUM_THREADS``, else the cores (at most 8).
 
@@ -137,7 +142,7 @@ def _tiled(
     tile_rows: int = 128,
     threads: int | None = None,
     weights: np.ndarray | None = None,
-    on_planes=None,
+    on_planes: PlanesHook | None = None,
 ) -> np.ndarray | tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Run the compiled tile kernel over row tiles, in threads.
 
@@ -238,7 +243,7 @@ def soddc_measure(
     threads: int | None = None,
     raw: bool = False,
     prune: bool | None = None,
-    on_planes=None,
+    on_planes: PlanesHook | None = None,
 ) -> np.ndarray:
     """The measure Upsilon (eq. 25) of a grey 0-255 image (float64, or uint8 read exactly), H x W float64.
 
