@@ -242,6 +242,19 @@ class SaddleCandidates:
     hi, planes)``, ``planes`` of image rows ``top ..`` and columns ``-M .. W + M - 1``
     (a margin ``M``), candidates taken on rows ``lo .. hi - 1``; tiles may come in
     any order and from several threads.
+
+    Examples
+    --------
+    >>> import sogdd
+    >>> from sogdd._banded import peaks_in_bands
+    >>> spec = sogdd.resolve_params("hr").measure_spec()
+    >>> q = np.array([[20.3, 20.6], [60, 20.6], [60, 60], [20.3, 60]])
+    >>> img = render_polygons((41, 41), [Polygon(q, 200.0), Polygon(2 * q[0] - q, 200.0)], background=50.0)
+    >>> found = SaddleCandidates(img.shape, spec, 20.0)
+    >>> _ = peaks_in_bands(img, spec, threshold=1e300, floor=1e300, band_rows=16, on_planes=found)
+    >>> xy, s = found.result(img)
+    >>> np.round(xy, 1).tolist(), bool(np.array_equal(xy, saddle_search(img, spec, 20.0)[0]))
+    ([[20.3, 20.6]], True)
     """
 
     def __init__(self, shape: tuple[int, int], spec: MeasureSpec, threshold: float | None) -> None:
