@@ -14,7 +14,7 @@ import numpy as np
 
 from .io import to_gray255
 
-__all__ = ["GreyRows", "float_rows", "measure_rows"]
+__all__ = ["GreyRows", "measure_rows"]
 
 _BLOCK = 512  # rows per block when the whole image is asked for
 
@@ -85,24 +85,3 @@ def measure_rows(grey, r0: int, r1: int) -> np.ndarray:
     """
     return grey.exact_rows(r0, r1) if isinstance(grey, GreyRows) else grey[r0:r1]
 
-
-def float_rows(grey, r0: int, r1: int, buf: np.ndarray) -> np.ndarray:
-    """Rows ``r0 .. r1 - 1`` of an array or a :class:`GreyRows` as C-contiguous float64.
-
-    A float64 array gives a view; a uint8 grey input is cast into ``buf`` (a
-    reused (>= r1 - r0, W) float64 buffer: a fresh band would page-fault each time).
-
-    Examples
-    --------
-    >>> img = np.arange(12, dtype=np.uint8).reshape(4, 3)
-    >>> buf = np.empty((4, 3))
-    >>> rows = float_rows(GreyRows(img), 1, 3, buf)
-    >>> rows.dtype.name, rows.tolist(), bool(np.shares_memory(rows, buf))
-    ('float64', [[3.0, 4.0, 5.0], [6.0, 7.0, 8.0]], True)
-    """
-    rows = measure_rows(grey, r0, r1)
-    if rows.dtype == np.uint8:
-        out = buf[: r1 - r0]
-        np.copyto(out, rows)
-        return out
-    return np.ascontiguousarray(rows, dtype=np.float64)

@@ -29,6 +29,7 @@ import numba
 import numpy as np
 
 from ._jit import JIT
+from .filters import exact_grey
 from .window import reflect1
 
 __all__ = ["derivatives_bilinear", "newton_steps", "row_groups", "strength_maxima"]
@@ -247,7 +248,7 @@ def derivatives_bilinear(img: np.ndarray, off: int, height: int, width: int, x: 
     ys = np.ascontiguousarray(y, dtype=np.float64)
     out = np.empty((5, len(xs)))
     f = [np.ascontiguousarray(k, dtype=np.float64) for k in (gauss, d1, d2)]
-    _derivatives(_readable_image(img), int(off), int(height), int(width), xs, ys, *f, out)
+    _derivatives(exact_grey(img), int(off), int(height), int(width), xs, ys, *f, out)
     return out
 
 
@@ -262,10 +263,5 @@ def newton_steps(img: np.ndarray, off: int, height: int, width: int, x: np.ndarr
     ``x``, ``y`` (float64) and ``steps`` (int64) are C-contiguous and updated in place.
     """
     f = [np.ascontiguousarray(k, dtype=np.float64) for k in (gauss, d1, d2)]
-    _newton(_readable_image(img), int(off), int(height), int(width), x, y, steps, int(iterations), *f)
+    _newton(exact_grey(img), int(off), int(height), int(width), x, y, steps, int(iterations), *f)
 
-
-def _readable_image(img: np.ndarray) -> np.ndarray:
-    """uint8 as it is (each value exact), anything else as C-contiguous float64."""
-    img = np.asarray(img)
-    return np.ascontiguousarray(img if img.dtype == np.uint8 else img.astype(np.float64, copy=False))

@@ -28,15 +28,19 @@ __all__ = ["StreamQuantile", "quantile_from_order_stats", "rank_floor"]
 _BUCKET_BITS = 16  # sign, exponent and 4 mantissa bits: a bucket is a sixteenth of an octave
 
 
+@numba.njit(**JIT, inline="always")
+def _order_key(k):  # pragma: no cover - jit
+    """An unsigned key of a float64's bits (as int64 ``k``) that sorts as the floats do."""
+    return np.uint64(~k) if k < 0 else np.uint64(k) | np.uint64(1 << 63)
+
+
 @numba.njit(**JIT)
 def _rank_floor(values, r):  # pragma: no cover - jit
     shift = 64 - _BUCKET_BITS
     counts = np.zeros(1 << _BUCKET_BITS, np.int64)
     keys = values.view(np.int64)
     for i in range(values.shape[0]):
-        k = keys[i]
-        u = np.uint64(~k) if k < 0 else np.uint64(k) | np.uint64(1 << 63)  # order-preserving
-        counts[u >> np.uint64(shift)] += 1
+        counts[_order_key(keys[i]) >> np.uint64(shift)] += 1
     seen = 0
     b = 0
     while seen + counts[b] <= r:
@@ -44,9 +48,7 @@ def _rank_floor(values, r):  # pragma: no cover - jit
         b += 1
     low = np.inf
     for i in range(values.shape[0]):
-        k = keys[i]
-        u = np.uint64(~k) if k < 0 else np.uint64(k) | np.uint64(1 << 63)
-        if u >> np.uint64(shift) == b:
+        if _order_key(keys[i]) >> np.uint64(shift) == b:
             low = min(low, values[i])
     return low
 

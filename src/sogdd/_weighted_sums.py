@@ -21,6 +21,19 @@ from ._jit import JIT
 __all__ = ["wcolumn_sum", "wcolumn_sums", "wrow_sum"]
 
 
+@numba.njit(**JIT, inline="always")
+def _seven(w0, w1, w2, w3, w4, w5, w6, v0, v1, v2, v3, v4, v5, v6):  # pragma: no cover - jit
+    """w0 v0 + w1 v1 + ... + w6 v6, in that order (the 7-tap window of `hr`, in registers)."""
+    s = w0 * v0
+    s += w1 * v1
+    s += w2 * v2
+    s += w3 * v3
+    s += w4 * v4
+    s += w5 * v5
+    s += w6 * v6
+    return s
+
+
 @numba.njit(**JIT)
 def wcolumn_sum(ring, first, wts, dst, a, b):  # pragma: no cover - jit
     """dst[x] = sum_t wts[t] ring[(first + t) % nring, x] for a <= x < b, t = 0 .. nr - 1 in order.
@@ -39,14 +52,7 @@ def wcolumn_sum(ring, first, wts, dst, a, b):  # pragma: no cover - jit
         r5, r6 = ring[(first + 5) % nring, a:b], ring[(first + 6) % nring, a:b]
         w0, w1, w2, w3, w4, w5, w6 = wts[0], wts[1], wts[2], wts[3], wts[4], wts[5], wts[6]
         for x in range(n):
-            s = w0 * r0[x]
-            s += w1 * r1[x]
-            s += w2 * r2[x]
-            s += w3 * r3[x]
-            s += w4 * r4[x]
-            s += w5 * r5[x]
-            s += w6 * r6[x]
-            d[x] = s
+            d[x] = _seven(w0, w1, w2, w3, w4, w5, w6, r0[x], r1[x], r2[x], r3[x], r4[x], r5[x], r6[x])
         return
     src = ring[first % nring, a:b]
     w0 = wts[0]
@@ -90,18 +96,6 @@ def wcolumn_sums(ring, first, wts, ng, only, dst, a, b):  # pragma: no cover - j
             wcolumn_sum(ring, first + i, wts, dst[i], a, b)
 
 
-@numba.njit(**JIT, inline="always")
-def _seven(w0, w1, w2, w3, w4, w5, w6, v0, v1, v2, v3, v4, v5, v6):  # pragma: no cover - jit
-    s = w0 * v0
-    s += w1 * v1
-    s += w2 * v2
-    s += w3 * v3
-    s += w4 * v4
-    s += w5 * v5
-    s += w6 * v6
-    return s
-
-
 @numba.njit(**JIT)
 def wrow_sum(src, wts, dst, n):  # pragma: no cover - jit
     """dst[x] = sum_t wts[t] src[x + t] for x < n, t = 0 .. nr - 1 in order (7 taps in registers)."""
@@ -110,14 +104,8 @@ def wrow_sum(src, wts, dst, n):  # pragma: no cover - jit
     if nr == 7:
         w0, w1, w2, w3, w4, w5, w6 = wts[0], wts[1], wts[2], wts[3], wts[4], wts[5], wts[6]
         for x in range(n):
-            s = w0 * src[x]
-            s += w1 * src[x + 1]
-            s += w2 * src[x + 2]
-            s += w3 * src[x + 3]
-            s += w4 * src[x + 4]
-            s += w5 * src[x + 5]
-            s += w6 * src[x + 6]
-            d[x] = s
+            d[x] = _seven(w0, w1, w2, w3, w4, w5, w6, src[x], src[x + 1], src[x + 2], src[x + 3], src[x + 4],
+                          src[x + 5], src[x + 6])
         return
     w0 = wts[0]
     for x in range(n):

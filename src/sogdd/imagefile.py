@@ -247,6 +247,7 @@ def read_image(
         img = cv2.cvtColor(img, cv2.COLOR_BGRA2RGB)
     return img
 
+
 def opencv_message(exc: BaseException) -> str:
     """The one-line message of an OpenCV error (``cv2.error`` spreads it over lines; the last says it all).
 

@@ -239,4 +239,3 @@ def check_mask(mask, shape: tuple[int, int]) -> np.ndarray | None:
     if m.shape != shape:
         raise ValueError(f"mask shape {m.shape} does not match image shape {shape}")
     return m.astype(bool)
-
