@@ -33,10 +33,10 @@ from scipy import ndimage
 
 import sogdd
 from sogdd.detector import _prepare
-from sogdd.io import list_images, read_image
+from sogdd.image.files import list_images, read_image
+from sogdd.measure.oracle import reference_measure
 from sogdd.params import resolve_params
-from sogdd.peaks import select_peaks
-from sogdd.reference import reference_measure
+from sogdd.select.peaks import select_peaks
 
 
 def authors_rule(resp: np.ndarray, border: int, quantile: float = 0.99) -> set[tuple[int, int]]:

@@ -17,8 +17,8 @@ import cv2
 import numpy as np
 
 import sogdd
-from sogdd.reference import reference_lambda, reference_measure
-from sogdd.response import soddc_measure
+from sogdd.measure.oracle import reference_lambda, reference_measure
+from sogdd.measure.soddc import soddc_measure
 from sogdd.synthetic import pattern_image
 
 

@@ -67,7 +67,7 @@ def torch_anchor(img_u8, torch, K: int = 8, sigma2: float = 1.2, window: int = 7
     """Upsilon by plain float64 PyTorch operations, unfused (the issue's anchor). Returns a device tensor."""
     import torch.nn.functional as F
 
-    from sogdd.filters import kernel_radius, orientations, steerable_basis, steering_coefficients
+    from sogdd.measure.filters import kernel_radius, orientations, steerable_basis, steering_coefficients
 
     rk = kernel_radius(sigma2)
     b = steerable_basis(sigma2, rk)

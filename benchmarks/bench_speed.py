@@ -19,7 +19,7 @@ measure exactly only where a bound cannot rule out T_h (see ``soddc_measure``);
 the fraction of pixels it evaluates is printed, the row "detect on the full map"
 is the same detection without that pruning, and ``--stress`` adds a 4 MP mosaic
 of the small, high-contrast repeatability images, where pruning helps least.
-The direct implementation of eqs. 22-25 (``sogdd.reference``) needs an
+The direct implementation of eqs. 22-25 (``sogdd.measure.oracle``) needs an
 H x W x K x K array, so it runs at 1 MP only. Peak memory is measured in a
 child process detecting on a 24 MP image.
 
@@ -39,7 +39,7 @@ import cv2
 import numpy as np
 
 import sogdd
-from sogdd.reference import reference_measure
+from sogdd.measure.oracle import reference_measure
 
 
 def _data_root(arg: str | None) -> Path | None:
@@ -97,7 +97,7 @@ def authors_code_detect(img: np.ndarray) -> np.ndarray:
 
     2-D convolutions with the K = 4 sampled kernels on the symmetric-padded
     image, the 21-pixel disk window sums of ``|l| |l|^T``, ``numpy.linalg.det``
-    (all in :func:`sogdd.reference.reference_measure`), the 0.99 quantile of the
+    (all in :func:`sogdd.measure.oracle.reference_measure`), the 0.99 quantile of the
     positive responses and a 3 x 3 maximum filter on the map without its 9-pixel
     border. The speed reference of the ``authors`` preset.
     """
@@ -115,7 +115,7 @@ def authors_code_detect(img: np.ndarray) -> np.ndarray:
 
 def exact_fraction(img: np.ndarray) -> float:
     """Fraction of pixels where the paper preset's detection evaluates the measure exactly."""
-    from sogdd.response import soddc_measure
+    from sogdd.measure.soddc import soddc_measure
 
     spec = sogdd.resolve_params("paper").measure_spec()
     return float(np.isfinite(soddc_measure(img.astype(np.float64), spec, floor=1e9)).mean())
@@ -168,7 +168,8 @@ print(hwm(), base, len(c))
 
 def _detect_full_map(img: np.ndarray):
     """The paper preset's detection on the full Upsilon map (no pruning), for comparison."""
-    from sogdd.peaks import refine_gradient, refine_quadratic, select_peaks
+    from sogdd.select.peaks import select_peaks
+    from sogdd.select.subpixel import refine_gradient, refine_quadratic
 
     resp = sogdd.corner_response(img)
     rows, cols = select_peaks(resp, threshold=1e9)

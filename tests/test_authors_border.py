@@ -10,7 +10,7 @@ import pytest
 from scipy import ndimage
 
 import sogdd
-from sogdd.peaks import select_peaks
+from sogdd.select.peaks import select_peaks
 
 
 def authors_rule(resp, border, thr):

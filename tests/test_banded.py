@@ -1,12 +1,13 @@
-"""Detection in bands of rows (sogdd._banded) against selection on the whole map."""
+"""Detection in bands of rows (sogdd.select.banded) against selection on the whole map."""
 
 import numpy as np
 import pytest
 
 import sogdd
-from sogdd._banded import peaks_in_bands
-from sogdd.peaks import refine_quadratic, select_peaks
-from sogdd.response import soddc_measure
+from sogdd.measure.soddc import soddc_measure
+from sogdd.select.banded import peaks_in_bands
+from sogdd.select.peaks import select_peaks
+from sogdd.select.subpixel import refine_quadratic
 
 
 @pytest.mark.parametrize("band_rows", [1, 5, 17, 1024])

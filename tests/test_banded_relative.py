@@ -1,4 +1,4 @@
-"""Relative and quantile thresholds in bands (sogdd._banded_relative), the streaming quantile and the
+"""Relative and quantile thresholds in bands (sogdd.select.banded_relative), the streaming quantile and the
 crop-by-crop grey image, each against the whole-map computation it replaces."""
 
 import numpy as np
@@ -6,12 +6,13 @@ import pytest
 
 import sogdd
 from sogdd import detector
-from sogdd._banded_relative import peaks_relative_in_bands, positives
-from sogdd._grey_rows import GreyRows
-from sogdd._stream_quantile import StreamQuantile, quantile_from_order_stats, rank_floor
-from sogdd.io import to_gray255
-from sogdd.peaks import refine_quadratic, select_peaks
-from sogdd.response import authors_measure, soddc_measure
+from sogdd.image.grey import to_gray255
+from sogdd.image.rows import GreyRows
+from sogdd.measure.soddc import authors_measure, soddc_measure
+from sogdd.select.banded_relative import peaks_relative_in_bands, positives
+from sogdd.select.peaks import select_peaks
+from sogdd.select.stream_quantile import StreamQuantile, quantile_from_order_stats, rank_floor
+from sogdd.select.subpixel import refine_quadratic
 
 
 def _image(pattern, rng):
@@ -135,7 +136,7 @@ def test_paper_measure_bands_with_a_relative_floor(pattern, rng, kw):
     spec = sogdd.resolve_params("paper").measure_spec()
     full = soddc_measure(img, spec)
     floor = None
-    if "quantile" not in kw:  # a floor below the final threshold, as sogdd._relative_floor gives
+    if "quantile" not in kw:  # a floor below the final threshold, as sogdd.select.relative_floor gives
         floor = kw["threshold_rel"] * full.max() * 0.5
     rows, cols = select_peaks(full, **kw)
     r, c, v, off = peaks_relative_in_bands(img, spec, floor=floor, band_rows=33, quadratic=True, **kw)

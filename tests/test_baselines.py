@@ -10,9 +10,9 @@ from sogdd import baselines
 from sogdd.baselines.opencv import fast_score
 from sogdd.baselines.zhang2013 import Zhang2013
 from sogdd.corners import Corners
-from sogdd.response import soddc_at, soddc_from_responses
+from sogdd.measure.soddc import soddc_at, soddc_from_responses
+from sogdd.measure.window import disk_halfwidths, window_offsets
 from sogdd.synthetic import pattern_image as make_pattern
-from sogdd.window import disk_halfwidths, window_offsets
 
 SHAPE = (240, 320)
 CELL = 80  # pattern_image puts one polygon per 80 x 80 cell

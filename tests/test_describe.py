@@ -6,7 +6,7 @@ import pytest
 
 import sogdd
 from sogdd.corners import Corners
-from sogdd.describe import assign_orientations, compute_keypoints, describe, keypoint_octaves, rootsift
+from sogdd.descriptors import assign_orientations, compute_keypoints, describe, keypoint_octaves, rootsift
 from sogdd.synthetic import pattern_image as _pattern
 
 

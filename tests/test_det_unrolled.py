@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sogdd import _det_unrolled
-from sogdd._kernels import det_trace, det_trace_loop, pair_index
+from sogdd.measure import det_unrolled as _det_unrolled
+from sogdd.measure.square_tiles import det_trace, det_trace_loop, pair_index
 
 GENERATOR = Path(__file__).resolve().parents[1] / "tools" / "gen_unrolled_det.py"
 

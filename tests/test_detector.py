@@ -4,8 +4,8 @@ import pytest
 from scipy.spatial import cKDTree
 
 import sogdd
-from sogdd.io import to_gray255
-from sogdd.peaks import refine_gradient, refine_quadratic
+from sogdd.image.grey import to_gray255
+from sogdd.select.subpixel import refine_gradient, refine_quadratic
 from sogdd.synthetic import Polygon, render_polygons
 from sogdd.synthetic import pattern_image as make_pattern
 
@@ -219,7 +219,7 @@ def test_quadratic_fallback_is_clipped_to_half_a_pixel():
 
 def test_tie_breaking_keeps_a_candidate_unless_an_earlier_kept_one_is_within_the_radius():
     """The greedy definition, brute force, on random candidate lists in random order."""
-    from sogdd.peaks import break_ties
+    from sogdd.select.peaks import break_ties
 
     rng = np.random.default_rng(7)
     for _ in range(60):

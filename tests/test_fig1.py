@@ -4,7 +4,7 @@ import matplotlib.image as mpimg
 import numpy as np
 
 from sogdd.cli.main import main
-from sogdd.filters import orientations
+from sogdd.measure.filters import orientations
 from sogdd.theory.fig1 import _load_set, fig1_case, sogdd_abs_responses
 
 FIG1 = {"fig1_detections.png", "fig1_sogdd_theta.png"}

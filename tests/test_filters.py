@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from sogdd.filters import (
+from sogdd.measure.filters import (
     kernel_radius,
     orientations,
     sogdd_kernel,

@@ -166,7 +166,7 @@ def test_device_stack_batch(sim):
 
 
 def test_cuda_absent_is_a_clear_error():
-    from sogdd._cuda_input import cuda_runtime_available
+    from sogdd.gpu.input import cuda_runtime_available
 
     if cuda_runtime_available():
         pytest.skip("a CUDA device is present")
@@ -186,8 +186,8 @@ def test_cpu_users_never_import_the_gpu_module():
 
 
 def test_cli_device_cuda_without_cuda(tmp_path, capsys):
-    from sogdd._cuda_input import cuda_runtime_available
     from sogdd.cli.main import main
+    from sogdd.gpu.input import cuda_runtime_available
 
     if cuda_runtime_available():
         pytest.skip("a CUDA device is present")
@@ -207,7 +207,7 @@ def test_cli_batch_on_the_device_writes_the_cpu_corners(tmp_path):
     """``sogdd detect DIR --device cuda --out OUT`` (simulator): a feature file per image, the CPU's corners."""
     import cv2
 
-    from sogdd.features import read_features
+    from sogdd.formats.features import read_features
 
     for i in range(2):
         u8 = np.round(shapes_image((24, 31), seed=i) * 255).astype(np.uint8)
@@ -228,8 +228,8 @@ def test_cli_batch_on_the_device_writes_the_cpu_corners(tmp_path):
 
 
 def test_batch_on_a_missing_gpu_fails_once_before_any_work(tmp_path):
-    from sogdd._cuda_input import cuda_runtime_available
     from sogdd.collection import run_batch
+    from sogdd.gpu.input import cuda_runtime_available
 
     if cuda_runtime_available():
         pytest.skip("a CUDA device is present")

@@ -15,7 +15,7 @@ import pytest
 import sogdd
 from sogdd import collection
 from sogdd.collection import BatchInterrupted, expand_inputs, feature_path, relative_names, run_batch
-from sogdd.features import read_features
+from sogdd.formats.features import read_features
 from sogdd.synthetic import pattern_image
 
 

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 import sogdd
-from sogdd._imageheader import probe
 from sogdd.cli.main import main
 from sogdd.collection import expand_inputs
+from sogdd.image.header import probe
 from sogdd.synthetic import pattern_image
 
 

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 import sogdd
-from sogdd import pyramid
 from sogdd.cli.main import main
-from sogdd.features import read_features
+from sogdd.formats.features import read_features
+from sogdd.select import pyramid
 from sogdd.synthetic import pattern_image
 
 

@@ -12,8 +12,9 @@ import pytest
 from scipy.spatial import cKDTree
 
 import sogdd
+from sogdd.measure.units import grey_strength, measure_threshold
 from sogdd.params import PRESETS, resolve_params
-from sogdd.saddles import find_saddles, grey_strength, measure_threshold
+from sogdd.select.x_junctions import find_saddles
 from sogdd.synthetic import Polygon, pattern_image, render_polygons
 
 WINNER = Path(__file__).resolve().parents[1] / "benchmarks" / "hr_study" / "winner.json"
@@ -55,7 +56,7 @@ def test_hr_parameters_are_the_study_winner():
     w = json.loads(WINNER.read_text())
     hr = asdict(PRESETS["hr"])
     assert {k: hr[k] for k in w["params"]} == w["params"]
-    from sogdd.saddles import X_RING_RADIUS
+    from sogdd.select.x_junctions import X_RING_RADIUS
 
     assert X_RING_RADIUS == w["x_ring_radius"]
 
@@ -127,7 +128,7 @@ def test_registry_and_spec_names():
 
 def test_hr_reports_one_point_per_corner(monkeypatch):
     """Two Upsilon peaks of one vertex that the adaptive refinement brings together are one corner."""
-    from sogdd import assemble
+    from sogdd.select import assemble
     from sogdd.synthetic import pattern_image
 
     img = pattern_image((240, 320), seed=0)[0]
@@ -144,7 +145,8 @@ def test_hr_reports_one_point_per_corner(monkeypatch):
 @pytest.mark.parametrize("threads,band_rows", [("1", 1024), ("2", 1024), ("2", 37)])
 def test_saddles_from_the_measures_responses_equal_the_search(monkeypatch, threads, band_rows):
     """Detection takes the X-junction candidates from the measure's tiles: saddle_search's result exactly."""
-    from sogdd import _banded, detector
+    from sogdd import detector
+    from sogdd.select import banded as _banded
 
     img, _ = checkerboard(9.0, shape=(120, 140))
     img = np.clip(img + np.random.default_rng(3).normal(0, 2, img.shape), 0, 255).astype(np.uint8)

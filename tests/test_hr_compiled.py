@@ -12,14 +12,16 @@ import pytest
 from scipy import ndimage
 
 import sogdd
-from sogdd import saddles
-from sogdd._banded import peaks_in_bands
-from sogdd._saddle_kernels import derivatives_bilinear, strength_maxima
-from sogdd.filters import kernel_radius, steerable_basis
-from sogdd.peaks import refine_quadratic, select_peaks
-from sogdd.response import soddc_measure
-from sogdd.saddles import bilinear_rows, find_saddles, measure_threshold, second_derivatives
-from sogdd.weighted import gaussian_window_reference, gaussian_window_spec
+from sogdd.measure.filters import kernel_radius, steerable_basis
+from sogdd.measure.gaussian_window import gaussian_window_reference, gaussian_window_spec
+from sogdd.measure.soddc import soddc_measure
+from sogdd.measure.units import measure_threshold
+from sogdd.select import x_junctions as saddles
+from sogdd.select.banded import peaks_in_bands
+from sogdd.select.peaks import select_peaks
+from sogdd.select.saddle_steps import derivatives_bilinear, strength_maxima
+from sogdd.select.subpixel import refine_quadratic
+from sogdd.select.x_junctions import bilinear_rows, find_saddles, second_derivatives
 
 
 def _photo_like(h, w, seed=3):
@@ -151,7 +153,7 @@ def test_saddle_candidates_are_the_dilation_maxima():
 
 def test_hr_detection_reads_the_grey_image_in_crops_only(monkeypatch):
     """No H x W float64 grey image: crops, and the one float32 copy cornerSubPix reads."""
-    from sogdd._grey_rows import GreyRows
+    from sogdd.image.rows import GreyRows
 
     img = np.clip(_photo_like(150, 170), 0, 255).astype(np.uint8)
     asked = []

@@ -9,7 +9,8 @@ import pytest
 
 from sogdd.cli.main import main
 from sogdd.corners import Corners
-from sogdd.evaluation.features import FeatureSet, descriptor_sizes
+from sogdd.descriptors import descriptor_sizes
+from sogdd.evaluation.features import FeatureSet
 from sogdd.evaluation.matching.data import (
     D2NET_EXCLUDED,
     HomographySequence,

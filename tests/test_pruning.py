@@ -13,9 +13,9 @@ from scipy import ndimage
 
 import sogdd
 from sogdd import detector
-from sogdd.filters import basis_tile, kernel_radius, steerable_basis
-from sogdd.response import soddc_measure
-from sogdd.window import reflect_index
+from sogdd.measure.filters import basis_tile, kernel_radius, steerable_basis
+from sogdd.measure.soddc import soddc_measure
+from sogdd.measure.window import reflect_index
 
 
 def _check_floor_contract(img, spec, floor, **kw):
@@ -146,7 +146,7 @@ def test_basis_tile_is_the_reflected_correlation(reflect_image, zero_mean, shape
 )
 def test_peak_scan_equals_the_dilation_definition(h, w, radius, border, levels, seed):
     """select_peaks' compiled scan against threshold & 'equal to the dilated map' & valid area."""
-    from sogdd.peaks import local_maxima, select_peaks, valid_area
+    from sogdd.select.peaks import local_maxima, select_peaks, valid_area
 
     rng = np.random.default_rng(seed)
     resp = rng.integers(0, levels, (h, w)).astype(np.float64)  # plateaus and ties
@@ -162,7 +162,7 @@ def test_peak_scan_equals_the_dilation_definition(h, w, radius, border, levels, 
     got = set(zip(rows.tolist(), cols.tolist()))
     assert got <= set(zip(*np.nonzero(cand)))
     # the scan of the few pixels above the threshold and the dilation give the same maxima
-    from sogdd._nms import count_above, maxima_scan_sparse
+    from sogdd.select.nms_scan import count_above, maxima_scan_sparse
 
     scan = maxima_scan_sparse(resp, thr, radius)
     assert count_above(resp, thr, resp.size + 1) == np.count_nonzero(resp > thr)
@@ -177,7 +177,7 @@ def test_peak_scan_equals_the_dilation_definition(h, w, radius, border, levels, 
 @pytest.mark.parametrize("params", [{"threshold_rel": 0.05}, {"threshold_rel": 0.02, "threshold": None},
                                     {"threshold_rel": 0.01, "border": 20}])
 def test_relative_threshold_prunes_and_detects_as_the_full_map(pattern, rng, monkeypatch, params):
-    from sogdd import _relative_floor
+    from sogdd.select import relative_floor as _relative_floor
 
     img = np.clip(pattern[0] + rng.normal(0, 4, pattern[0].shape), 0, 255).astype(np.uint8)
     p = sogdd.resolve_params("paper", **params)
@@ -204,7 +204,7 @@ def test_max_lower_bound_respects_mask_and_border(rng):
     full = soddc_measure(img, spec)
     mask = np.zeros(img.shape, bool)
     mask[40:70, 50:100] = True
-    from sogdd._relative_floor import max_lower_bound
+    from sogdd.select.relative_floor import max_lower_bound
 
     lo = max_lower_bound(img, spec, 5, mask)
     assert lo <= full[mask].max()
@@ -214,7 +214,7 @@ def test_max_lower_bound_respects_mask_and_border(rng):
 def test_masks_cover_neighbours_across_tiles_and_edge_patches():
     """A pixel of the tile above or below whose bound reaches the floor marks its 3x3 neighbours here;
     a pixel at or above the floor marks its (edge-shifted) 3x3 patch where nothing was evaluated."""
-    from sogdd._pruning import need_from_keep, neighbour_need
+    from sogdd.measure.bound import need_from_keep, neighbour_need
 
     keep = np.zeros((6, 9), np.uint8)  # tile of 4 rows x 7 columns, with a ring
     keep[0, 4] = 1  # row -1, column 3

@@ -4,10 +4,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import sogdd
-from sogdd.filters import kernel_radius, orientations, sogdd_kernel
-from sogdd.reference import reference_lambda, reference_measure
-from sogdd.response import VARSIGMA, soddc_measure
-from sogdd.window import window_halfwidths, window_offsets
+from sogdd.measure.filters import kernel_radius, orientations, sogdd_kernel
+from sogdd.measure.oracle import reference_lambda, reference_measure
+from sogdd.measure.soddc import VARSIGMA, soddc_measure
+from sogdd.measure.window import window_halfwidths, window_offsets
 
 
 def _assert_exact(fast, ref, floor=1e6):
@@ -119,7 +119,7 @@ def test_authors_measure_rules(rng):
 
 def test_authors_measure_equals_the_numpy_rules(rng):
     """The compiled post-processing against the authors' rules written with numpy."""
-    from sogdd.response import authors_measure
+    from sogdd.measure.soddc import authors_measure
 
     eps = float(np.finfo(np.float64).eps)
     for t in range(60):
@@ -141,7 +141,7 @@ def test_authors_measure_equals_the_numpy_rules(rng):
 
 def test_generic_responses_entry_matches_definition(rng):
     """soddc_from_responses (the path of the non-steerable baselines) against a direct sum."""
-    from sogdd.response import soddc_from_responses
+    from sogdd.measure.soddc import soddc_from_responses
 
     K, H, W = 5, 23, 290
     resp = rng.normal(0, 30, (K, H, W))

@@ -1,4 +1,4 @@
-"""X-junction stage and grey-level units (sogdd.saddles), with explicit parameters."""
+"""X-junction stage and grey-level units (sogdd.select.x_junctions), with explicit parameters."""
 
 from __future__ import annotations
 
@@ -6,9 +6,10 @@ import numpy as np
 import pytest
 
 import sogdd
+from sogdd.measure.oracle import reference_measure
+from sogdd.measure.units import corner_unit, grey_strength, measure_threshold
 from sogdd.params import resolve_params
-from sogdd.reference import reference_measure
-from sogdd.saddles import corner_unit, find_saddles, grey_strength, measure_threshold
+from sogdd.select.x_junctions import find_saddles
 from sogdd.synthetic import Polygon, pattern_image, render_polygons
 
 GREY = dict(n_orientations=4, threshold_units="grey")
@@ -21,11 +22,11 @@ def test_grey_units_round_trip():
 
 
 def test_corner_unit_is_the_l_corner_peak_by_the_definition():
-    """The calibration constant against the direct eq. 22-25 computation (sogdd.reference)."""
-    from sogdd.saddles import _calibration_images
+    """The calibration constant against the direct eq. 22-25 computation (sogdd.measure.oracle)."""
+    from sogdd.measure.units import calibration_images
 
     spec = resolve_params("paper", **GREY).measure_spec()
-    L, _ = _calibration_images()
+    L, _ = calibration_images()
     assert corner_unit(spec) == pytest.approx(float(reference_measure(L, spec).max()), rel=1e-9)
 
 
@@ -63,7 +64,7 @@ def test_x_junctions_need_grey_units():
 
 def test_one_per_point_keeps_the_strongest_greedily():
     """Points that converged together are one; a chain keeps what the strongest leaves."""
-    from sogdd.peaks import one_per_point
+    from sogdd.select.subpixel import one_per_point
 
     xy = np.array([[10.0, 10.0], [10.06, 10.0], [10.12, 10.0], [30.0, 5.0], [30.0, 5.05]])
     s = np.array([2.0, 3.0, 1.0, 5.0, 5.0])

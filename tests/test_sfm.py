@@ -7,14 +7,14 @@ import numpy as np
 import pytest
 
 from sogdd.cli.main import main
-from sogdd.colmap import (
+from sogdd.evaluation.sfm import DENSE_NA, align_similarity, camera_errors, read_strecha_cameras
+from sogdd.formats.colmap import (
     descriptors_to_colmap,
     find_camera_prior,
     from_colmap_xy,
     keypoints_to_colmap,
     to_colmap_xy,
 )
-from sogdd.evaluation.sfm import DENSE_NA, align_similarity, camera_errors, read_strecha_cameras
 
 
 # ------------------------------------------------------------------ conversions
@@ -119,7 +119,7 @@ def _write_tiny_images(folder, n=3):
 
 def test_database_keypoints_roundtrip(tmp_path):
     pycolmap = pytest.importorskip("pycolmap")
-    from sogdd.colmap import import_images, write_features
+    from sogdd.formats.colmap import import_images, write_features
 
     _write_tiny_images(tmp_path / "img")
     db_path = tmp_path / "db.db"
@@ -154,7 +154,7 @@ def test_cli_colmap_export(tmp_path, capsys):
         ims = {im.name: im.image_id for im in d.read_all_images()}
         np.testing.assert_allclose(d.read_keypoints(ims["im0.png"])[:, :2], xy + 0.5)
         assert d.num_keypoints_for_image(ims["im1.png"]) == 2
-        assert d.num_descriptors_for_image(ims["im0.png"]) == 3  # computed with sogdd.describe
+        assert d.num_descriptors_for_image(ims["im0.png"]) == 3  # computed with sogdd.descriptors
 
 
 def _chair(data_dir):

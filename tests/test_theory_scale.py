@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from sogdd.filters import kernel_radius, steerable_basis
+from sogdd.measure.filters import kernel_radius, steerable_basis
 from sogdd.theory import (
     PAPER_CLAIMS,
     coefficients,

@@ -1,4 +1,4 @@
-"""The Gaussian-window SODDC measure (sogdd.weighted) against its literal definition."""
+"""The Gaussian-window SODDC measure (sogdd.measure.gaussian_window) against its literal definition."""
 
 from __future__ import annotations
 
@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import sogdd
-from sogdd.response import soddc_measure
-from sogdd.weighted import gaussian_window_reference, gaussian_window_spec
+from sogdd.measure.gaussian_window import gaussian_window_reference, gaussian_window_spec
+from sogdd.measure.soddc import soddc_measure
 
 
 @pytest.mark.parametrize("spec", [gaussian_window_spec(1.2, 4, 3), gaussian_window_spec(2.0, 8, 5),

@@ -37,7 +37,7 @@ from _compat import (
     sweep_curve,
 )
 
-from sogdd.io import read_image
+from sogdd.image.files import read_image
 
 DATA = Path(os.environ.get("SOGDD_DATA", "/work/shared/data"))
 HALVES = ("dev", "conf")

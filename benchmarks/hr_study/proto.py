@@ -3,7 +3,7 @@
 Every variant of issue 13 is one :class:`Cfg`. The response is computed the
 slow, obvious way, so that any combination can be tried:
 
-1. the steerable basis ``g_xx, g_xy, g_yy`` of :mod:`sogdd.filters` (separable,
+1. the steerable basis ``g_xx, g_xy, g_yy`` of :mod:`sogdd.measure.filters` (separable,
    ``cv2.sepFilter2D``, reflect border), optionally zero-mean;
 2. ``K`` responses ``l_k = c^2 g_xx + 2 s c g_xy + s^2 g_yy`` (eq. 23),
    absolute or signed, scale-normalised by ``sigma^2`` so they are grey levels;
@@ -34,8 +34,9 @@ import cv2
 import numpy as np
 
 from sogdd.corners import Corners
-from sogdd.filters import kernel_radius, steerable_basis
-from sogdd.peaks import refine_quadratic, select_peaks
+from sogdd.measure.filters import kernel_radius, steerable_basis
+from sogdd.select.peaks import select_peaks
+from sogdd.select.subpixel import refine_quadratic
 
 VARSIGMA = 2.22e-16
 _B = cv2.BORDER_REFLECT  # half-sample symmetric = scipy "reflect"
@@ -214,7 +215,7 @@ def paper_measure(img: np.ndarray, cfg: Cfg) -> np.ndarray:
 
 # -- X-junctions ----------------------------------------------------------------
 def _bilinear(m: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    from sogdd.saddles import bilinear_rows  # the core's float64 bilinear sampler
+    from sogdd.select.x_junctions import bilinear_rows  # the core's float64 bilinear sampler
 
     return bilinear_rows([m], 0, *m.shape, x, y)[0]
 
@@ -336,7 +337,7 @@ def _refine(grey: np.ndarray, xy: np.ndarray, is_x: np.ndarray, cfg: Cfg) -> np.
     xy = xy.copy()
     c = ~is_x
     if cfg.subpix == "grad" and c.any():
-        from sogdd.peaks import refine_gradient
+        from sogdd.select.subpixel import refine_gradient
 
         xy[c] = refine_gradient(grey, xy[c])
     elif cfg.subpix == "grad_adapt" and c.any():
@@ -402,7 +403,8 @@ class ProtoDetector:
         self.cfg = cfg
 
     def detect_corners(self, image, mask=None) -> Corners:
-        from sogdd.io import to_gray255, validate_image
+        from sogdd.image.grey import to_gray255
+        from sogdd.image.validate import validate_image
 
         return detect(to_gray255(validate_image(image)), self.cfg)
 

@@ -5,9 +5,22 @@ second-order Gaussian directional derivative (SOGDD) filters: responses at K
 orientations (eq. 23), the SODDC matrix of their absolute values over a window
 (eq. 24), and the measure det / (trace + varsigma) (eq. 25).
 
-The core is a straight pipeline, io -> filters -> response -> peaks ->
-detector; everything else (theory, baselines, evaluation, report, cli,
-collection) is its client.
+The core is a pipeline of stages, each a folder, called in this order by
+:mod:`sogdd.detector`:
+
+1. :mod:`sogdd.image`: files and arrays to validated grey levels on 0-255;
+2. :mod:`sogdd.measure`: SOGDD filters, the SODDC matrix and Upsilon, grey-level units;
+3. :mod:`sogdd.select`: thresholds, non-maximum suppression, sub-pixel refinement,
+   X-junctions, assembly into :class:`Corners`, the image pyramid;
+4. :mod:`sogdd.detector`: :func:`corner_response` and :func:`detect_corners`
+   (:mod:`sogdd.params` resolves the presets; :mod:`sogdd.gpu` mirrors the stages
+   on a CUDA device).
+
+Around them: :mod:`sogdd.descriptors` (SIFT descriptors at corners),
+:mod:`sogdd.feature2d` (OpenCV's vocabulary), :mod:`sogdd.formats` (feature
+files, COLMAP) and :mod:`sogdd.collection` (batches). Everything else (theory,
+baselines, evaluation, report, cli) is a client of the core and is never
+imported by it.
 """
 
 from __future__ import annotations
@@ -22,12 +35,12 @@ from ._version import __version__
 # scipy, which the core's modules import.
 _EXPORTS = {
     "Corners": "corners",
-    "describe": "describe",
+    "describe": "descriptors",
     "corner_response": "detector",
     "detect_corners": "detector",
     "SOGDD": "feature2d",
-    "load_features": "features",
-    "read_image": "io",
+    "load_features": "formats.features",
+    "read_image": "image.files",
     "PRESETS": "params",
     "resolve_params": "params",
 }
@@ -47,11 +60,11 @@ __all__ = [
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs
     from .corners import Corners
-    from .describe import describe
+    from .descriptors import describe
     from .detector import corner_response, detect_corners
     from .feature2d import SOGDD
-    from .features import load_features
-    from .io import read_image
+    from .formats.features import load_features
+    from .image.files import read_image
     from .params import PRESETS, resolve_params
 
 

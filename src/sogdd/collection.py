@@ -10,7 +10,7 @@ Resume. A feature file counts as done only if it loads, and records the same
 resolved parameters, the same sogdd version, and the size and modification
 time of the image file it was made from; anything else is redone. Temporary
 files an interrupted run left behind are removed when the next run starts.
-Files are written atomically (:func:`sogdd.features.write_features`).
+Files are written atomically (:func:`sogdd.formats.features.write_features`).
 
 Failures. A bad image is reported and the others complete. A worker process
 that dies (``SIGKILL`` from the out-of-memory killer) takes down the process
@@ -42,12 +42,19 @@ from pathlib import Path
 
 import cv2
 
+from ._jit import thread_count
 from ._version import __version__
 from .detector import detect_corners
-from .features import FORMATS, make_record, params_dict, read_features, remove_stale_temporaries, write_features
-from .io import list_images, opencv_message, read_image
+from .formats.features import (
+    FORMATS,
+    make_record,
+    params_dict,
+    read_features,
+    remove_stale_temporaries,
+    write_features,
+)
+from .image.files import list_images, opencv_message, read_image
 from .params import resolve_params
-from .response import thread_count
 
 __all__ = [
     "BatchInterrupted", "BatchItem", "expand_inputs", "feature_path", "relative_names", "run_batch",
@@ -241,7 +248,7 @@ def _check_batch(preset: str, params: dict, fmt: str, jobs: int, device: str, in
     if device == "cuda" and in_process:
         # one clear error, not one per image; only in-process (a parent that touched the CUDA
         # driver would leave forked workers unable to use it)
-        from ._cuda_input import require_cuda
+        from .gpu.input import require_cuda
 
         require_cuda()
 

@@ -1,8 +1,8 @@
 """The public detection API: the corner measure map and the corner detector.
 
 The pipeline is io -> filters -> response -> peaks: an image is validated and
-brought to grey on the 0-255 scale (:mod:`sogdd.io`), filtered and measured
-(:mod:`sogdd.response`), and its peaks selected and refined (:mod:`sogdd.peaks`);
+brought to grey on the 0-255 scale (:mod:`sogdd.image.validate`), filtered and measured
+(:mod:`sogdd.measure.soddc`), and its peaks selected and refined (:mod:`sogdd.select.peaks`);
 :func:`detect_corners` adds the image pyramid.
 """
 
@@ -10,18 +10,20 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._banded import peaks_in_bands
-from ._banded_relative import peaks_relative_in_bands
-from ._grey_rows import GreyRows
-from ._relative_floor import relative_floor
-from .assemble import assemble, peak_limit, peak_threshold
 from .corners import Corners
-from .io import check_mask, to_gray255, validate_image
+from .image.grey import to_gray255
+from .image.rows import GreyRows
+from .image.validate import check_mask, validate_image
+from .measure.soddc import MeasureSpec, soddc_measure, supports_floor
 from .params import Params, resolve_params
-from .peaks import refine_quadratic, select_peaks
-from .pyramid import detect_pyramid
-from .response import MeasureSpec, soddc_measure, supports_floor
-from .saddles import SaddleCandidates
+from .select.assemble import assemble, peak_limit, peak_threshold
+from .select.banded import peaks_in_bands
+from .select.banded_relative import peaks_relative_in_bands
+from .select.peaks import select_peaks
+from .select.pyramid import merge_levels, pyramid_levels
+from .select.relative_floor import relative_floor
+from .select.subpixel import refine_quadratic
+from .select.x_junctions import SaddleCandidates
 
 __all__ = ["corner_response", "detect_corners"]
 
@@ -40,7 +42,7 @@ def corner_response(image, *, preset: str = "paper", device: str = "cpu", **para
     ----------
     image : ndarray
         Grey (H, W) or colour (H, W, 3|4) image; uint8, uint16, float in [0, 1]
-        or bool. Converted to grey on the 0-255 scale (see :mod:`sogdd.io`).
+        or bool. Converted to grey on the 0-255 scale (see :mod:`sogdd.image.validate`).
     preset : {"paper", "authors", "hr"}
         Starting parameter set; keyword arguments override it.
     device : {"cpu", "cuda"}
@@ -85,16 +87,16 @@ def _detect_level(grey: np.ndarray, p: Params, mask: np.ndarray | None) -> Corne
     floor = _floor(p, spec, thr)
     top = peak_limit(p)
     saddles = None
-    if floor is not None:  # absolute threshold: band by band, no H x W map (sogdd._banded)
+    if floor is not None:  # absolute threshold: band by band, no H x W map (sogdd.select.banded)
         # hr's X-junction candidates from the measure's own filter responses (not filtered twice)
         if p.x_junctions and not spec.zero_mean:
             saddles = SaddleCandidates(grey.shape, spec, p.threshold)
         rows, cols, values, qoff = peaks_in_bands(grey, spec, threshold=thr, floor=floor, border=p.border,
                                                   nms_radius=p.nms_radius, mask=mask, max_corners=top,
                                                   on_planes=saddles)
-    else:  # a relative threshold prunes too (sogdd._relative_floor)
+    else:  # a relative threshold prunes too (sogdd.select.relative_floor)
         floor = relative_floor(grey, p, spec, mask, threshold=thr)
-        # one pass over bands, no H x W map (sogdd._banded_relative); None where only the full map can tell
+        # one pass over bands, no H x W map (select.banded_relative); None where only the full map can tell
         got = peaks_relative_in_bands(
             grey, spec, threshold=thr, threshold_rel=p.threshold_rel, quantile=p.quantile, floor=floor,
             nms_radius=p.nms_radius, border=p.border, mask=mask, max_corners=top,
@@ -174,4 +176,6 @@ def detect_corners(image, *, preset: str = "paper", mask=None, device: str = "cp
     p = resolve_params(preset, **params)
     # one level reads the grey image in crops only (the pyramid resizes it whole)
     grey = _prepare(image, p, lazy=p.levels == 1)
-    return detect_pyramid(grey, p, check_mask(mask, grey.shape), lambda g, mk: _detect_level(g, p, mk))
+    mask = check_mask(mask, grey.shape)
+    found = [(level, _detect_level(level.grey, p, level.mask)) for level in pyramid_levels(grey, p, mask)]
+    return merge_levels(found, p, mask, grey.shape)

@@ -13,7 +13,7 @@ import cv2
 import numpy as np
 
 from .corners import Corners
-from .describe import DESC_SIZE, compute_keypoints
+from .descriptors import DESC_SIZE, compute_keypoints
 from .detector import detect_corners
 from .params import resolve_params
 
@@ -66,7 +66,7 @@ class SOGDD:
         return compute_keypoints(image, keypoints, "sift", channel_order=self.params.channel_order)
 
     def detectAndCompute(self, image, mask=None, descriptors=None, useProvidedKeypoints=False):  # noqa: N802,N803
-        """Detect, then describe with SIFT at :data:`~sogdd.describe.DESC_SIZE` (``detectAndCompute``)."""
+        """Detect, then describe with SIFT at :data:`~sogdd.descriptors.DESC_SIZE` (``detectAndCompute``)."""
         kps = self.detect(image, mask)
         return compute_keypoints(image, kps, "sift", channel_order=self.params.channel_order,
                                  size=DESC_SIZE, scale_factor=self.params.scale_factor)

@@ -12,11 +12,12 @@ from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
-from .filters import kernel_radius
-from .io import BT601, MATLAB_RGB2GRAY, check_value_range
-from .response import MeasureSpec
-from .weighted import gaussian_window_spec
-from .window import window_halfwidths
+from .image.grey import BT601, MATLAB_RGB2GRAY
+from .image.validate import check_value_range
+from .measure.filters import kernel_radius
+from .measure.gaussian_window import gaussian_window_spec
+from .measure.soddc import MeasureSpec
+from .measure.window import window_halfwidths
 
 __all__ = ["PRESETS", "Params", "resolve_params"]
 
@@ -49,14 +50,14 @@ class Params:
     gray_round: bool = False
     channel_order: str = "rgb"
     # "measure": threshold and response on Upsilon itself; "grey": in grey levels of corner
-    # contrast (sogdd.saddles), so a threshold means the same on a dim and a bright image
+    # contrast (sogdd.select.x_junctions), so a threshold means the same on a dim and a bright image
     threshold_units: str = "measure"
-    # report each X-junction once, on its saddle point (sogdd.saddles); needs threshold_units="grey"
+    # report each X-junction once, on its saddle point (sogdd.select.x_junctions); needs threshold_units="grey"
     x_junctions: bool = False
     value_range: tuple[float, float] | None = None  # input values mapped onto 0-255 (None: by dtype)
 
     def measure_spec(self) -> MeasureSpec:
-        """The resolved :class:`~sogdd.response.MeasureSpec` of these parameters."""
+        """The resolved :class:`~sogdd.measure.soddc.MeasureSpec` of these parameters."""
         if self.window_shape == "gaussian":
             return gaussian_window_spec(float(self.sigma2), int(self.n_orientations), int(self.window),
                                         self.kernel_radius_rule, bool(self.zero_mean))

@@ -5,8 +5,8 @@ steerable from three separable basis kernels. The anisotropic kernels of
 Zhang & Sun (2020, 2021) are not, so their K directional responses are computed
 one kernel at a time here (``cv2.filter2D``, which switches to a DFT for large
 kernels); the window sums of ``|l| |l|^T`` and ``det / (trace + varsigma)`` are
-the core's (:func:`sogdd.response.soddc_from_responses` for the map,
-:func:`sogdd.response.soddc_at` at a few pixels).
+the core's (:func:`sogdd.measure.soddc.soddc_from_responses` for the map,
+:func:`sogdd.measure.soddc.soddc_at` at a few pixels).
 """
 
 from __future__ import annotations

@@ -14,15 +14,8 @@ import cv2
 import numpy as np
 
 from ..corners import Corners
-from ..peaks import select_peaks
-from .registry import (
-    BaselineDetector,
-    check_choice,
-    check_int,
-    check_number,
-    register,
-    sort_strongest_first,
-)
+from ..select.peaks import select_peaks
+from .registry import BaselineDetector, check_choice, check_int, check_number, register, sort_strongest_first
 
 __all__ = ["Harris", "ShiTomasi", "FAST", "SIFT", "KAZE", "AKAZE", "HarrisLaplace", "ORB"]
 

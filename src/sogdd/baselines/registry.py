@@ -4,7 +4,7 @@ Every detector is a :class:`BaselineDetector` subclass registered under a name.
 ``get(name, **params)`` builds one; ``available()`` lists the names. All of them
 
 * take a grey or colour image (validated and converted to grey exactly as the
-  core does: :func:`sogdd.io.validate_image`, :func:`sogdd.io.to_gray255`),
+  core does: :func:`sogdd.image.validate.validate_image`, :func:`sogdd.image.grey.to_gray255`),
 * take an optional ``uint8``/``bool`` mask of the image's shape,
 * return :class:`sogdd.corners.Corners` (x = column, y = row, pixel centres at
   integers), strongest first where the detector has a strength,
@@ -24,7 +24,8 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ..corners import Corners
-from ..io import check_mask, to_gray255, validate_image
+from ..image.grey import to_gray255
+from ..image.validate import check_mask, validate_image
 
 __all__ = ["BaselineDetector", "available", "get", "register", "registered"]
 
@@ -133,7 +134,7 @@ class BaselineDetector:
         ----------
         image : ndarray
             Grey (H, W) or colour (H, W, 3|4) image, uint8, uint16, float in
-            [0, 1] or bool (see :mod:`sogdd.io`). Colour arrays are RGB unless
+            [0, 1] or bool (see :mod:`sogdd.image.validate`). Colour arrays are RGB unless
             the detector was built with ``channel_order="bgr"``.
         mask : ndarray of uint8 or bool, optional
             Points are kept only where it is non-zero.

@@ -43,7 +43,7 @@ import cv2
 import numpy as np
 
 from ..corners import Corners
-from ..peaks import select_peaks
+from ..select.peaks import select_peaks
 from .directional_bank import rotated_coordinates
 from .registry import BaselineDetector, check_int, check_number, register
 

@@ -23,9 +23,9 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ..corners import Corners
-from ..peaks import select_peaks
-from ..response import soddc_at, soddc_from_responses
-from ..window import disk_halfwidths
+from ..measure.soddc import soddc_at, soddc_from_responses
+from ..measure.window import disk_halfwidths
+from ..select.peaks import select_peaks
 from .directional_bank import anisotropic_gaussian, directional_responses, rotated_coordinates
 from .registry import BaselineDetector, check_int, check_number, register
 

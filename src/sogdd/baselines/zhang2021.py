@@ -31,9 +31,9 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ..corners import Corners
-from ..peaks import valid_area
-from ..response import soddc_from_responses
-from ..window import disk_halfwidths
+from ..measure.soddc import soddc_from_responses
+from ..measure.window import disk_halfwidths
+from ..select.peaks import valid_area
 from .directional_bank import anisotropic_gaussian, directional_responses, rotated_coordinates
 from .registry import BaselineDetector, check_int, check_number, register
 

@@ -10,7 +10,7 @@ Images already in the database are matched by name. Others are imported from
 any). Without descriptors in the files, --describe sift (the default when
 --images is given) computes OpenCV SIFT descriptors at the points (diameter
 8 px times the pyramid scale, as "sogdd eval sfm" does); COLMAP's matchers
-need them. The adapter is sogdd.colmap.
+need them. The adapter is sogdd.formats.colmap.
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ __all__ = ["configure"]
 
 
 def run_export(args: argparse.Namespace) -> int:
-    from ..colmap import export_features
+    from ..formats.colmap import export_features
 
     method = None if args.describe == "none" else args.describe
     r = export_features(args.features, args.database, args.images, method, progress=reporter(args))

@@ -1,7 +1,7 @@
 """sogdd detect: corners of one or many images, as CSV, JSON or NPZ.
 
 Without --out all results go to one output (stdout by default). With --out DIR
-each image gets its own feature file (the schema of sogdd.features), written by
+each image gets its own feature file (the schema of sogdd.formats.features), written by
 local worker processes or a Dask cluster, resumable.
 """
 
@@ -17,12 +17,13 @@ import cv2
 import numpy as np
 from tqdm import tqdm
 
+from .._jit import thread_count
 from ..collection import BatchInterrupted, expand_inputs, relative_names, run_batch
 from ..detector import detect_corners
-from ..features import FeatureRecord, encode_features, make_record, write_features
-from ..io import intensity_hint, opencv_message, read_image
+from ..formats.features import FeatureRecord, encode_features, make_record, write_features
+from ..image.files import opencv_message, read_image
+from ..image.validate import intensity_hint
 from ..params import resolve_params
-from ..response import thread_count
 from .overlay import check_overlay_path, save_overlay
 from .params import add_detector_arguments, add_read_arguments, detector_overrides, read_options
 
@@ -31,7 +32,7 @@ _FEW = 5
 
 
 def write_results(records: list[FeatureRecord], fmt: str, output: str) -> None:
-    """All images' records into one output (stdout as ``-``), in the schema of :mod:`sogdd.features`."""
+    """All images' records into one output (stdout as ``-``), in the schema of :mod:`sogdd.formats.features`."""
     if output == "-":
         sys.stdout.write(encode_features(records, fmt).decode())
     else:

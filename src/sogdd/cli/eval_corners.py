@@ -15,13 +15,7 @@ import os
 import sys
 from pathlib import Path
 
-from ._common import (
-    HelpFormatter,
-    add_detectors_argument,
-    add_output_arguments,
-    data_path,
-    print_json,
-)
+from ._common import HelpFormatter, add_detectors_argument, add_output_arguments, data_path, print_json
 
 __all__ = ["gt_json", "register"]
 

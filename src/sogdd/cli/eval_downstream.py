@@ -77,9 +77,9 @@ def run_matching(args: argparse.Namespace) -> int:
 
 
 def run_sfm(args: argparse.Namespace) -> int:
-    from ..colmap import require_pycolmap
     from ..evaluation.sfm import evaluate_sfm
     from ..evaluation.specs import parse_specs
+    from ..formats.colmap import require_pycolmap
     from ..report.sfm import sfm_markdown
 
     require_pycolmap()

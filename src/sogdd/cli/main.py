@@ -83,7 +83,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except Exception as exc:  # an OpenCV error is one line too (cv2 is not imported just to name it)
         if type(exc).__module__ != "cv2":
             raise
-        from ..io import opencv_message
+        from ..image.files import opencv_message
 
         print(f"sogdd: error: {opencv_message(exc)}", file=sys.stderr)
         return 2

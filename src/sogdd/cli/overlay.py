@@ -9,7 +9,8 @@ import cv2
 import numpy as np
 
 from ..corners import Corners
-from ..io import to_gray255, validate_image
+from ..image.grey import to_gray255
+from ..image.validate import validate_image
 
 
 def check_overlay_path(path: str | Path) -> None:

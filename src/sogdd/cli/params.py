@@ -109,7 +109,7 @@ def add_read_arguments(parser: argparse.ArgumentParser) -> None:
 
 def read_options(args: argparse.Namespace) -> dict:
     """The keyword arguments of :func:`sogdd.read_image` given on the command line (checked now)."""
-    from ..io import max_pixels_limit
+    from ..image.files import max_pixels_limit
 
     max_pixels_limit(args.max_pixels)  # a bad limit (or $SOGDD_MAX_PIXELS) fails before any work
     return {"max_pixels": args.max_pixels, "allow_corrupt": args.allow_corrupt,

@@ -7,7 +7,7 @@ import argparse
 import numpy as np
 
 from ..detector import corner_response
-from ..io import read_image
+from ..image.files import read_image
 from .params import SELECTION, add_detector_arguments, add_read_arguments, detector_overrides, read_options
 
 

@@ -2,8 +2,8 @@
 
 :func:`extract_features` runs a spec's detector, its border removal and top-k
 (:func:`sogdd.evaluation.specs.select`), and describes every point with OpenCV's
-SIFT descriptor (:func:`sogdd.describe`) at the diameter given by
-:func:`descriptor_sizes`.
+SIFT descriptor (:func:`sogdd.descriptors`) at the diameter given by
+:func:`sogdd.descriptors.descriptor_sizes`.
 """
 
 from __future__ import annotations
@@ -14,10 +14,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..corners import Corners
-from ..describe import DESC_SIZE, describe
+from ..descriptors import describe, descriptor_sizes
 from .specs import DetectorSpec, build_detector, detect
 
-__all__ = ["FeatureSet", "descriptor_sizes", "extract_features"]
+__all__ = ["FeatureSet", "extract_features"]
 
 
 @dataclass
@@ -61,29 +61,6 @@ class FeatureSet:
             size = np.asarray(z["size"]) if "size" in z else np.full(n, np.nan)
             level = np.asarray(z["level"]) if "level" in z else np.zeros(n, np.int64)
             return FeatureSet(kp, scores, np.asarray(z["descriptors"], np.float32), size, level, (0, 0))
-
-
-def descriptor_sizes(
-    corners: Corners, desc_size: float | str = "auto", family: str | None = None
-) -> np.ndarray:
-    """Descriptor diameters (SIFT keypoint sizes) for detected points.
-
-    The detectors' own ``size`` values mean different things (SOGDD: window
-    plus filter support, 17 px; Harris 6; Shi-Tomasi 3; ORB 31), so they are not
-    used as they are: a point's size is a common base diameter times its
-    pyramid scale, ``desc_size * size / size_of_level_0`` (for SOGDD's pyramid
-    this is ``desc_size * scale_factor ** level``). Detectors that estimate a
-    scale themselves (``family == "blob"``: SIFT, KAZE, AKAZE, Harris-Laplace,
-    ORB) keep their own sizes under ``"auto"``; that scale is part of what they
-    detect. ``"own"`` keeps every detector's sizes.
-    """
-    size = corners.size.astype(np.float64)
-    if len(corners) == 0 or desc_size == "own" or (desc_size == "auto" and family == "blob"):
-        return size
-    base = DESC_SIZE if desc_size == "auto" else float(desc_size)
-    lvl0 = size[corners.level == 0]
-    ref = float(lvl0.min()) if len(lvl0) else float(size.min())
-    return base * size / max(ref, 1e-9)
 
 
 def extract_features(image: np.ndarray, spec: DetectorSpec, detector=None) -> FeatureSet:

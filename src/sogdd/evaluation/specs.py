@@ -15,7 +15,7 @@ detector alike; every other key is passed to the detector:
     keep the ``K`` strongest points (by ``Corners.response``);
 ``desc=sift|rootsift``, ``upright=true``, ``desc_size=auto|own|PX``
     the descriptor of the matching and SfM evaluations
-    (:func:`sogdd.evaluation.features.descriptor_sizes`).
+    (:func:`sogdd.descriptors.descriptor_sizes`).
 
 Detectors are built only by :func:`sogdd.baselines.get`.
 
@@ -42,7 +42,7 @@ import numpy as np
 
 from .. import baselines
 from ..corners import Corners
-from ..describe import METHODS
+from ..descriptors import METHODS
 from .points import match_points
 
 __all__ = [

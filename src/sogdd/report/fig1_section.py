@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from ..evaluation.gt import load_gt_set
-from ..filters import orientations
+from ..measure.filters import orientations
 from ..theory.fig1 import SCALES, fig1_case, near_truth, sogdd_abs_responses, write_fig1
 
 __all__ = ["fig1_facts", "fig1_stage"]

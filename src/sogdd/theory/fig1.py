@@ -41,8 +41,10 @@ import numpy as np  # noqa: E402
 from scipy.spatial.distance import cdist  # noqa: E402
 
 from ..detector import detect_corners  # noqa: E402
-from ..filters import kernel_radius, orientations, sogdd_kernel  # noqa: E402
-from ..io import read_image, to_gray255, validate_image  # noqa: E402
+from ..image.files import read_image
+from ..image.grey import to_gray255
+from ..image.validate import validate_image  # noqa: E402
+from ..measure.filters import kernel_radius, orientations, sogdd_kernel  # noqa: E402
 
 __all__ = ["Fig1Case", "fig1_case", "sogdd_abs_responses", "write_fig1"]
 

@@ -4,10 +4,10 @@ The continuous theory (:mod:`.scale_rule`) idealises the detector: the image is
 a step function sampled nowhere, the filter is continuous and the corner
 measure is replaced by the energy of eq. 15. Here each model is rasterised with
 anti-aliasing (supersampling, then block averaging), filtered by the
-detector's sampled SOGDD kernels (eq. 22, :mod:`sogdd.filters`) and scored two
+detector's sampled SOGDD kernels (eq. 22, :mod:`sogdd.measure.filters`) and scored two
 ways at the pixel on the evaluation point:
 
-* ``measure``: the detector's Upsilon (eq. 25) from :func:`sogdd.response.soddc_measure`
+* ``measure``: the detector's Upsilon (eq. 25) from :func:`sogdd.measure.soddc.soddc_measure`
   (K orientations, square window), which is what decides detection;
 * ``measure_near``: the largest Upsilon within one pixel (3 x 3) of the
   corner, since the measure's peak sits up to a pixel off the corner;
@@ -30,9 +30,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..filters import kernel_radius, steerable_basis
-from ..response import MeasureSpec, soddc_measure
-from ..window import window_halfwidths
+from ..measure.filters import kernel_radius, steerable_basis
+from ..measure.soddc import MeasureSpec, soddc_measure
+from ..measure.window import window_halfwidths
 from .models import CornerModel, make_model
 from .steering import Coefficients
 

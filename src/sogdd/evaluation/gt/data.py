@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...io import read_image
+from ...image.files import read_image
 
 __all__ = ["GTSet", "find_gt_sets", "load_gt_set", "read_corners_csv", "write_corners_csv"]
 

@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...io import IMAGE_SUFFIXES
+from ...image.files import IMAGE_SUFFIXES
 
 __all__ = [
     "D2NET_EXCLUDED",

@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...io import read_image
+from ...image.files import read_image
 from ..features import FeatureSet, extract_features
 from ..specs import DetectorSpec, build_detector
 from .data import D2NET_EXCLUDED, HomographySequence

@@ -7,7 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ...io import list_images, read_image, to_uint8_grey
+from ...image.files import list_images, read_image
+from ...image.grey import to_uint8_grey
 
 __all__ = ["load_images"]
 

@@ -3,7 +3,7 @@
 :mod:`.pipeline` runs the stages (import, features, matching, mapping),
 :mod:`.cameras` measures poses against ground-truth cameras, :mod:`.dense`
 counts dense points where COLMAP has CUDA. The database conventions live in
-:mod:`sogdd.colmap`.
+:mod:`sogdd.formats.colmap`.
 """
 
 from .cameras import GTCamera, align_similarity, camera_errors, read_strecha_cameras

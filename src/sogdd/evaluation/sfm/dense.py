@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ...colmap import require_pycolmap
+from ...formats.colmap import require_pycolmap
 
 __all__ = ["DENSE_NA", "dense_points", "undistort_for_mvs"]
 

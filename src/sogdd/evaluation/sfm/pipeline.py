@@ -4,9 +4,9 @@ Pipeline, per detector (:func:`run_sfm`), one function per stage:
 
 1. :func:`import_stage`: the images into a fresh database with one shared
    camera (seeded from ``K.txt`` or a YAML next to the images, see
-   :func:`sogdd.colmap.find_camera_prior`);
+   :func:`sogdd.formats.colmap.find_camera_prior`);
 2. :func:`feature_stage`: detect with the detector spec, describe every point
-   with OpenCV's SIFT descriptor (:func:`sogdd.describe`), write keypoints
+   with OpenCV's SIFT descriptor (:func:`sogdd.descriptors`), write keypoints
    (+0.5: COLMAP's pixel centres) and ``uint8`` descriptors;
 3. :func:`match_stage`: match every pair, either with COLMAP's exhaustive CPU
    matcher (``matcher="colmap"``: mutual nearest neighbours, no ratio test, as
@@ -31,8 +31,14 @@ from pathlib import Path
 
 import numpy as np
 
-from ...colmap import find_camera_prior, import_images, list_image_names, require_pycolmap, write_features
-from ...io import read_image
+from ...formats.colmap import (
+    find_camera_prior,
+    import_images,
+    list_image_names,
+    require_pycolmap,
+    write_features,
+)
+from ...image.files import read_image
 from ..features import extract_features
 from ..matching.protocol import mutual_nn
 from ..specs import DetectorSpec, build_detector

@@ -1,0 +1,342 @@
+"""The COLMAP adapter: databases, the +0.5 pixel shift, cameras and feature export (pycolmap).
+
+Used by ``sogdd colmap export`` (:func:`export_features`) and by the SfM
+evaluation (:mod:`sogdd.evaluation.sfm`). Needs ``pip install 'sogdd[sfm]'``.
+
+Conventions
+-----------
+* **Keypoints.** sogdd puts pixel centres at integer coordinates (OpenCV);
+  COLMAP puts them at ``+0.5`` (the top-left pixel's centre is ``(0.5, 0.5)``).
+  :func:`to_colmap_xy` adds 0.5, :func:`from_colmap_xy` removes it. Keypoints
+  are written as ``[x, y, scale, orientation]`` rows, with ``scale = size / 2``
+  and the orientation in radians.
+* **Descriptors.** COLMAP's SIFT descriptors are ``uint8``: a unit-L2 vector
+  times 512, rounded and clipped to 255 (``FeatureDescriptorsToUnsignedByte``).
+  OpenCV's SIFT already uses that scale; RootSIFT (unit L2) is multiplied by 512.
+* **Cameras.** One shared camera (EXIF is absent in the benchmark images), seeded
+  from ``K.txt`` (a 3x3 matrix, the Strecha sets) or from a BoofCV/OpenCV-style
+  YAML (``pinhole`` block and ``radial_tangential``, the ``chair`` set) in the
+  image folder, else COLMAP's default guess (``SIMPLE_RADIAL``, focal length
+  1.2 x the larger image side).
+
+pycolmap is imported lazily so that the rest of sogdd never needs it.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..corners import Corners
+from ..descriptors import describe
+from ..image.files import list_images, read_image
+from .features import read_features
+
+__all__ = [
+    "CameraPrior",
+    "descriptors_to_colmap",
+    "export_features",
+    "find_camera_prior",
+    "from_colmap_xy",
+    "list_image_names",
+    "import_images",
+    "keypoints_to_colmap",
+    "require_pycolmap",
+    "to_colmap_xy",
+    "write_features",
+]
+
+
+def require_pycolmap():
+    """Import pycolmap, or raise ``ValueError`` saying how to install it."""
+    try:
+        import pycolmap
+    except ImportError as exc:  # pragma: no cover - depends on the environment
+        raise ValueError("pycolmap is not installed: pip install 'sogdd[sfm]' (or: pip install pycolmap)"
+                         ) from exc
+    return pycolmap
+
+
+def to_colmap_xy(xy: np.ndarray) -> np.ndarray:
+    """sogdd/OpenCV pixel coordinates (centres at integers) to COLMAP's (centres at +0.5).
+
+    Examples
+    --------
+    >>> to_colmap_xy([[0.0, 0.0], [10.25, 3.0]]).tolist()
+    [[0.5, 0.5], [10.75, 3.5]]
+    """
+    return np.asarray(xy, dtype=np.float64).reshape(-1, 2) + 0.5
+
+
+def from_colmap_xy(xy: np.ndarray) -> np.ndarray:
+    """COLMAP pixel coordinates to sogdd/OpenCV's (inverse of :func:`to_colmap_xy`)."""
+    return np.asarray(xy, dtype=np.float64).reshape(-1, 2) - 0.5
+
+
+def keypoints_to_colmap(xy: np.ndarray, size: np.ndarray | None = None, angle_deg: np.ndarray | None = None
+                        ) -> np.ndarray:
+    """(N, 4) float32 ``[x + 0.5, y + 0.5, size / 2, angle in radians]`` for ``Database.write_keypoints``."""
+    p = to_colmap_xy(xy)
+    n = len(p)
+    scale = np.ones(n) if size is None else np.asarray(size, dtype=np.float64).reshape(-1) / 2.0
+    ori = np.zeros(n) if angle_deg is None else np.deg2rad(np.asarray(angle_deg, dtype=np.float64).reshape(-1))
+    return np.column_stack([p, scale, ori]).astype(np.float32)
+
+
+def descriptors_to_colmap(desc: np.ndarray) -> np.ndarray:
+    """Float descriptors to COLMAP's uint8 SIFT scale.
+
+    Vectors already on OpenCV's SIFT scale (maximum above 1) are rounded and
+    clipped; unit-norm vectors (RootSIFT, or any L2-normalised descriptor) are
+    first multiplied by 512, as COLMAP does.
+    """
+    d = np.asarray(desc, dtype=np.float32)
+    if d.size and float(d.max()) <= 1.0 + 1e-6:
+        d = d * 512.0
+    return np.clip(np.round(d), 0, 255).astype(np.uint8)
+
+
+@dataclass(frozen=True)
+class CameraPrior:
+    """A COLMAP camera model name and its parameters (COLMAP's conventions)."""
+
+    model: str
+    params: tuple[float, ...]
+    source: str
+
+    def params_text(self) -> str:
+        return ",".join(f"{v:.10g}" for v in self.params)
+
+
+def _parse_k(path: Path) -> np.ndarray:
+    k = np.loadtxt(path, dtype=np.float64)
+    if k.shape != (3, 3):
+        raise ValueError(f"{path}: expected a 3x3 calibration matrix")
+    return k
+
+
+def _yaml_numbers(text: str, key: str) -> float | None:
+    m = re.search(rf"^\s*{key}\s*:\s*([-+0-9.eE]+)\s*$", text, re.M)
+    return float(m.group(1)) if m else None
+
+
+def _yaml_radial(text: str) -> list[float]:
+    m = re.search(r"^\s*radial\s*:\s*\n((?:\s*-\s*[-+0-9.eE]+\s*\n?)+)", text, re.M)
+    if not m:
+        return []
+    return [float(v) for v in re.findall(r"-\s*([-+0-9.eE]+)", m.group(1))]
+
+
+def find_camera_prior(image_dir: str | Path) -> CameraPrior | None:
+    """Intrinsics found next to the images: ``K.txt`` or a pinhole YAML; ``None`` if neither.
+
+    OpenCV-convention intrinsics (principal point with pixel centres at
+    integers) are shifted by +0.5 to COLMAP's convention. ``K.txt`` of the
+    Strecha sets is used as given (its convention is not documented; the
+    difference is half a pixel, far below the accuracy of a seed that bundle
+    adjustment refines).
+    """
+    d = Path(image_dir)
+    kf = d / "K.txt"
+    if kf.is_file():
+        k = _parse_k(kf)
+        return CameraPrior("PINHOLE", (k[0, 0], k[1, 1], k[0, 2], k[1, 2]), str(kf))
+    for y in sorted(list(d.glob("*.yaml")) + list(d.glob("*.yml"))):
+        text = y.read_text(errors="replace")
+        fx, fy, cx, cy = (_yaml_numbers(text, k) for k in ("fx", "fy", "cx", "cy"))
+        if None in (fx, fy, cx, cy):
+            continue
+        # BoofCV's intrinsics use pixel centres at integers (as OpenCV): +0.5 for COLMAP
+        cx, cy = cx + 0.5, cy + 0.5
+        radial = _yaml_radial(text)
+        t1 = _yaml_numbers(text, "t1") or 0.0
+        t2 = _yaml_numbers(text, "t2") or 0.0
+        if radial or t1 or t2:
+            k1, k2 = (radial + [0.0, 0.0])[:2]
+            return CameraPrior("OPENCV", (fx, fy, cx, cy, k1, k2, t1, t2), str(y))
+        return CameraPrior("PINHOLE", (fx, fy, cx, cy), str(y))
+    return None
+
+
+def list_image_names(image_dir: str | Path) -> list[str]:
+    """Image file names in a folder (sorted); ``ValueError`` if there is none."""
+    d = Path(image_dir)
+    if not d.is_dir():
+        raise ValueError(f"{d}: not a folder")
+    names = [p.name for p in list_images(d)]
+    if not names:
+        raise ValueError(f"{d}: no images")
+    return names
+
+
+def import_images(database_path: str | Path, image_dir: str | Path, image_names: list[str] | None = None,
+                  prior: CameraPrior | None | str = "auto") -> dict[str, int]:
+    """Add images to a database with one shared camera; return ``{name: image_id}``.
+
+    ``prior="auto"`` looks for intrinsics with :func:`find_camera_prior`.
+    """
+    pycolmap = require_pycolmap()
+    names = image_names if image_names is not None else list_image_names(image_dir)
+    if prior == "auto":
+        prior = find_camera_prior(image_dir)
+    opts = pycolmap.ImageReaderOptions()
+    if prior is not None:
+        opts.camera_model = prior.model
+        opts.camera_params = prior.params_text()
+    if not Path(database_path).exists():
+        pycolmap.Database.open(str(database_path)).close()  # creates the schema
+    pycolmap.import_images(str(database_path), str(image_dir), pycolmap.CameraMode.SINGLE, names, opts)
+    with pycolmap.Database.open(str(database_path)) as db:
+        return {im.name: im.image_id for im in db.read_all_images()}
+
+
+def write_features(db, image_id: int, xy: np.ndarray, size: np.ndarray | None = None,
+                   angle_deg: np.ndarray | None = None, descriptors: np.ndarray | None = None) -> None:
+    """Write one image's keypoints (and descriptors) into an open ``pycolmap.Database``.
+
+    Existing keypoints/descriptors of that image are replaced.
+    """
+    pycolmap = require_pycolmap()
+    kp = keypoints_to_colmap(xy, size, angle_deg)
+    if db.exists_keypoints(image_id):
+        db.update_keypoints(image_id, kp)
+    else:
+        db.write_keypoints(image_id, kp)
+    if descriptors is not None:
+        if len(descriptors) != len(kp):
+            raise ValueError(f"{len(descriptors)} descriptors for {len(kp)} keypoints")
+        data = descriptors_to_colmap(descriptors)
+        fd = pycolmap.FeatureDescriptors(pycolmap.FeatureExtractorType.SIFT, data)
+        if db.exists_descriptors(image_id):
+            # no update call for descriptors: clear and rewrite is not per image, so refuse
+            raise ValueError(f"image {image_id} already has descriptors in the database")
+        db.write_descriptors(image_id, fd)
+
+
+# ----------------------------------------------------------------- export
+def _feature_files(folder: Path) -> dict[str, Path]:
+    """``{image name: file}``: the name is the file's path under ``folder`` without ``.npz``
+    (``sogdd detect --out`` mirrors the inputs' sub-folders)."""
+    if not folder.is_dir():
+        raise ValueError(f"{folder}: not a folder")
+    files = {p.relative_to(folder).as_posix()[: -len(".npz")]: p for p in sorted(folder.rglob("*.npz"))}
+    if not files:
+        raise ValueError(f"{folder}: no .npz feature files")
+    return files
+
+
+def _read_feature_file(path: Path) -> tuple[Corners, np.ndarray | None, np.ndarray | None]:
+    """A ``sogdd detect --format npz`` file (:mod:`sogdd.formats.features`): corners, the stored sizes and the
+    optional ``descriptors`` (N, 128). A bad file is a one-line ``ValueError`` naming it."""
+    recs = read_features(path)
+    if len(recs) != 1:
+        raise ValueError(f"{path}: holds {len(recs)} images; export takes one feature file per image")
+    c = recs[0].corners
+    try:
+        with np.load(path) as z:
+            desc = np.asarray(z["descriptors"]) if "descriptors" in z.files else None
+    except Exception as exc:  # noqa: BLE001 - read_features has read it; any failure here is a bad file
+        raise ValueError(f"{path}: not a valid feature file ({type(exc).__name__}: {exc})") from None
+    if desc is not None and (desc.ndim != 2 or len(desc) != len(c)):
+        raise ValueError(f"{path}: descriptors of shape {desc.shape} for {len(c)} keypoints")
+    return c, c.size, desc
+
+
+def export_features(feature_dir: str | Path, database: str | Path, images: str | Path | None = None,
+                    describe_method: str | None = "auto", progress=None) -> dict:
+    """Write every feature file of ``feature_dir`` into ``database``; return counts.
+
+    Parameters
+    ----------
+    feature_dir : path
+        ``<image name>.npz`` files (``xy``, ``response``, ``size``, optional ``level``
+        and ``descriptors``), as ``sogdd detect DIR --out FEATDIR --format npz`` writes them.
+    database : path
+        COLMAP database (created if missing). Images already in it are matched by name.
+    images : path, optional
+        Image folder, to import the images the database lacks (one shared camera,
+        :func:`import_images`) and to compute descriptors.
+    describe_method : {"auto", "sift", "rootsift", None}
+        Descriptors for files without them: ``"auto"`` is ``"sift"`` when
+        ``images`` is given, else none. They are computed at the diameter the
+        SfM evaluation uses (:func:`sogdd.descriptors.descriptor_sizes`).
+
+    Returns
+    -------
+    dict
+        ``images``, ``keypoints``, ``descriptors`` (counts) and ``database``.
+
+    A bad feature file is a one-line ``ValueError`` naming it, and the database
+    is then left as it was: everything is written to a copy that replaces it
+    only when the whole export has succeeded.
+    """
+    pycolmap = require_pycolmap()
+    files = _feature_files(Path(feature_dir))
+    db_path = Path(database)
+    # all or nothing: the work happens on a copy that replaces the database only when everything is written
+    fd, tmp = tempfile.mkstemp(prefix=f".{db_path.name}.", suffix=".sogdd.tmp", dir=db_path.parent or ".")
+    os.close(fd)
+    work = Path(tmp)
+    try:
+        if db_path.exists():
+            shutil.copy2(db_path, work)
+        else:
+            work.unlink()
+        result = _export(pycolmap, files, db_path, work, images, describe_method, progress)
+        os.replace(work, db_path)
+    finally:
+        work.unlink(missing_ok=True)
+    return result
+
+
+def _known_images(pycolmap, files: dict[str, Path], db_path: Path, work: Path, images) -> dict[str, int]:
+    """``{name: image_id}`` of the database copy ``work``, after importing the images it lacks."""
+    known: dict[str, int] = {}
+    if work.exists():
+        with pycolmap.Database.open(str(work)) as db:
+            known = {im.name: im.image_id for im in db.read_all_images()}
+    missing = [n for n in files if n not in known]
+    if missing:
+        if images is None:
+            raise ValueError(f"{len(missing)} image(s) not in {db_path} (e.g. {missing[0]}): pass --images DIR")
+        img_dir = Path(images)
+        absent = [n for n in missing if not (img_dir / n).is_file()]
+        if absent:
+            raise ValueError(f"{img_dir / absent[0]}: no such image (feature file {files[absent[0]].name})")
+        known = import_images(work, img_dir, missing)
+    return known
+
+
+def _export(pycolmap, files: dict[str, Path], db_path: Path, work: Path, images, describe_method,
+            progress) -> dict:
+    from ..descriptors import descriptor_sizes
+
+    known = _known_images(pycolmap, files, db_path, work, images)
+    if describe_method == "auto":
+        describe_method = "sift" if images is not None else None
+    # read and check everything before the database is touched
+    loaded = {}
+    for name, f in files.items():
+        c, size, desc = _read_feature_file(f)
+        if desc is None and describe_method and images is not None:
+            sized = Corners(c.xy, c.response, descriptor_sizes(c, "auto"), c.level)
+            desc = describe(read_image(Path(images) / name), sized, describe_method)
+        loaded[name] = (c, size, desc)
+    n_kp = n_desc = 0
+    with pycolmap.Database.open(str(work)) as db:
+        for name, (c, size, desc) in loaded.items():
+            iid = known[name]
+            if desc is not None and db.exists_descriptors(iid):
+                raise ValueError(f"{name} already has descriptors in {db_path}; use a fresh database")
+            write_features(db, iid, c.xy, size, None, desc)
+            n_kp += len(c)
+            n_desc += 0 if desc is None else len(desc)
+            if progress:
+                progress(f"{name}: {len(c)} keypoints{'' if desc is None else ', descriptors'}")
+    return {"images": len(files), "keypoints": n_kp, "descriptors": n_desc, "database": str(db_path)}

@@ -1,0 +1,314 @@
+"""The feature-file schema: one encoding of detected corners, written atomically, read back.
+
+One schema for ``sogdd detect -o FILE``, ``sogdd detect --out DIR`` (one file
+per image) and ``sogdd colmap export``. A file holds one or more image
+records; each record has
+
+- the corners: ``xy`` (N, 2; x = column, y = row, pixel centres at
+  integers), ``response`` (N,), ``size`` (N,) and ``level`` (N,, the pyramid
+  level, 0 = full resolution);
+- ``image`` (the input path as given), ``image_shape`` (height, width);
+- provenance: ``params`` (every resolved detector parameter and the preset),
+  ``sogdd_version``, ``source_size`` and ``source_mtime_ns`` (of the image file
+  when it was read), which ``--resume`` compares before trusting a file.
+
+Encodings:
+
+- ``npz``: one image: the arrays above by name (``params`` as a JSON string);
+  several: ``images`` (M,) and each image's arrays under ``<image>/<name>``.
+- ``csv``: a first line ``# sogdd {json}`` with the provenance of every image,
+  a header, then one row per corner, written with the :mod:`csv` module:
+  ``[image,]x,y,response,size[,level]`` (``image`` when the file holds several
+  images; ``level`` when the parameters have ``levels > 1``). Readers that
+  skip ``#`` comments (``pandas.read_csv(..., comment="#")``) read it as is.
+- ``json``: always a list with one object per image: ``image``,
+  ``image_shape``, ``n``, ``x``, ``y``, ``response``, ``size``, ``level``,
+  ``params``, ``sogdd_version``, ``source_size``, ``source_mtime_ns``.
+
+Files are written to a temporary file (``.<name>.<random>.sogdd.tmp``) in the
+target folder, then renamed, so an interrupted run never leaves a half-written
+file; the final file gets the permissions of a normal file (0644 under umask 022).
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import io
+import json
+import os
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .._version import __version__
+from ..corners import Corners
+
+__all__ = [
+    "FORMATS",
+    "FeatureRecord",
+    "encode_features",
+    "load_features",
+    "make_record",
+    "params_dict",
+    "read_features",
+    "remove_stale_temporaries",
+    "write_features",
+]
+
+FORMATS = ("npz", "csv", "json")
+TMP_SUFFIX = ".sogdd.tmp"
+_META = ("params", "sogdd_version", "source_size", "source_mtime_ns")
+
+
+@dataclass(frozen=True)
+class FeatureRecord:
+    """One image's corners with their provenance (see the module docstring)."""
+
+    image: str
+    corners: Corners
+    image_shape: tuple[int, int]
+    params: dict | None = None
+    sogdd_version: str | None = None
+    source_size: int | None = None
+    source_mtime_ns: int | None = None
+
+    def meta(self) -> dict:
+        """The provenance fields and the image shape, JSON-ready."""
+        return {"image": self.image, "image_shape": [int(v) for v in self.image_shape],
+                **{k: getattr(self, k) for k in _META}}
+
+
+def params_dict(preset: str, params) -> dict:
+    """Resolved :class:`~sogdd.params.Params` as a JSON-ready dict, with the preset's name."""
+    d = {k: list(v) if isinstance(v, tuple) else v for k, v in dataclasses.asdict(params).items()}
+    return {"preset": preset, **d}
+
+
+def make_record(image: str | os.PathLike, corners: Corners, shape: tuple[int, ...], preset: str,
+                params) -> FeatureRecord:
+    """A record for ``corners`` detected on the file ``image`` with resolved ``params``."""
+
+    try:
+        st = os.stat(image)
+        size, mtime = int(st.st_size), int(st.st_mtime_ns)
+    except OSError:
+        size = mtime = None
+    return FeatureRecord(str(image), corners, (int(shape[0]), int(shape[1])), params_dict(preset, params),
+                         __version__, size, mtime)
+
+
+def _as_records(records) -> list[FeatureRecord]:
+    return [records] if isinstance(records, FeatureRecord) else list(records)
+
+
+def _with_level(recs: list[FeatureRecord]) -> bool:
+    return any((r.params or {}).get("levels", 1) > 1 or np.any(r.corners.level) for r in recs)
+
+
+def encode_features(records: FeatureRecord | list[FeatureRecord], fmt: str) -> bytes:
+    """The bytes of one feature file in format ``fmt`` holding ``records``."""
+    recs = _as_records(records)
+    if fmt == "npz":
+        return _encode_npz(recs)
+    if fmt == "csv":
+        return _encode_csv(recs)
+    if fmt == "json":
+        return (json.dumps([_json_object(r) for r in recs]) + "\n").encode()
+    raise ValueError(f"unknown format {fmt!r}; choose from {', '.join(FORMATS)}")
+
+
+def _npz_arrays(r: FeatureRecord) -> dict[str, np.ndarray]:
+    c = r.corners
+    return {"xy": c.xy, "response": c.response, "size": c.size, "level": c.level,
+            "image_shape": np.asarray(r.image_shape, np.int64), "image": np.asarray(r.image),
+            "params": np.asarray(json.dumps(r.params)), "sogdd_version": np.asarray(r.sogdd_version or ""),
+            "source_size": np.asarray(-1 if r.source_size is None else r.source_size, np.int64),
+            "source_mtime_ns": np.asarray(-1 if r.source_mtime_ns is None else r.source_mtime_ns, np.int64)}
+
+
+def _encode_npz(recs: list[FeatureRecord]) -> bytes:
+    if len(recs) == 1:
+        arrays = _npz_arrays(recs[0])
+    else:
+        arrays = {"images": np.asarray([r.image for r in recs])}
+        for r in recs:
+            arrays.update({f"{r.image}/{k}": v for k, v in _npz_arrays(r).items()})
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)
+    return buf.getvalue()
+
+
+def _encode_csv(recs: list[FeatureRecord]) -> bytes:
+    many, level = len(recs) > 1, _with_level(recs)
+    buf = io.StringIO()
+    buf.write("# sogdd " + json.dumps({"images": [r.meta() for r in recs]}) + "\n")
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow((["image"] if many else []) + ["x", "y", "response", "size"] + (["level"] if level else []))
+    for r in recs:
+        c = r.corners
+        for (x, y), resp, s, lv in zip(c.xy, c.response, c.size, c.level):
+            w.writerow(([r.image] if many else []) + [f"{x:.4f}", f"{y:.4f}", f"{resp:.9g}", f"{s:.4g}"]
+                       + ([int(lv)] if level else []))
+    return buf.getvalue().encode()
+
+
+def _json_object(r: FeatureRecord) -> dict:
+    c = r.corners
+    return {"image": r.image, "image_shape": [int(v) for v in r.image_shape], "n": len(c),
+            "x": c.xy[:, 0].round(4).tolist(), "y": c.xy[:, 1].round(4).tolist(),
+            "response": c.response.tolist(), "size": c.size.tolist(), "level": c.level.tolist(),
+            **{k: getattr(r, k) for k in _META}}
+
+
+def write_features(path: str | os.PathLike, records: FeatureRecord | list[FeatureRecord],
+                   fmt: str | None = None) -> None:
+    """Write one feature file atomically (a temporary file, then ``os.replace``).
+
+    ``fmt`` defaults to the file's suffix. The file gets ``0666 & ~umask``
+    permissions, as ``open()`` would give it.
+    """
+    path = Path(path)
+    fmt = fmt or path.suffix.lower().lstrip(".")
+    data = encode_features(records, fmt)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=TMP_SUFFIX, dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+        os.chmod(tmp, 0o666 & ~_umask())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def _umask() -> int:
+    mask = os.umask(0o022)  # read it (the only portable way) and put it back
+    os.umask(mask)
+    return mask
+
+
+def remove_stale_temporaries(folder: str | os.PathLike) -> int:
+    """Delete the temporary files an interrupted writer left in ``folder`` (recursively); return how many."""
+    n = 0
+    for p in Path(folder).rglob(f".*{TMP_SUFFIX}"):
+        try:
+            p.unlink()
+            n += 1
+        except OSError:
+            pass
+    return n
+
+
+def _record(image, c: Corners, shape, meta: dict) -> FeatureRecord:
+    return FeatureRecord(str(image), c, tuple(int(v) for v in shape), meta.get("params"),
+                         meta.get("sogdd_version") or None, meta.get("source_size"),
+                         meta.get("source_mtime_ns"))
+
+
+def _read_npz(p: Path) -> list[FeatureRecord]:
+    with np.load(p, allow_pickle=False) as z:
+        keys = set(z.files)
+        names = [str(n) for n in z["images"]] if "images" in keys else [None]
+        out = []
+        for name in names:
+            pre = "" if name is None else f"{name}/"
+            g = {k[len(pre):]: z[k] for k in keys if k.startswith(pre) and "/" not in k[len(pre):]}
+            level = g["level"] if "level" in g else None
+            c = Corners(g["xy"], g["response"], g.get("size"), level)
+            meta = {"params": json.loads(str(g["params"])) if "params" in g else None,
+                    "sogdd_version": str(g["sogdd_version"]) if "sogdd_version" in g else None}
+            for k in ("source_size", "source_mtime_ns"):
+                v = int(g[k]) if k in g else -1
+                meta[k] = None if v < 0 else v
+            image = str(g["image"]) if "image" in g else (name or p.stem)
+            shape = g["image_shape"] if "image_shape" in g else (0, 0)
+            out.append(_record(image, c, shape, meta))
+    return out
+
+
+def _read_csv(p: Path) -> list[FeatureRecord]:
+    with open(p, newline="") as f:
+        first = f.readline()
+        metas = json.loads(first[len("# sogdd "):])["images"] if first.startswith("# sogdd ") else []
+        if not metas:
+            f.seek(0)
+        rows = list(csv.DictReader(f))
+    if not metas:
+        metas = [{"image": p.stem, "image_shape": [0, 0]}]
+    out = []
+    for m in metas:
+        mine = [r for r in rows if r.get("image", m["image"]) == m["image"]]
+        cols = {k: np.array([float(r[k]) for r in mine]) for k in ("x", "y", "response", "size")}
+        level = np.array([int(r["level"]) for r in mine]) if mine and "level" in mine[0] else None
+        xy = np.stack([cols["x"], cols["y"]], axis=1) if mine else np.zeros((0, 2))
+        out.append(_record(m["image"], Corners(xy, cols["response"], cols["size"], level), m["image_shape"], m))
+    return out
+
+
+def _read_json(p: Path) -> list[FeatureRecord]:
+    objs = json.loads(p.read_text())
+    if isinstance(objs, dict):  # files of sogdd <= 0.1 held one object
+        objs = [objs]
+    out = []
+    for o in objs:
+        xy = np.stack([o["x"], o["y"]], axis=1) if o["n"] else np.zeros((0, 2))
+        c = Corners(xy, o["response"], o["size"], o.get("level"))
+        out.append(_record(o["image"], c, o.get("image_shape", (0, 0)), o))
+    return out
+
+
+def read_features(path: str | os.PathLike) -> list[FeatureRecord]:
+    """Every image record of a feature file (npz, csv or json, by suffix).
+
+    Raises ``ValueError`` (one line, naming the file) for a missing, truncated or
+    malformed file.
+    """
+    p = Path(path)
+    fmt = p.suffix.lower().lstrip(".")
+    if fmt not in FORMATS:
+        raise ValueError(f"{p}: not a feature file (expected .npz, .csv or .json)")
+    try:
+        recs = {"npz": _read_npz, "csv": _read_csv, "json": _read_json}[fmt](p)
+        for r in recs:
+            if len(r.corners.xy) != len(r.corners.response):
+                raise ValueError("arrays of different lengths")
+        return recs
+    except FileNotFoundError:
+        raise ValueError(f"{p}: no such file") from None
+    except Exception as exc:  # noqa: BLE001 - any decoding failure is a bad file
+        raise ValueError(f"{p}: not a valid {fmt} feature file ({type(exc).__name__}: {exc})") from None
+
+
+def load_features(path: str | os.PathLike, image: str | None = None) -> Corners:
+    """The corners stored in a feature file written by ``sogdd detect`` (npz, csv or json).
+
+    A file of several images (``sogdd detect a.png b.png -o all.npz``) needs
+    ``image=`` (the name as given to ``sogdd detect``); :func:`read_features`
+    returns every record with its provenance.
+
+    Raises ``ValueError`` (one line, naming the file) for a missing, truncated or
+    malformed file.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> c = Corners(np.array([[10.5, 20.25], [3.0, 4.0]]), response=[2e9, 1e9])
+    >>> path = Path(tempfile.mkdtemp()) / "photo.png.npz"
+    >>> write_features(path, FeatureRecord("photo.png", c, (480, 640)))
+    >>> back = load_features(path)
+    >>> back.xy.tolist(), back.response.tolist()
+    ([[10.5, 20.25], [3.0, 4.0]], [2000000000.0, 1000000000.0])
+    """
+    recs = read_features(path)
+    if image is None:
+        if len(recs) != 1:
+            raise ValueError(f"{path}: holds {len(recs)} images; choose one with image= "
+                             f"(e.g. {recs[0].image!r})")
+        return recs[0].corners
+    for r in recs:
+        if r.image == str(image):
+            return r.corners
+    raise ValueError(f"{path}: no image {str(image)!r} (it holds {', '.join(r.image for r in recs[:5])})")

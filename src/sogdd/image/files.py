@@ -1,0 +1,264 @@
+"""Reading image files: size limits, corrupt data, EXIF orientation, frames, folders.
+
+:func:`read_image` reads the header first (:mod:`sogdd.image.header`), so a
+decompression bomb is refused before any pixel is decoded; decodes with
+OpenCV in the frame ``cv2.imread`` returns (EXIF orientation applied);
+captures what the decoders print, so that corrupt or truncated data becomes a
+one-line ``ValueError`` instead of chatter on stderr and a silently damaged
+image; and refuses to pick the first frame of a multi-frame file silently
+(``name.tif[2]`` selects one).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import errno
+import os
+import re
+import stat
+import sys
+import tempfile
+import threading
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from .header import probe
+
+__all__ = ["DEFAULT_MAX_PIXELS", "IMAGE_SUFFIXES", "list_images", "max_pixels_limit", "opencv_message",
+           "read_image"]
+
+# file suffixes that folder expansion treats as images (what cv2.imdecode reads)
+IMAGE_SUFFIXES = frozenset(
+    {".png", ".apng", ".jpg", ".jpeg", ".jpe", ".jfif", ".bmp", ".dib", ".ppm", ".pgm", ".pbm", ".pnm",
+     ".pam", ".pfm", ".tif", ".tiff", ".webp", ".jp2", ".sr", ".ras", ".exr", ".hdr", ".pic", ".gif",
+     ".avif"}
+)
+
+DEFAULT_MAX_PIXELS = 2**28
+_FRAME_RE = re.compile(r"^(.*)\[(\d+)\]$")
+_STDERR_LOCK = threading.Lock()
+# what the decoders (libjpeg, libpng, libtiff, libwebp, OpenCV) say about damaged data
+_CORRUPT_RE = re.compile(
+    r"corrupt|premature|truncat|incomplete|extraneous|crc error|libpng error|tiff_error|invalid|bad ", re.I
+)
+
+def list_images(folder: str | os.PathLike, *, recursive: bool = False) -> list[Path]:
+    """The image files of a folder (by suffix, case-insensitive), sorted by path.
+
+    ``recursive`` descends into sub-folders (symbolic links to folders are not
+    followed, so a link loop cannot recurse forever).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> d = Path(tempfile.mkdtemp())
+    >>> (d / "sub").mkdir()
+    >>> for name in ("b.PNG", "a.jpg", "anim.gif", "notes.txt", "sub/c.tif"):
+    ...     _ = (d / name).write_bytes(b"")
+    >>> [p.name for p in list_images(d)]
+    ['a.jpg', 'anim.gif', 'b.PNG']
+    >>> [p.relative_to(d).as_posix() for p in list_images(d, recursive=True)]
+    ['a.jpg', 'anim.gif', 'b.PNG', 'sub/c.tif']
+    """
+    root = Path(folder)
+    if not recursive:
+        return sorted(q for q in root.iterdir() if q.is_file() and q.suffix.lower() in IMAGE_SUFFIXES)
+    out = []
+    for dirpath, dirnames, filenames in os.walk(root):
+        dirnames.sort()
+        out += [Path(dirpath) / f for f in filenames if Path(f).suffix.lower() in IMAGE_SUFFIXES]
+    return sorted((q for q in out if q.is_file()), key=lambda q: q.relative_to(root).parts)
+
+
+def max_pixels_limit(max_pixels: int | None = None) -> int:
+    """The pixel limit in force: ``max_pixels``, else ``$SOGDD_MAX_PIXELS``, else 2**28.
+
+    Examples
+    --------
+    >>> max_pixels_limit() == 2**28 or "SOGDD_MAX_PIXELS" in os.environ
+    True
+    >>> max_pixels_limit(0)
+    Traceback (most recent call last):
+    ...
+    ValueError: max_pixels must be a positive integer, got 0
+    """
+    if max_pixels is None:
+        env = os.environ.get("SOGDD_MAX_PIXELS")
+        if not env:
+            return DEFAULT_MAX_PIXELS
+        try:
+            max_pixels = int(env)
+        except ValueError:
+            raise ValueError(f"SOGDD_MAX_PIXELS must be a positive integer, got {env!r}") from None
+        if max_pixels < 1:
+            raise ValueError(f"SOGDD_MAX_PIXELS must be a positive integer, got {env!r}")
+    if not isinstance(max_pixels, (int, np.integer)) or isinstance(max_pixels, bool) or max_pixels < 1:
+        raise ValueError(f"max_pixels must be a positive integer, got {max_pixels!r}")
+    return int(max_pixels)
+
+
+def _split_frame(path: str | os.PathLike) -> tuple[Path, int | None]:
+    """``photo.tif[2]`` -> (``photo.tif``, 2), unless a file of that exact name exists."""
+    text = os.fspath(path)
+    m = _FRAME_RE.match(text)
+    if m and not os.path.lexists(text):
+        return Path(m.group(1)), int(m.group(2))
+    return Path(text), None
+
+
+def _read_bytes(p: Path) -> bytes:
+    try:
+        st = os.stat(p)
+    except OSError as exc:
+        if exc.errno == errno.ENOENT:
+            raise ValueError(f"{p}: no such file") from None
+        if exc.errno == errno.ELOOP:
+            raise ValueError(f"{p}: symbolic link loop") from None
+        raise ValueError(f"{p}: {exc.strerror.lower()}") from None
+    if not stat.S_ISREG(st.st_mode):
+        raise ValueError(f"{p}: not a file")
+    try:
+        return p.read_bytes()
+    except OSError as exc:
+        raise ValueError(f"{p}: cannot read ({exc.strerror.lower()})") from None
+
+
+def _decode(data: bytes, flags: int, frame: int | None) -> tuple[np.ndarray | None, str]:
+    """Decode with the decoders' stderr chatter captured (fd 2), so it can be judged, not printed."""
+    buf = np.frombuffer(data, np.uint8)
+    with _STDERR_LOCK, tempfile.TemporaryFile() as log:
+        sys.stderr.flush()
+        saved = os.dup(2)
+        os.dup2(log.fileno(), 2)
+        try:
+            if frame is None:
+                img = cv2.imdecode(buf, flags)
+            else:
+                ok, mats = cv2.imdecodemulti(buf, flags, range=(frame, frame + 1))
+                img = mats[0] if ok and len(mats) else None
+        except cv2.error as exc:
+            img, err = None, opencv_message(exc)
+        else:
+            err = ""
+        finally:
+            _flush_c_stderr()
+            os.dup2(saved, 2)
+            os.close(saved)
+        log.seek(0)
+        text = log.read().decode("utf-8", "replace")
+    return img, "\n".join(x for x in (text.strip(), err) if x)
+
+
+def _flush_c_stderr() -> None:
+    try:
+        ctypes.CDLL(None).fflush(None)
+    except (OSError, AttributeError):  # pragma: no cover - not a POSIX libc
+        pass
+
+
+def _check_header(p: Path, data: bytes, limit: int, frame: int | None) -> None:
+    head = probe(data)
+    if head is None:
+        return
+    w, h, frames = head
+    if w * h > limit:
+        raise ValueError(
+            f"{p}: {w}x{h} image ({w * h} pixels) exceeds the limit of {limit} pixels "
+            "(max_pixels, --max-pixels, SOGDD_MAX_PIXELS)"
+        )
+    if frames > 1 and frame is None:
+        raise ValueError(
+            f"{p}: {frames} frames (multi-page or animated); name one as '{p}[0]' .. '{p}[{frames - 1}]'"
+        )
+    if frame is not None and frame >= frames:
+        raise ValueError(f"{p}: frame {frame} requested, the file has {frames}")
+
+
+def read_image(
+    path: str | os.PathLike,
+    *,
+    max_pixels: int | None = None,
+    allow_corrupt: bool = False,
+    ignore_orientation: bool = False,
+) -> np.ndarray:
+    """Read an image file as a numpy array (grey or RGB), keeping its bit depth.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file. ``"name.tif[2]"`` selects frame 2 (from 0) of a multi-page or
+        animated file; such a file without a frame is an error, never silently
+        its first frame.
+    max_pixels : int, optional
+        Largest width x height accepted, checked from the file header before
+        any decoding (decompression bombs). Default ``$SOGDD_MAX_PIXELS`` or
+        2**28 (268 Mpx).
+    allow_corrupt : bool
+        Accept an image whose decoder reported corrupt or truncated data
+        (default: a ``ValueError``). Decoder messages never reach stderr.
+    ignore_orientation : bool
+        Keep the stored pixel order. By default the EXIF orientation is applied,
+        as ``cv2.imread`` does, so corners are in the frame ``cv2.imread`` returns.
+
+    Raises ``ValueError`` (one line naming the file) for a missing, unreadable,
+    oversized, multi-frame or corrupt file. An alpha channel is dropped.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> path = Path(tempfile.mkdtemp()) / "grey.png"
+    >>> _ = cv2.imwrite(str(path), np.full((4, 6), 200, np.uint8))
+    >>> img = read_image(path)
+    >>> img.shape, img.dtype.name, int(img[0, 0])
+    ((4, 6), 'uint8', 200)
+    >>> read_image(path, max_pixels=20)
+    Traceback (most recent call last):
+    ...
+    ValueError: ...grey.png: 6x4 image (24 pixels) exceeds the limit of 20 pixels (max_pixels, ...)
+    >>> read_image(path.with_name("missing.png"))
+    Traceback (most recent call last):
+    ...
+    ValueError: ...missing.png: no such file
+    """
+    p, frame = _split_frame(path)
+    limit = max_pixels_limit(max_pixels)
+    data = _read_bytes(p)
+    if not data:
+        raise ValueError(f"{p}: empty file")
+    _check_header(p, data, limit, frame)
+    flags = cv2.IMREAD_ANYCOLOR | cv2.IMREAD_ANYDEPTH
+    if ignore_orientation:
+        flags |= cv2.IMREAD_IGNORE_ORIENTATION
+    try:
+        img, log = _decode(data, flags, frame)
+    except MemoryError:
+        raise ValueError(f"{p}: not enough memory to decode it") from None
+    first = log.splitlines()[0] if log else ""
+    if img is None:
+        why = f": {first}" if first else " (corrupt or unsupported format)"
+        raise ValueError(f"{p}: not a readable image{why}")
+    if _CORRUPT_RE.search(log) and not allow_corrupt:
+        raise ValueError(f"{p}: corrupt or truncated image data ({first}); --allow-corrupt to use it anyway")
+    if img.ndim == 3 and img.shape[2] == 3:
+        img = cv2.cvtColor(img, cv2.COLOR_BGR2RGB, dst=img)  # in place: no second copy of a large photo
+    elif img.ndim == 3 and img.shape[2] == 4:
+        img = cv2.cvtColor(img, cv2.COLOR_BGRA2RGB)
+    return img
+
+
+def opencv_message(exc: BaseException) -> str:
+    """The one-line message of an OpenCV error (``cv2.error`` spreads it over lines; the last says it all).
+
+    Examples
+    --------
+    >>> try:
+    ...     cv2.cornerSubPix(np.zeros((5, 5), np.float32), np.zeros((1, 1, 2), np.float32), (3, 3), (-1, -1),
+    ...                      (cv2.TERM_CRITERIA_COUNT, 1, 0))
+    ... except cv2.error as exc:
+    ...     print(opencv_message(exc).split(": error: ")[1][:26])
+    (-215:Assertion failed) sr
+    """
+    lines = str(exc).strip().splitlines()
+    return lines[-1] if lines else type(exc).__name__

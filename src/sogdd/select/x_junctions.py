@@ -1,0 +1,329 @@
+"""X-junctions as saddle points, on the grey-level scale of the corners.
+
+Why a second stage
+------------------
+On an X-junction (a checkerboard's inner corner) the four wedges cancel:
+``g_xx = g_yy = 0`` at the junction, so the absolute SOGDD responses there are
+``|l_k| = |sin 2 theta_k| |g_xy|``, one pattern over the K orientations, and
+the SODDC matrix is nearly of rank one. Upsilon has a *local minimum* on the
+junction with a ring of maxima about 2 px around it, and the reported corners
+land off the junction. The junction is instead the saddle point of the smoothed
+image ``G_sigma * I``: the gradient vanishes and ``det H < 0``.
+
+The stage (Chen and Zhang 2005, "A new sub-pixel detector for X-corners in
+camera calibration targets"; a Foerstner-style saddle fit):
+
+1. ``g_xx, g_xy, g_yy`` of ``G_sigma * I`` at the detector's scale (the
+   steerable basis);
+2. candidates: 3x3 maxima of the saddle strength
+   ``s = sigma^2 sqrt(max(0, g_xy^2 - g_xx g_yy))`` (a scale-normalised second
+   derivative, linear in the image contrast), found in one compiled pass
+   (:mod:`sogdd.select.saddle_steps`);
+3. the saddle point: Newton steps ``delta = -H^{-1} grad`` on bilinearly
+   interpolated derivatives, each evaluated from the image at the four pixels
+   the step reads (:mod:`sogdd.select.saddle_steps`; only candidates need them). A
+   candidate is kept only when the last of four iterates is within one pixel of
+   it: an L-corner's apex also has ``det H < 0`` but a large gradient, so its
+   step leaves the pixel.
+
+Bands and the measure's responses
+---------------------------------
+Every step is local. :func:`find_saddles` filters the three maps in bands of
+rows (never image-sized float64 maps), and the Newton steps read the image in
+crops of rows around groups of iterates; an iterate that would read beyond its
+crop continues on another, so the points are the same for any band height: the
+derivatives of a crop of full rows are those of the image, bit for bit, on
+every row at least ``radius`` rows from a crop edge that is not the image's
+(:func:`sogdd.measure.filters.basis_tile` computes each pixel from the same values in
+the same order; tested). The measure filters the image with the same basis and
+the same function, so detection takes the candidates from the measure's own
+responses, tile by tile (:class:`SaddleCandidates`), and filters nothing twice.
+
+Grey-level units: :mod:`sogdd.measure.units` (the saddle strength's unit, :func:`saddle_unit`,
+is calibrated the same way on an ideal X-junction).
+"""
+
+from __future__ import annotations
+
+from concurrent.futures import ThreadPoolExecutor
+from functools import lru_cache
+
+import numpy as np
+
+from .._jit import thread_count
+from ..corners import Corners
+from ..image.rows import measure_rows
+from ..measure.filters import basis_tile, kernel_radius, steerable_basis
+from ..measure.soddc import MeasureSpec
+from ..measure.units import CALIBRATION_CONTRAST, calibration_images
+from .peaks import inside_allowed
+from .saddle_steps import newton_steps, row_groups, strength_maxima
+from .subpixel import one_per_point
+
+__all__ = [
+    "SaddleCandidates",
+    "X_RING_RADIUS",
+    "add_x_junctions",
+    "find_saddles",
+    "near_any",
+    "saddle_search",
+    "saddle_unit",
+    "second_derivatives",
+    "strength_floor",
+]
+
+#: Upsilon peaks closer than this (px) to a reported X-junction belong to its ring and are dropped
+#: (the hr study's choice, docs/hr.md)
+X_RING_RADIUS = 2.0
+#: pixels per band of :func:`find_saddles` (three float64 maps of a band: 48 MB), and the most rows
+#: one crop of Newton iterates spans
+BAND_PIXELS = 1 << 21
+#: saddle points closer than this (px) are one saddle, reached from tied candidates (a plateau of
+#: the strength, e.g. the pixels around a junction on a symmetric JPEG block corner; their iterates
+#: meet within ~1e-4 px)
+SADDLE_MERGE = 0.1
+#: rows of image read beyond those a group of Newton iterates reads (:func:`_converge`): an iterate
+#: that moves farther (rare) continues on another crop
+SLACK = 16
+
+
+def second_derivatives(grey: np.ndarray, sigma2: float, radius: int) -> tuple[np.ndarray, ...]:
+    """``(g_xx, g_xy, g_yy)`` of ``G_sigma * I``: sampled Gaussian derivatives, reflect border.
+
+    They are the steerable basis of :mod:`sogdd.measure.filters`
+    (``l_theta = c^2 g_xx + 2 s c g_xy + s^2 g_yy``), filtered as the measure filters
+    it (:func:`sogdd.measure.filters.basis_tile`), so detection can take the candidates from
+    the measure's own responses (:class:`SaddleCandidates`) with the same bits.
+    """
+    g = basis_tile(grey, 0, grey.shape[0], 0, steerable_basis(sigma2, radius), reflect_image=False)
+    return g[0], g[1], g[2]
+
+
+def bilinear_rows(maps, off: int, H: int, W: int, x: np.ndarray, y: np.ndarray) -> list[np.ndarray]:
+    """Each map at sub-pixel points of an H x W image (bilinear, edge-clamped), float64 arithmetic.
+
+    The maps may hold only image rows ``off ..`` (a band), as long as they cover
+    the two rows each point reads.
+    """
+    x0, x1 = _rows_of(x, W)  # the same clamp along either axis
+    y0, y1 = _rows_of(y, H)
+    fx, fy = np.clip(x, 0.0, W - 1.0) - x0, np.clip(y, 0.0, H - 1.0) - y0
+    r0, r1 = y0 - off, y1 - off
+    return [((m[r0, x0] * (1 - fx) + m[r0, x1] * fx) * (1 - fy) + (m[r1, x0] * (1 - fx) + m[r1, x1] * fx) * fy)
+            for m in maps]
+
+
+def strength_floor(sigma2: float, min_strength: float) -> float:
+    """The ``N = g_xy^2 - g_xx g_yy`` that candidates must exceed: ``s > min_strength`` in ``N`` units."""
+    t = max(float(min_strength), 0.0) / float(sigma2)
+    return t * t
+
+
+def _rows_of(y: np.ndarray, H: int) -> tuple[np.ndarray, np.ndarray]:
+    """The two rows (or columns, with the width) :func:`bilinear_rows` reads at ``y``, edge-clamped."""
+    yc = np.clip(y, 0.0, H - 1.0)
+    y0 = np.minimum(np.floor(yc).astype(np.int64), H - 2 if H > 1 else 0)
+    return y0, np.minimum(y0 + 1, H - 1)
+
+
+def _converge(grey, basis, x: np.ndarray, y: np.ndarray, iterations: int, band_rows: int) -> None:
+    """``iterations`` Newton steps from every point (in place), reading the image in crops of rows.
+
+    Each round sorts the points by the rows they read and gives groups of them a crop
+    of at most ``band_rows`` rows (plus ``radius + SLACK`` on each side); a group ends
+    where the next point's crop would not overlap its own, so a few scattered points
+    read a few rows each (:func:`sogdd.select.saddle_steps.row_groups`). A point stops where
+    its next step would read outside its crop (:func:`sogdd.select.saddle_steps.newton_steps`)
+    and the next round continues it: every step is a function of the image and the
+    point, so its path is the whole image's path. Groups run in threads.
+    """
+    H, W = grey.shape
+    reach = basis.radius + SLACK
+    steps = np.zeros(len(x), dtype=np.int64)
+
+    def run(sel: np.ndarray) -> None:
+        lo, hi = _rows_of(y[sel], H)
+        c0, c1 = max(0, int(lo.min()) - reach), min(H, int(hi.max()) + 1 + reach)
+        xs, ys, st = x[sel], y[sel], steps[sel]
+        newton_steps(measure_rows(grey, c0, c1), c0, H, W, xs, ys, st, iterations, basis.gauss, basis.d1,
+                     basis.d2)
+        x[sel], y[sel], steps[sel] = xs, ys, st  # groups are disjoint
+
+    act = np.arange(len(x))
+    while len(act):
+        lo, hi = _rows_of(y[act], H)
+        order = np.argsort(lo, kind="stable")
+        ends = row_groups(lo[order], hi[order], reach, band_rows)
+        groups = [act[order[g0:g1]] for g0, g1 in zip(np.r_[0, ends[:-1]], ends)]
+        n = min(thread_count(), len(groups))
+        if n > 1:
+            with ThreadPoolExecutor(n) as pool:
+                list(pool.map(run, groups))
+        else:
+            for sel in groups:
+                run(sel)
+        act = act[steps[act] < iterations]
+
+
+def _fit(grey, basis, rows: np.ndarray, cols: np.ndarray, n: np.ndarray, iterations: int,
+         band_rows: int) -> tuple[np.ndarray, np.ndarray]:
+    """Saddle points and strengths ``s`` from candidates in raster order (module doc, step 3)."""
+    x0, y0 = cols.astype(np.float64), rows.astype(np.float64)
+    x, y = x0.copy(), y0.copy()
+    _converge(grey, basis, x, y, int(iterations), band_rows)
+    ok = (np.abs(x - x0) <= 1.0) & (np.abs(y - y0) <= 1.0)
+    xy, strength = np.stack([x[ok], y[ok]], axis=1), basis.sigma2 * np.sqrt(n[ok])
+    keep = one_per_point(xy, strength, SADDLE_MERGE)  # tied candidates converge to one saddle
+    return xy[keep], strength[keep]
+
+
+def _band_rows(W: int, band_rows: int | None) -> int:
+    return max(1, int(band_rows)) if band_rows is not None else max(64, -(-BAND_PIXELS // max(W, 1)))
+
+
+def find_saddles(grey, sigma2: float, radius: int | None = None, *, iterations: int = 4,
+                 min_strength: float = 0.0, band_rows: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Saddle points of the smoothed image: ``(xy (N, 2), strength (N,))``, strength ``s`` (module doc).
+
+    Candidates with ``s <= min_strength`` are not fitted (a threshold, applied
+    early). The derivative maps are filtered in bands of ``band_rows`` rows
+    (default: about :data:`BAND_PIXELS` pixels, at least 64 rows), and the Newton
+    steps read the image in crops, with the same result for any band height
+    (module doc); ``grey`` may be a :class:`sogdd.image.rows.GreyRows`.
+
+    Examples
+    --------
+    >>> from sogdd.synthetic import Polygon, render_polygons
+    >>> q = np.array([[20.3, 20.6], [60, 20.6], [60, 60], [20.3, 60]])
+    >>> img = render_polygons((41, 41), [Polygon(q, 200.0), Polygon(2 * q[0] - q, 200.0)], background=50.0)
+    >>> xy, s = find_saddles(img, 1.2)
+    >>> np.round(xy[np.argmax(s)], 1).tolist()  # within 0.02 px of the junction
+    [20.3, 20.6]
+    """
+    r = kernel_radius(sigma2) if radius is None else int(radius)
+    H, W = grey.shape
+    rows_per_band = _band_rows(W, band_rows)
+    t_n = strength_floor(sigma2, min_strength)
+    basis = steerable_basis(sigma2, r)
+    parts = []
+    for a in range(0, H, rows_per_band):
+        c = min(H, a + rows_per_band)
+        ma, mb = max(0, a - 1), min(H, c + 1)  # the rows whose strength the maxima of rows a .. c - 1 read
+        c0, c1 = max(0, ma - r), min(H, mb + r)  # a map row at least r rows inside the crop is the image's
+        g = basis_tile(measure_rows(grey, c0, c1), ma - c0, mb - c0, 0, basis, reflect_image=False)
+        parts.append(strength_maxima(g[0], g[1], g[2], top=ma, height=H, first=a - ma, last=c - ma, t_n=t_n))
+    rows, cols, n = (np.concatenate([q[i] for q in parts]) for i in range(3))
+    return _fit(grey, basis, rows, cols, n, iterations, rows_per_band)
+
+
+class SaddleCandidates:
+    """The X-junction stage fed by the measure: candidates from its own filter responses.
+
+    The measure filters the image with the same steerable basis, and
+    :func:`sogdd.measure.filters.basis_tile` gives every in-image response the same bits
+    whatever the tile, so the 3 x 3 strength maxima found on the measure's tiles
+    are :func:`find_saddles`' candidates, and :meth:`result` is
+    :func:`saddle_search`'s result, without filtering the image a second time
+    (about a fifth of ``hr``'s work on photos). Call the object with the tiles'
+    responses (``on_planes`` of :func:`sogdd.select.banded.peaks_in_bands`): ``(top, lo,
+    hi, planes)``, ``planes`` of image rows ``top ..`` and columns ``-M .. W + M - 1``
+    (a margin ``M``), candidates taken on rows ``lo .. hi - 1``; tiles may come in
+    any order and from several threads.
+
+    Examples
+    --------
+    >>> import sogdd
+    >>> from sogdd.select.banded import peaks_in_bands
+    >>> from sogdd.synthetic import Polygon, render_polygons
+    >>> spec = sogdd.resolve_params("hr").measure_spec()
+    >>> q = np.array([[20.3, 20.6], [60, 20.6], [60, 60], [20.3, 60]])
+    >>> img = render_polygons((41, 41), [Polygon(q, 200.0), Polygon(2 * q[0] - q, 200.0)], background=50.0)
+    >>> found = SaddleCandidates(img.shape, spec, 20.0)
+    >>> _ = peaks_in_bands(img, spec, threshold=1e300, floor=1e300, band_rows=16, on_planes=found)
+    >>> xy, s = found.result(img)
+    >>> np.round(xy, 1).tolist(), bool(np.array_equal(xy, saddle_search(img, spec, 20.0)[0]))
+    ([[20.3, 20.6]], True)
+    """
+
+    def __init__(self, shape: tuple[int, int], spec: MeasureSpec, threshold: float | None) -> None:
+        if spec.zero_mean:
+            raise ValueError("zero-mean kernels are not the saddle stage's derivatives")
+        self.shape = tuple(shape)
+        self.spec = spec
+        self.t_n = strength_floor(spec.sigma2, _raw_min(spec, threshold))
+        self.parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+
+    def __call__(self, top: int, lo: int, hi: int, planes: np.ndarray) -> None:
+        if lo >= hi:
+            return
+        H, W = self.shape
+        M = (planes.shape[2] - W) // 2
+        g = planes[:, :, M : M + W]
+        self.parts.append(strength_maxima(g[0], g[1], g[2], top=top, height=H, first=lo - top, last=hi - top,
+                                          t_n=self.t_n))  # list.append: safe from the tiles' threads
+
+    def result(self, grey) -> tuple[np.ndarray, np.ndarray]:
+        """:func:`saddle_search`'s ``(xy, strength in grey levels)`` for the image the tiles came from."""
+        basis = steerable_basis(self.spec.sigma2, self.spec.radius)
+        rows, cols, n = (np.concatenate([np.zeros(0, dt)] + [q[i] for q in self.parts])
+                         for i, dt in enumerate((np.int64, np.int64, np.float64)))
+        order = np.lexsort((cols, rows))  # raster order, as find_saddles'
+        xy, s = _fit(grey, basis, rows[order], cols[order], n[order], 4, _band_rows(self.shape[1], None))
+        return xy, CALIBRATION_CONTRAST * s / saddle_unit(self.spec.sigma2, self.spec.radius)
+
+
+@lru_cache(maxsize=32)
+def saddle_unit(sigma2: float, radius: int) -> float:
+    """Peak saddle strength ``s`` of an ideal X-junction of contrast 100."""
+    _, X = calibration_images()
+    _, s = find_saddles(X, sigma2, radius)
+    return float(s.max())
+
+
+def near_any(xy: np.ndarray, centres: np.ndarray, radius: float) -> np.ndarray:
+    """Mask of the points of ``xy`` within ``radius`` of some point of ``centres``."""
+    if len(xy) == 0 or len(centres) == 0:
+        return np.zeros(len(xy), dtype=bool)
+    from scipy.spatial import cKDTree
+
+    d, _ = cKDTree(centres).query(xy, k=1, distance_upper_bound=radius + 1e-9)
+    return np.isfinite(d) & (d <= radius)
+
+
+def _raw_min(spec: MeasureSpec, threshold: float | None) -> float:
+    """A grey-level saddle threshold in units of ``s``."""
+    unit = saddle_unit(spec.sigma2, spec.radius)
+    return 0.0 if threshold is None else threshold * unit / CALIBRATION_CONTRAST
+
+
+def saddle_search(grey, spec: MeasureSpec, threshold: float | None) -> tuple[np.ndarray, np.ndarray]:
+    """The saddles :func:`add_x_junctions` starts from: ``(xy, strength in grey levels)``.
+
+    Detection gets the same from the measure's responses (:class:`SaddleCandidates`).
+    """
+    xy, s = find_saddles(grey, spec.sigma2, spec.radius, min_strength=_raw_min(spec, threshold))
+    return xy, CALIBRATION_CONTRAST * s / saddle_unit(spec.sigma2, spec.radius)
+
+
+def add_x_junctions(corners, grey, spec: MeasureSpec, *, threshold: float | None, rho: float, size: float,
+                    border: int = 0, mask: np.ndarray | None = None,
+                    found: tuple[np.ndarray, np.ndarray] | None = None):
+    """Replace the ring of Upsilon peaks around each X-junction by the junction's saddle point.
+
+    ``corners`` carry grey-level strengths (:func:`grey_strength`). Saddles of
+    strength ``>= threshold`` (grey levels, :func:`saddle_unit` scale) are added;
+    corners within ``rho`` px of one are dropped. Returns ``(Corners, is_x)``, strongest first,
+    ``is_x`` marking the X-junctions. ``grey``: an array or a :class:`sogdd.image.rows.GreyRows`
+    (:func:`find_saddles` reads it in bands). ``found``: :func:`saddle_search`'s result for
+    this ``grey``, ``spec`` and ``threshold``, if already computed.
+    """
+    xy, s = saddle_search(grey, spec, threshold) if found is None else found
+    keep = inside_allowed(xy, mask, border, grey.shape)
+    if threshold is not None:
+        keep &= s >= threshold
+    xy, s = xy[keep], s[keep]
+    c = corners.subset(~near_any(corners.xy, xy, rho))
+    out = Corners.concatenate([c, Corners(xy, s, np.full(len(s), float(size)))])
+    order = np.argsort(-out.response, kind="stable")
+    is_x = np.r_[np.zeros(len(c), bool), np.ones(len(s), bool)][order]
+    return out.subset(order), is_x
