@@ -11,7 +11,7 @@ import pytest
 from sogdd.measure import det_unrolled as _det_unrolled
 from sogdd.measure.square_tiles import det_trace, det_trace_loop, pair_index
 
-GENERATOR = Path(__file__).resolve().parents[1] / "tools" / "gen_unrolled_det.py"
+GENERATOR = Path(__file__).resolve().parents[2] / "tools" / "gen_unrolled_det.py"
 
 
 def _packed_psd(K: int, n: int, seed: int) -> np.ndarray:

@@ -17,7 +17,7 @@ from sogdd.params import PRESETS, resolve_params
 from sogdd.select.x_junctions import find_saddles
 from sogdd.synthetic import Polygon, pattern_image, render_polygons
 
-WINNER = Path(__file__).resolve().parents[1] / "benchmarks" / "hr_study" / "winner.json"
+WINNER = Path(__file__).resolve().parent / "fixtures" / "hr_study_winner.json"
 
 
 def checkerboard(cell: float, n: int = 8, angle: float = 0.0, phase=(0.3, 0.6), psf: float = 0.7,
@@ -50,7 +50,7 @@ def _nearest(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def test_hr_parameters_are_the_study_winner():
-    """PRESETS['hr'] is the configuration the study chose (benchmarks/hr_study/winner.json)."""
+    """PRESETS['hr'] is the configuration the study chose (a copy of studies/hr/winner.json)."""
     if not WINNER.is_file():
         pytest.skip("the study's winner.json is not in this checkout")
     w = json.loads(WINNER.read_text())

@@ -1,6 +1,6 @@
 """Regenerate the result sections of docs/hr.md and its figures from the cached results.
 
-``python benchmarks/hr_study/make_doc.py``: replaces the text between
+``python studies/hr/make_doc.py``: replaces the text between
 ``<!-- generated:begin -->`` and ``<!-- generated:end -->`` in docs/hr.md with the
 stage tables (screening protocol), the final tables (full protocol, both halves)
 and the target checks, and writes docs/figures/hr/*.png.

@@ -48,7 +48,7 @@ def table(rows: list[str], half: str, with_baselines: bool = True) -> tuple[str,
             cells.append("-" if x is None or not math.isfinite(x) else f"{x:.3f}")
         secs = sum(v[b].get("seconds", 0) for b in v)
         env = "HR_SCREEN=1 " if bench.SCREEN else ""
-        cmd = f"`{env}python benchmarks/hr_study/run_study.py --half {half} --rows '{r}'`"
+        cmd = f"`{env}python studies/hr/run_study.py --half {half} --rows '{r}'`"
         out.append(f"| {r} | {ranks[r]:.2f} | " + " | ".join(cells) + f" | {secs:.0f} | {cmd} |")
     return "\n".join(out) + "\n", ranks
 
