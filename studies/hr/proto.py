@@ -215,9 +215,14 @@ def paper_measure(img: np.ndarray, cfg: Cfg) -> np.ndarray:
 
 # -- X-junctions ----------------------------------------------------------------
 def _bilinear(m: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    from sogdd.select.x_junctions import bilinear_rows  # the core's float64 bilinear sampler
-
-    return bilinear_rows([m], 0, *m.shape, x, y)[0]
+    # float64 bilinear sampling, edge-clamped (the arithmetic of the core's former bilinear_rows)
+    H, W = m.shape
+    xc, yc = np.clip(x, 0.0, W - 1.0), np.clip(y, 0.0, H - 1.0)
+    x0 = np.minimum(np.floor(xc).astype(np.int64), W - 2 if W > 1 else 0)
+    y0 = np.minimum(np.floor(yc).astype(np.int64), H - 2 if H > 1 else 0)
+    x1, y1 = np.minimum(x0 + 1, W - 1), np.minimum(y0 + 1, H - 1)
+    fx, fy = xc - x0, yc - y0
+    return (m[y0, x0] * (1 - fx) + m[y0, x1] * fx) * (1 - fy) + (m[y1, x0] * (1 - fx) + m[y1, x1] * fx) * fy
 
 
 def saddles(derivs: tuple, sigma2: float, iters: int = 4, measure: str = "det"

@@ -12,17 +12,41 @@ import pytest
 from scipy import ndimage
 
 import sogdd
-from sogdd.measure.filters import kernel_radius, steerable_basis
+from sogdd.image.grey import exact_grey
+from sogdd.measure.filters import basis_tile, kernel_radius, steerable_basis
 from sogdd.measure.gaussian_window import gaussian_window_reference, gaussian_window_spec
 from sogdd.measure.soddc import soddc_measure
 from sogdd.measure.units import measure_threshold
 from sogdd.select import x_junctions as saddles
 from sogdd.select.banded import peaks_in_bands
 from sogdd.select.peaks import select_peaks
-from sogdd.select.saddle_steps import derivatives_bilinear, strength_maxima
+from sogdd.select.saddle_steps import _derivatives, strength_maxima
 from sogdd.select.subpixel import refine_quadratic
-from sogdd.select.x_junctions import bilinear_rows, find_saddles, second_derivatives
+from sogdd.select.x_junctions import _rows_of, find_saddles
 
+
+def second_derivatives(grey, sigma2, radius):
+    """(g_xx, g_xy, g_yy) of the whole image, filtered as the measure filters it (basis_tile)."""
+    g = basis_tile(grey, 0, grey.shape[0], 0, steerable_basis(sigma2, radius), reflect_image=False)
+    return g[0], g[1], g[2]
+
+
+def bilinear_rows(maps, off, H, W, x, y):
+    """Each map at sub-pixel points (bilinear, edge-clamped), float64: the oracle of the compiled sampler."""
+    x0, x1 = _rows_of(x, W)
+    y0, y1 = _rows_of(y, H)
+    fx, fy = np.clip(x, 0.0, W - 1.0) - x0, np.clip(y, 0.0, H - 1.0) - y0
+    r0, r1 = y0 - off, y1 - off
+    return [((m[r0, x0] * (1 - fx) + m[r0, x1] * fx) * (1 - fy) + (m[r1, x0] * (1 - fx) + m[r1, x1] * fx) * fy)
+            for m in maps]
+
+
+def derivatives_bilinear(img, off, H, W, x, y, gauss, d1, d2):
+    """The compiled derivatives at points (saddle_steps._derivatives, the Newton steps' own evaluation)."""
+    out = np.empty((5, len(x)))
+    xs, ys = np.ascontiguousarray(x, np.float64), np.ascontiguousarray(y, np.float64)
+    _derivatives(exact_grey(img), off, H, W, xs, ys, gauss, d1, d2, out)
+    return out
 
 def _photo_like(h, w, seed=3):
     rng = np.random.default_rng(seed)

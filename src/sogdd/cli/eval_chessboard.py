@@ -51,6 +51,9 @@ def run_chessboard(args) -> int:
     obj["real"] = real
     if args.out:
         rep.write(args.out)
+        from ..report.chessboard_plot import chessboard_figure  # matplotlib only when a figure is asked for
+
+        chessboard_figure(rep, Path(args.out) / "chessboard.png")
         if real is not None:
             (Path(args.out) / "chessboard_real.json").write_text(json.dumps(clean_json(real), indent=1))
     if args.json:

@@ -51,17 +51,6 @@ class FeatureSet:
                      descriptors=self.descriptors.astype(np.float32), size=self.size.astype(np.float32),
                      level=self.level.astype(np.int32))
 
-    @staticmethod
-    def load_npz(path) -> FeatureSet:
-        """Read a file written by :meth:`save_npz` (or by D2-Net)."""
-        with np.load(path) as z:
-            kp = np.asarray(z["keypoints"], dtype=np.float64)[:, :2]
-            n = len(kp)
-            scores = np.asarray(z["scores"]) if "scores" in z else np.zeros(n)
-            size = np.asarray(z["size"]) if "size" in z else np.full(n, np.nan)
-            level = np.asarray(z["level"]) if "level" in z else np.zeros(n, np.int64)
-            return FeatureSet(kp, scores, np.asarray(z["descriptors"], np.float32), size, level, (0, 0))
-
 
 def extract_features(image: np.ndarray, spec: DetectorSpec, detector=None) -> FeatureSet:
     """Detect with ``spec``'s detector, apply its pipeline, describe every point."""

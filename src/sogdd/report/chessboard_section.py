@@ -7,8 +7,8 @@ from pathlib import Path
 
 from ..evaluation.chessboard import CELLS, DEFAULT_ROWS, run_benchmark
 from ..evaluation.chessboard.calibration import calibration_root, evaluate_calibration
-from ..evaluation.chessboard.plot import chessboard_figure
 from ..evaluation.chessboard.scenes import FULL_GRID, QUICK_GRID
+from .chessboard_plot import chessboard_figure
 from .tables import markdown_table, rank_of
 
 __all__ = ["chessboard_rows", "chessboard_stage", "real_markdown"]

@@ -9,7 +9,6 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
 
 from ..evaluation.repeatability.protocol import RepeatabilityReport  # noqa: E402
 from ..evaluation.resolution.protocol import ResolutionReport  # noqa: E402
@@ -100,8 +99,3 @@ def sigma2_figure(rep: ResolutionReport, path: str | os.PathLike) -> Path:
     return _save(fig, path)
 
 
-def sigma2_heat(rep: ResolutionReport) -> tuple[list[str], list[float], np.ndarray]:
-    """``(detectors, ds, rate matrix)`` of a sweep, for tables."""
-    ds = rep.ds()
-    mat = np.array([[rep.rate(d).get(x, np.nan) for x in ds] for d in rep.detectors])
-    return rep.detectors, ds, mat

@@ -12,8 +12,8 @@ millions of pixels. Here:
 - :func:`newton_steps` runs the Newton steps of every candidate in one
   compiled loop, with the Hessian and the gradient at each iterate from the
   image itself (separable Gaussian-derivative sums at the four pixels the
-  bilinear interpolation reads, sharing their row sums,
-  :func:`derivatives_bilinear`): only the candidates need them, so the
+  bilinear interpolation reads, sharing their row sums, ``_at``;
+  ``_derivatives`` evaluates it at given points, for the tests): only the candidates need them, so the
   derivative maps are needed for the candidates only, and detection takes
   those from the measure's own filter responses (:mod:`sogdd.select.x_junctions`).
 
@@ -32,7 +32,7 @@ from .._jit import JIT
 from ..image.grey import exact_grey
 from ..measure.window import reflect1
 
-__all__ = ["derivatives_bilinear", "newton_steps", "row_groups", "strength_maxima"]
+__all__ = ["newton_steps", "row_groups", "strength_maxima"]
 
 
 @numba.njit(**JIT)
@@ -233,30 +233,11 @@ def row_groups(lo: np.ndarray, hi: np.ndarray, reach: int, band_rows: int) -> np
     return ends[:k]
 
 
-def derivatives_bilinear(img: np.ndarray, off: int, height: int, width: int, x: np.ndarray, y: np.ndarray,
-                         gauss: np.ndarray, d1: np.ndarray, d2: np.ndarray) -> np.ndarray:
-    """``(g_xx, g_xy, g_yy, g_x, g_y)`` of ``G_sigma * I`` bilinearly interpolated at ``(x, y)``: (5, N).
-
-    Each derivative at the four pixels the interpolation reads (edge-clamped) is
-    a separable sum over the image itself (half-sample reflected at its edges),
-    the four pixels sharing their row sums, so no derivative map is filtered;
-    ``img`` holds image rows ``off ..`` of a ``height x width`` image (uint8 or
-    float64), enough to reach ``radius`` rows beyond the two rows each point reads.
-    Bilinear weights as :func:`sogdd.select.x_junctions.bilinear_rows`.
-    """
-    xs = np.ascontiguousarray(x, dtype=np.float64)
-    ys = np.ascontiguousarray(y, dtype=np.float64)
-    out = np.empty((5, len(xs)))
-    f = [np.ascontiguousarray(k, dtype=np.float64) for k in (gauss, d1, d2)]
-    _derivatives(exact_grey(img), int(off), int(height), int(width), xs, ys, *f, out)
-    return out
-
-
 def newton_steps(img: np.ndarray, off: int, height: int, width: int, x: np.ndarray, y: np.ndarray,
                  steps: np.ndarray, iterations: int, gauss: np.ndarray, d1: np.ndarray, d2: np.ndarray) -> None:
     """Newton steps ``delta = -H^{-1} grad`` from each point, in place, until ``steps`` reaches ``iterations``.
 
-    H and grad are :func:`derivatives_bilinear`'s. A point stops early where its
+    H and grad are ``_derivatives``' (module doc). A point stops early where its
     next step would read an image row that ``img`` (rows ``off ..``) does not
     hold; its ``steps`` then tell how far it got, and another crop continues it
     with the same result (every value is a function of the image and the point).

@@ -68,7 +68,6 @@ __all__ = [
     "near_any",
     "saddle_search",
     "saddle_unit",
-    "second_derivatives",
     "strength_floor",
 ]
 
@@ -87,32 +86,6 @@ SADDLE_MERGE = 0.1
 SLACK = 16
 
 
-def second_derivatives(grey: np.ndarray, sigma2: float, radius: int) -> tuple[np.ndarray, ...]:
-    """``(g_xx, g_xy, g_yy)`` of ``G_sigma * I``: sampled Gaussian derivatives, reflect border.
-
-    They are the steerable basis of :mod:`sogdd.measure.filters`
-    (``l_theta = c^2 g_xx + 2 s c g_xy + s^2 g_yy``), filtered as the measure filters
-    it (:func:`sogdd.measure.filters.basis_tile`), so detection can take the candidates from
-    the measure's own responses (:class:`SaddleCandidates`) with the same bits.
-    """
-    g = basis_tile(grey, 0, grey.shape[0], 0, steerable_basis(sigma2, radius), reflect_image=False)
-    return g[0], g[1], g[2]
-
-
-def bilinear_rows(maps, off: int, H: int, W: int, x: np.ndarray, y: np.ndarray) -> list[np.ndarray]:
-    """Each map at sub-pixel points of an H x W image (bilinear, edge-clamped), float64 arithmetic.
-
-    The maps may hold only image rows ``off ..`` (a band), as long as they cover
-    the two rows each point reads.
-    """
-    x0, x1 = _rows_of(x, W)  # the same clamp along either axis
-    y0, y1 = _rows_of(y, H)
-    fx, fy = np.clip(x, 0.0, W - 1.0) - x0, np.clip(y, 0.0, H - 1.0) - y0
-    r0, r1 = y0 - off, y1 - off
-    return [((m[r0, x0] * (1 - fx) + m[r0, x1] * fx) * (1 - fy) + (m[r1, x0] * (1 - fx) + m[r1, x1] * fx) * fy)
-            for m in maps]
-
-
 def strength_floor(sigma2: float, min_strength: float) -> float:
     """The ``N = g_xy^2 - g_xx g_yy`` that candidates must exceed: ``s > min_strength`` in ``N`` units."""
     t = max(float(min_strength), 0.0) / float(sigma2)
@@ -120,7 +93,7 @@ def strength_floor(sigma2: float, min_strength: float) -> float:
 
 
 def _rows_of(y: np.ndarray, H: int) -> tuple[np.ndarray, np.ndarray]:
-    """The two rows (or columns, with the width) :func:`bilinear_rows` reads at ``y``, edge-clamped."""
+    """The two rows (or columns, with the width) a bilinear interpolation reads at ``y``, edge-clamped."""
     yc = np.clip(y, 0.0, H - 1.0)
     y0 = np.minimum(np.floor(yc).astype(np.int64), H - 2 if H > 1 else 0)
     return y0, np.minimum(y0 + 1, H - 1)

@@ -90,9 +90,7 @@ class ChessboardReport:
         return "\n".join(lines) + "\n"
 
     def write(self, out: str | os.PathLike) -> list[Path]:
-        """``chessboard.json``, ``chessboard.md`` and ``chessboard.png`` in ``out``."""
-        from .plot import chessboard_figure
-
+        """``chessboard.json`` and ``chessboard.md`` in ``out`` (figure: ``sogdd.report.chessboard_plot``)."""
         o = Path(out)
         o.mkdir(parents=True, exist_ok=True)
         js = self.to_json()
@@ -100,8 +98,7 @@ class ChessboardReport:
         js["by_noise"] = self.by_condition("noise")
         (o / "chessboard.json").write_text(json.dumps(clean_json(js), indent=1))
         (o / "chessboard.md").write_text(self.table())
-        chessboard_figure(self, o / "chessboard.png")
-        return [o / "chessboard.json", o / "chessboard.md", o / "chessboard.png"]
+        return [o / "chessboard.json", o / "chessboard.md"]
 
 
 def clean_json(obj):

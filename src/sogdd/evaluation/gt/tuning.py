@@ -61,11 +61,6 @@ class SweepCurve:
         return GTMetrics.from_counts(self.n_gt, int(self.k[i]), int(self.matched[i]),
                                      float(self.sq_sum[i]))
 
-    def at_threshold(self, t: float) -> int:
-        """Index of the operating point that threshold ``t`` (keep ``response >= t``) selects."""
-        k = int(np.sum(self.responses >= t))
-        return int(np.searchsorted(self.k, k))
-
 
 def sweep_curve(gt: np.ndarray, xy: np.ndarray, response: np.ndarray, delta: float = 2.0
                 ) -> SweepCurve:

@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from .protocol import ChessboardReport
+    from ..evaluation.chessboard.protocol import ChessboardReport
 
 __all__ = ["chessboard_figure"]
 
