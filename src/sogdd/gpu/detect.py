@@ -42,6 +42,7 @@ from numba import cuda
 from ..corners import Corners
 from ..image.validate import check_mask
 from ..measure.filters import steerable_basis
+from ..measure.soddc import AUTHORS_EPS
 from ..params import Params, resolve_params
 from ..select.assemble import assemble, peak_limit, peak_threshold
 from ..select.peaks import inside_allowed, rank_peaks, select_peaks
@@ -52,7 +53,6 @@ from .input import GreyStack, cuda_runtime_available, require_cuda, to_grey_stac
 
 __all__ = ["available", "corner_response", "corner_response_batch", "detect_corners", "detect_corners_batch"]
 
-_EPS = float(np.finfo(np.float64).eps)  # the authors' varsigma (sogdd.measure.soddc.authors_measure)
 _PATCH = 16  # half-size of the image patches the gradient refinement reads around a device corner
 
 
@@ -101,7 +101,7 @@ def _measure(dev, spec):
     big = cuda.to_device(np.zeros(N))
     ck.abs_max_kernel[(min(64, math.ceil(H * W / 256)), 1, N), 256](out, big)
     ups = cuda.device_array((N, H, W))
-    ck.authors_kernel[(math.ceil(W / 32), math.ceil(H / 8), N), (32, 8, 1)](out, tr, big, _EPS, ups)
+    ck.authors_kernel[(math.ceil(W / 32), math.ceil(H / 8), N), (32, 8, 1)](out, tr, big, AUTHORS_EPS, ups)
     return ups
 
 

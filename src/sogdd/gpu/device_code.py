@@ -34,6 +34,8 @@ from functools import cache
 
 from numba import cuda, float64
 
+from ..measure.square_tiles import VARSIGMA
+
 __all__ = [
     "SHARED_BYTES",
     "abs_max_kernel",
@@ -48,7 +50,6 @@ __all__ = [
 
 # Static shared memory per block that every CUDA GPU offers without opting in.
 SHARED_BYTES = 48 * 1024
-_VARSIGMA = 2.22e-16  # eq. 25, as sogdd.measure.soddc.VARSIGMA
 
 
 def _shared_doubles(K: int, R: int, rk: int, nf: int, T: int) -> tuple[int, int]:
@@ -228,7 +229,7 @@ def measure_kernel(K: int, R: int, rk: int, nf: int, T: int, image_mode: bool, p
             out[n, y, x] = det
             tr2[n, y, x] = tr
         else:
-            out[n, y, x] = det / (tr + _VARSIGMA)
+            out[n, y, x] = det / (tr + VARSIGMA)
 
     return kernel
 

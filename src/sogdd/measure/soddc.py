@@ -39,15 +39,13 @@ from ..image.grey import exact_grey
 from .bound import bound_mask, bound_tables, need_from_keep, neighbour_need, spread_masks
 from .filters import basis_tile, kernel_radius, orientations, steerable_basis, steering_coefficients
 from .general_tiles import tile_general
-from .square_tiles import VARSIGMA, det_trace, pair_index, tile_square
+from .square_tiles import AUTHORS_EPS, VARSIGMA, det_trace, pair_index, tile_square
 from .window import is_square, take_reflected, window_offsets
 
 __all__ = [
-    "VARSIGMA", "MeasureSpec", "authors_apply", "authors_limit", "authors_measure", "soddc_at",
+    "AUTHORS_EPS", "VARSIGMA", "MeasureSpec", "authors_apply", "authors_limit", "authors_measure", "soddc_at",
     "abs_max", "prune_pays", "soddc_from_responses", "soddc_measure", "supports_floor",
 ]
-
-_EPS = float(np.finfo(np.float64).eps)
 
 
 @dataclass(frozen=True)
@@ -370,7 +368,7 @@ def authors_measure(det: np.ndarray, tr: np.ndarray, out: np.ndarray | None = No
 
 def authors_limit(big: float, nan: bool) -> float:
     """The clamp limit ``-eps * max|det|`` (NaN when a det is NaN: nothing is clamped then)."""
-    return -_EPS * (np.nan if nan else float(big))
+    return -AUTHORS_EPS * (np.nan if nan else float(big))
 
 
 def authors_apply(det: np.ndarray, tr: np.ndarray, lim: float, out: np.ndarray | None = None) -> np.ndarray:
@@ -382,8 +380,8 @@ def authors_apply(det: np.ndarray, tr: np.ndarray, lim: float, out: np.ndarray |
     d = np.ascontiguousarray(det, dtype=np.float64)
     if out is None or out.shape != d.shape or out.dtype != np.float64 or not out.flags.c_contiguous:
         out = np.empty(d.shape)
-    _authors_post(d.reshape(-1), np.ascontiguousarray(tr, dtype=np.float64).reshape(-1), _EPS, float(lim),
-                  out.reshape(-1))
+    trf = np.ascontiguousarray(tr, dtype=np.float64).reshape(-1)
+    _authors_post(d.reshape(-1), trf, AUTHORS_EPS, float(lim), out.reshape(-1))
     return out
 
 

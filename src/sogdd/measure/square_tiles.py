@@ -26,10 +26,14 @@ from .det_unrolled import det_trace_4, det_trace_6, det_trace_8
 from .window_sums import wcolumn_sums, wrow_sum
 
 __all__ = [
-    "VARSIGMA", "det_trace", "det_trace_loop", "pair_index", "row_sum", "column_sum", "steer", "tile_square",
+    "AUTHORS_EPS", "VARSIGMA", "det_trace", "det_trace_loop", "pair_index", "row_sum", "column_sum", "steer",
+    "tile_square",
 ]
 
-VARSIGMA = 2.22e-16  # eq. (25)
+#: varsigma of eq. (25), the one home of both constants of the measure (the GPU path imports them)
+VARSIGMA = 2.22e-16
+#: the authors' varsigma: float64 machine epsilon (their code's ``eps``)
+AUTHORS_EPS = float(np.finfo(np.float64).eps)
 
 
 @numba.njit(**JIT)
