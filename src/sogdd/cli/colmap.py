@@ -6,11 +6,16 @@ at integers), response, size and optionally descriptors (N, 128). Keypoints are
 written with +0.5 (COLMAP's pixel centres) as [x, y, size / 2, 0].
 
 Images already in the database are matched by name. Others are imported from
---images DIR with one shared camera (intrinsics from K.txt or a YAML there, if
-any). Without descriptors in the files, --describe sift (the default when
---images is given) computes OpenCV SIFT descriptors at the points (diameter
-8 px times the pyramid scale, as "sogdd eval sfm" does); COLMAP's matchers
-need them. The adapter is sogdd.formats.colmap.
+--images DIR with one shared camera per image size (intrinsics from K.txt or a
+YAML there, if any). DB must be a COLMAP database or a new file: anything else
+(a text file, an unrelated SQLite file) is refused, untouched. Exported
+keypoints that differ from an image's old ones replace them with their
+descriptors (deleted if none are exported) and matches (deleted), so the
+database never holds descriptors or matches of points that are gone.
+
+Without descriptors in the files, --describe sift (the default when --images
+is given) computes OpenCV SIFT descriptors at the points (diameter 8 px times
+the pyramid scale, as "sogdd eval sfm" does); COLMAP's matchers need them. The adapter is sogdd.formats.colmap.
 """
 
 from __future__ import annotations
@@ -30,6 +35,12 @@ def run_export(args: argparse.Namespace) -> int:
     r = export_features(args.features, args.database, args.images, method, progress=reporter(args))
     print(f"sogdd: wrote {r['keypoints']} keypoints ({r['descriptors']} with descriptors) "
           f"of {r['images']} images into {r['database']}")
+    if r["stale_descriptors"]:
+        print(f"sogdd: deleted the old descriptors of {r['stale_descriptors']} image(s) (none exported for "
+              "the new keypoints)")
+    if r["stale_pairs"]:
+        print(f"sogdd: deleted the matches of {r['stale_pairs']} image pair(s) whose keypoints changed: "
+              "match again")
     return 0
 
 

@@ -13,8 +13,8 @@ Conventions
 * **Descriptors.** COLMAP's SIFT descriptors are ``uint8``: a unit-L2 vector
   times 512, rounded and clipped to 255 (``FeatureDescriptorsToUnsignedByte``).
   OpenCV's SIFT already uses that scale; RootSIFT (unit L2) is multiplied by 512.
-* **Cameras.** One shared camera (EXIF is absent in the benchmark images), seeded
-  from ``K.txt`` (a 3x3 matrix, the Strecha sets) or from a BoofCV/OpenCV-style
+* **Cameras.** One shared camera per image size (EXIF is absent in the benchmark
+  images), seeded from ``K.txt`` (a 3x3 matrix, the Strecha sets) or from a BoofCV/OpenCV-style
   YAML (``pinhole`` block and ``radial_tangential``, the ``chair`` set) in the
   image folder, else COLMAP's default guess (``SIMPLE_RADIAL``, focal length
   1.2 x the larger image side).
@@ -36,7 +36,9 @@ import numpy as np
 from ..corners import Corners
 from ..descriptors import describe
 from ..image.files import list_images, read_image
-from .features import read_features
+from ..image.header import probe
+from .colmap_database import check_database, copy_database, forget_features, quiet_colmap
+from .features import read_descriptors, read_features
 
 __all__ = [
     "CameraPrior",
@@ -175,25 +177,56 @@ def list_image_names(image_dir: str | Path) -> list[str]:
     return names
 
 
+def _sizes(image_dir: Path, names: list[str]) -> dict[tuple[int, int], list[str]]:
+    """``{(width, height): names}``, from the files' headers (decoded only where the header is unknown)."""
+    groups: dict[tuple[int, int], list[str]] = {}
+    for n in names:
+        p = image_dir / n
+        try:
+            head = probe(p.read_bytes())
+        except OSError as exc:
+            raise ValueError(f"{p}: cannot read ({exc.strerror.lower()})") from None
+        wh = (head[0], head[1]) if head else tuple(read_image(p).shape[1::-1])
+        groups.setdefault(wh, []).append(n)
+    return groups
+
+
 def import_images(database_path: str | Path, image_dir: str | Path, image_names: list[str] | None = None,
                   prior: CameraPrior | None | str = "auto") -> dict[str, int]:
-    """Add images to a database with one shared camera; return ``{name: image_id}``.
+    """Add images to a database with one shared camera per image size; return ``{name: image_id}``.
 
-    ``prior="auto"`` looks for intrinsics with :func:`find_camera_prior`.
+    ``prior="auto"`` looks for intrinsics with :func:`find_camera_prior`. A
+    prior describes one camera, so images of several sizes with a prior are
+    refused (``ValueError``), as is an image COLMAP cannot import.
     """
     pycolmap = require_pycolmap()
-    names = image_names if image_names is not None else list_image_names(image_dir)
+    img_dir = Path(image_dir)
+    names = image_names if image_names is not None else list_image_names(img_dir)
     if prior == "auto":
-        prior = find_camera_prior(image_dir)
-    opts = pycolmap.ImageReaderOptions()
-    if prior is not None:
-        opts.camera_model = prior.model
-        opts.camera_params = prior.params_text()
-    if not Path(database_path).exists():
-        pycolmap.Database.open(str(database_path)).close()  # creates the schema
-    pycolmap.import_images(str(database_path), str(image_dir), pycolmap.CameraMode.SINGLE, names, opts)
-    with pycolmap.Database.open(str(database_path)) as db:
-        return {im.name: im.image_id for im in db.read_all_images()}
+        prior = find_camera_prior(img_dir)
+    groups = _sizes(img_dir, names)
+    if prior is not None and len(groups) > 1:
+        sizes = ", ".join(f"{w}x{h}" for w, h in groups)
+        raise ValueError(f"{img_dir}: images of {len(groups)} sizes ({sizes}) but one camera's intrinsics "
+                         f"({prior.source}); export each size from its own folder")
+    db = str(database_path)
+    with quiet_colmap(db) as log:
+        if not Path(db).exists() or Path(db).stat().st_size == 0:
+            pycolmap.Database.open(db).close()  # creates the schema
+        for group in groups.values():
+            # one import per size: COLMAP's single-camera mode refuses an image of another size
+            opts = pycolmap.ImageReaderOptions()
+            if prior is not None:
+                opts.camera_model = prior.model
+                opts.camera_params = prior.params_text()
+            pycolmap.import_images(db, str(img_dir), pycolmap.CameraMode.SINGLE, group, opts)
+        with pycolmap.Database.open(db) as d:
+            ids = {im.name: im.image_id for im in d.read_all_images()}
+    lost = [n for n in names if n not in ids]
+    if lost:
+        said = log.last_line()
+        raise ValueError(f"{img_dir / lost[0]}: COLMAP could not import it" + (f" ({said})" if said else ""))
+    return ids
 
 
 def write_features(db, image_id: int, xy: np.ndarray, size: np.ndarray | None = None,
@@ -231,21 +264,14 @@ def _feature_files(folder: Path) -> dict[str, Path]:
     return files
 
 
-def _read_feature_file(path: Path) -> tuple[Corners, np.ndarray | None, np.ndarray | None]:
-    """A ``sogdd detect --format npz`` file (:mod:`sogdd.formats.features`): corners, the stored sizes and the
-    optional ``descriptors`` (N, 128). A bad file is a one-line ``ValueError`` naming it."""
+def _read_feature_file(path: Path) -> tuple[Corners, tuple[int, int], np.ndarray | None]:
+    """A ``sogdd detect --format npz`` file (:mod:`sogdd.formats.features`): corners, the image shape
+    (height, width; ``(0, 0)`` if unknown) and the optional descriptors. A bad file is a one-line
+    ``ValueError`` naming it."""
     recs = read_features(path)
     if len(recs) != 1:
         raise ValueError(f"{path}: holds {len(recs)} images; export takes one feature file per image")
-    c = recs[0].corners
-    try:
-        with np.load(path) as z:
-            desc = np.asarray(z["descriptors"]) if "descriptors" in z.files else None
-    except Exception as exc:  # noqa: BLE001 - read_features has read it; any failure here is a bad file
-        raise ValueError(f"{path}: not a valid feature file ({type(exc).__name__}: {exc})") from None
-    if desc is not None and (desc.ndim != 2 or len(desc) != len(c)):
-        raise ValueError(f"{path}: descriptors of shape {desc.shape} for {len(c)} keypoints")
-    return c, c.size, desc
+    return recs[0].corners, recs[0].image_shape, read_descriptors(path)
 
 
 def export_features(feature_dir: str | Path, database: str | Path, images: str | Path | None = None,
@@ -259,9 +285,10 @@ def export_features(feature_dir: str | Path, database: str | Path, images: str |
         and ``descriptors``), as ``sogdd detect DIR --out FEATDIR --format npz`` writes them.
     database : path
         COLMAP database (created if missing). Images already in it are matched by name.
+        Anything else (a text file, an SQLite file without COLMAP's tables) is refused.
     images : path, optional
-        Image folder, to import the images the database lacks (one shared camera,
-        :func:`import_images`) and to compute descriptors.
+        Image folder, to import the images the database lacks (one shared camera
+        per image size, :func:`import_images`) and to compute descriptors.
     describe_method : {"auto", "sift", "rootsift", None}
         Descriptors for files without them: ``"auto"`` is ``"sift"`` when
         ``images`` is given, else none. They are computed at the diameter the
@@ -270,28 +297,42 @@ def export_features(feature_dir: str | Path, database: str | Path, images: str |
     Returns
     -------
     dict
-        ``images``, ``keypoints``, ``descriptors`` (counts) and ``database``.
+        ``images``, ``keypoints``, ``descriptors`` (counts written), ``database``,
+        ``stale_descriptors`` (images whose old descriptors were deleted, as no new
+        ones were exported) and ``stale_pairs`` (image pairs whose matches were
+        deleted, as the keypoints they index changed).
 
-    A bad feature file is a one-line ``ValueError`` naming it, and the database
-    is then left as it was: everything is written to a copy that replaces it
-    only when the whole export has succeeded.
+    An image's keypoints, descriptors and matches always agree: keypoints that
+    changed replace the old ones together with their descriptors (deleted when
+    the export has none) and their matches (deleted: match again). A bad feature file
+    or database is a one-line ``ValueError`` naming it, and the database is then
+    left as it was: everything is written to a copy that replaces it only when
+    the whole export has succeeded.
     """
     pycolmap = require_pycolmap()
     files = _feature_files(Path(feature_dir))
     db_path = Path(database)
+    exists = check_database(db_path)
+    real = Path(os.path.realpath(db_path))  # a symbolic link keeps pointing at the database
     # all or nothing: the work happens on a copy that replaces the database only when everything is written
-    fd, tmp = tempfile.mkstemp(prefix=f".{db_path.name}.", suffix=".sogdd.tmp", dir=db_path.parent or ".")
+    fd, tmp = tempfile.mkstemp(prefix=f".{real.name}.", suffix=".sogdd.tmp", dir=real.parent)
     os.close(fd)
     work = Path(tmp)
     try:
-        if db_path.exists():
-            shutil.copy2(db_path, work)
+        if exists:
+            copy_database(real, work)
+            shutil.copymode(real, work)
         else:
             work.unlink()
         result = _export(pycolmap, files, db_path, work, images, describe_method, progress)
-        os.replace(work, db_path)
+        if not exists:
+            mask = os.umask(0o022)  # read it (the only portable way) and put it back
+            os.umask(mask)
+            os.chmod(work, 0o666 & ~mask)
+        os.replace(work, real)
     finally:
-        work.unlink(missing_ok=True)
+        for leftover in (work, Path(f"{work}-wal"), Path(f"{work}-shm"), Path(f"{work}-journal")):
+            leftover.unlink(missing_ok=True)
     return result
 
 
@@ -299,7 +340,7 @@ def _known_images(pycolmap, files: dict[str, Path], db_path: Path, work: Path, i
     """``{name: image_id}`` of the database copy ``work``, after importing the images it lacks."""
     known: dict[str, int] = {}
     if work.exists():
-        with pycolmap.Database.open(str(work)) as db:
+        with quiet_colmap(str(db_path)), pycolmap.Database.open(str(work)) as db:
             known = {im.name: im.image_id for im in db.read_all_images()}
     missing = [n for n in files if n not in known]
     if missing:
@@ -313,30 +354,59 @@ def _known_images(pycolmap, files: dict[str, Path], db_path: Path, work: Path, i
     return known
 
 
+def _check_sizes(pycolmap, work: Path, db_path: Path, files: dict[str, Path], shapes: dict[str, tuple],
+                 known: dict[str, int]) -> None:
+    """Refuse features detected on an image of another size than COLMAP's camera for it (rotated by EXIF,
+    say): the keypoints would land elsewhere."""
+    with quiet_colmap(str(db_path)), pycolmap.Database.open(str(work)) as db:
+        cams = {c.camera_id: (c.height, c.width) for c in db.read_all_cameras()}
+        cam_of = {im.image_id: im.camera_id for im in db.read_all_images()}
+    for name, shape in shapes.items():
+        hw = cams.get(cam_of.get(known[name]))
+        if tuple(shape) != (0, 0) and hw is not None and tuple(shape) != hw:
+            raise ValueError(f"{files[name]}: detected on a {shape[1]}x{shape[0]} image, but COLMAP's camera "
+                             f"for {name} is {hw[1]}x{hw[0]}")
+
+
 def _export(pycolmap, files: dict[str, Path], db_path: Path, work: Path, images, describe_method,
             progress) -> dict:
     from ..descriptors import descriptor_sizes
 
-    known = _known_images(pycolmap, files, db_path, work, images)
     if describe_method == "auto":
         describe_method = "sift" if images is not None else None
-    # read and check everything before the database is touched
+    # read and check every file before the database is touched
+    read = {name: _read_feature_file(f) for name, f in files.items()}
+    known = _known_images(pycolmap, files, db_path, work, images)
+    _check_sizes(pycolmap, work, db_path, files, {n: r[1] for n, r in read.items()}, known)
     loaded = {}
-    for name, f in files.items():
-        c, size, desc = _read_feature_file(f)
+    for name, (c, _shape, desc) in read.items():
         if desc is None and describe_method and images is not None:
             sized = Corners(c.xy, c.response, descriptor_sizes(c, "auto"), c.level)
             desc = describe(read_image(Path(images) / name), sized, describe_method)
-        loaded[name] = (c, size, desc)
+        loaded[name] = (c, desc)
+    # what the new keypoints make stale: the descriptors and matches of changed keypoints (unchanged
+    # keypoints keep theirs unless new descriptors are exported)
+    with quiet_colmap(str(db_path)), pycolmap.Database.open(str(work)) as db:
+        had_desc = {known[n] for n in loaded if db.exists_descriptors(known[n])}
+        changed = {known[n] for n, (c, _d) in loaded.items()
+                   if db.exists_keypoints(known[n]) and not _same_points(db.read_keypoints(known[n]), c.xy)}
+    renewed = {known[n] for n, (_c, d) in loaded.items() if d is not None}
+    _, n_pairs = forget_features(work, had_desc & (changed | renewed), changed)
     n_kp = n_desc = 0
-    with pycolmap.Database.open(str(work)) as db:
-        for name, (c, size, desc) in loaded.items():
-            iid = known[name]
-            if desc is not None and db.exists_descriptors(iid):
-                raise ValueError(f"{name} already has descriptors in {db_path}; use a fresh database")
-            write_features(db, iid, c.xy, size, None, desc)
+    said = []
+    with quiet_colmap(str(db_path)), pycolmap.Database.open(str(work)) as db:
+        for name, (c, desc) in loaded.items():
+            write_features(db, known[name], c.xy, c.size, None, desc)
             n_kp += len(c)
             n_desc += 0 if desc is None else len(desc)
-            if progress:
-                progress(f"{name}: {len(c)} keypoints{'' if desc is None else ', descriptors'}")
-    return {"images": len(files), "keypoints": n_kp, "descriptors": n_desc, "database": str(db_path)}
+            said.append(f"{name}: {len(c)} keypoints{'' if desc is None else ', descriptors'}")
+    for line in said if progress else ():
+        progress(line)
+    stale = len((had_desc & changed) - renewed)
+    return {"images": len(files), "keypoints": n_kp, "descriptors": n_desc, "database": str(db_path),
+            "stale_descriptors": stale, "stale_pairs": n_pairs}
+
+
+def _same_points(old: np.ndarray, xy: np.ndarray) -> bool:
+    new = keypoints_to_colmap(xy)
+    return old.shape[0] == len(new) and bool(np.array_equal(np.asarray(old)[:, :2], new[:, :2]))

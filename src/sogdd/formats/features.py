@@ -8,6 +8,9 @@ records; each record has
   integers), ``response`` (N,), ``size`` (N,) and ``level`` (N,, the pyramid
   level, 0 = full resolution);
 - ``image`` (the input path as given), ``image_shape`` (height, width);
+- optionally, in npz files only, ``descriptors`` (N, D), one row per corner,
+  which ``sogdd colmap export`` writes into the database. ``sogdd detect``
+  does not write them; :func:`read_descriptors` is the one reader;
 - provenance: ``params`` (every resolved detector parameter and the preset),
   ``sogdd_version``, ``source_size`` and ``source_mtime_ns`` (of the image file
   when it was read), which ``--resume`` compares before trusting a file.
@@ -53,6 +56,7 @@ __all__ = [
     "load_features",
     "make_record",
     "params_dict",
+    "read_descriptors",
     "read_features",
     "remove_stale_temporaries",
     "write_features",
@@ -280,6 +284,47 @@ def read_features(path: str | os.PathLike) -> list[FeatureRecord]:
         raise ValueError(f"{p}: no such file") from None
     except Exception as exc:  # noqa: BLE001 - any decoding failure is a bad file
         raise ValueError(f"{p}: not a valid {fmt} feature file ({type(exc).__name__}: {exc})") from None
+
+
+def read_descriptors(path: str | os.PathLike, image: str | None = None) -> np.ndarray | None:
+    """The optional ``descriptors`` (N, D) of a feature file, one row per corner; ``None`` if it has none.
+
+    ``image`` names the record of an npz file of several images. CSV and JSON
+    files hold no descriptors. Raises ``ValueError`` (one line, naming the file)
+    for a file that cannot be read, or descriptors that are not an (N, D) array
+    of finite numbers with one row per corner.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> path = Path(tempfile.mkdtemp()) / "photo.png.npz"
+    >>> np.savez(path, xy=np.zeros((2, 2)), response=np.ones(2), descriptors=np.ones((2, 128)))
+    >>> read_descriptors(path).shape
+    (2, 128)
+    >>> np.savez(path, xy=np.zeros((3, 2)), response=np.ones(3), descriptors=np.ones((2, 128)))
+    >>> read_descriptors(path)
+    Traceback (most recent call last):
+    ...
+    ValueError: ...photo.png.npz: descriptors of shape (2, 128) for 3 corners
+    """
+    p = Path(path)
+    if p.suffix.lower() != ".npz":
+        return None
+    pre = "" if image is None else f"{image}/"
+    try:
+        with np.load(p, allow_pickle=False) as z:
+            if f"{pre}descriptors" not in z.files:
+                return None
+            desc, n = np.asarray(z[f"{pre}descriptors"]), len(z[f"{pre}xy"])
+    except FileNotFoundError:
+        raise ValueError(f"{p}: no such file") from None
+    except Exception as exc:  # noqa: BLE001 - any decoding failure is a bad file
+        raise ValueError(f"{p}: not a valid npz feature file ({type(exc).__name__}: {exc})") from None
+    if desc.ndim != 2 or len(desc) != n:
+        raise ValueError(f"{p}: descriptors of shape {desc.shape} for {n} corners")
+    if desc.dtype.kind not in "iuf" or not np.isfinite(desc).all():
+        raise ValueError(f"{p}: descriptors must be finite numbers (dtype {desc.dtype})")
+    return desc
 
 
 def load_features(path: str | os.PathLike, image: str | None = None) -> Corners:
