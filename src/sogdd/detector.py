@@ -15,7 +15,7 @@ from .image.grey import to_gray255
 from .image.rows import GreyRows
 from .image.validate import check_mask, validate_image
 from .measure.soddc import MeasureSpec, soddc_measure, supports_floor
-from .params import Params, resolve_params
+from .params import PRESET, Params, given, resolve_params
 from .select.assemble import assemble, peak_limit, peak_threshold
 from .select.banded import peaks_in_bands
 from .select.banded_relative import peaks_relative_in_bands
@@ -35,18 +35,86 @@ def _prepare(image, p: Params, lazy: bool = False) -> np.ndarray | GreyRows:
     return GreyRows(img, **gray) if lazy else to_gray255(img, **gray)
 
 
-def corner_response(image, *, preset: str = "paper", device: str = "cpu", **params) -> np.ndarray:
+#: the keywords of the measure, as numpydoc entries (shared by both functions' docstrings)
+_MEASURE_DOC = """sigma2 : float
+        sigma^2 of the SOGDD kernels psi (eq. 22). paper 1.2, authors 1.44, hr 1.5.
+    n_orientations : int
+        K, the number of orientations theta_k = (k - 1) pi / K. paper 8, authors 4, hr 4.
+    window : int
+        Window size (odd): the square's side, the disk's diameter, or 4 sigma_w of
+        the Gaussian window. paper 7, authors 5, hr 3.
+    window_shape : {"square", "disk", "gaussian"}
+        paper "square", authors "disk", hr "gaussian".
+    kernel_radius_rule : {"paper", "authors"}
+        Kernel support r = ceil(4 sigma) (paper) or max(3, ceil(4 sigma)) (authors).
+    zero_mean : bool
+        Make each kernel zero-mean (authors True).
+    padding : {"response", "image"}
+        Reflect the responses at the border (paper) or pad the image by 9 px (authors).
+    authors_measure : bool
+        The authors' clamp of det and epsilon instead of varsigma (authors True).
+    gray_weights : (float, float, float)
+        Luma weights of colour input: BT.601 (paper, hr) or MATLAB's rgb2gray (authors).
+    gray_round : bool
+        Round the grey value of integer colour input to its dtype (MATLAB; authors True).
+    channel_order : {"rgb", "bgr"}
+        Channel order of colour arrays ("rgb"; :class:`~sogdd.feature2d.SOGDD` uses "bgr").
+    value_range : (float, float), optional
+        Input values mapped onto 0-255; None: by dtype (:mod:`sogdd.image.grey`)."""
+
+_SELECT_DOC = """threshold : float or None
+        Absolute threshold on the response (paper 1e9 on Upsilon; hr 20 grey
+        levels); None: no absolute threshold (authors).
+    threshold_rel : float, optional
+        Keep responses >= this fraction of the largest one.
+    quantile : float, optional
+        Keep responses >= this quantile of the positive responses (authors 0.99).
+    threshold_units : {"measure", "grey"}
+        "measure": threshold and response on Upsilon itself (paper, authors);
+        "grey": in grey levels of corner contrast (:mod:`sogdd.measure.units`; hr).
+    nms_radius : int
+        Non-maximum suppression over the (2r + 1)^2 square (1 in every preset).
+    max_corners : int, optional
+        Keep the strongest this many (None: all).
+    subpixel : {"gradient", "quadratic", "none", "adaptive"} or bool
+        Sub-pixel refinement (paper "gradient", authors "none", hr "adaptive").
+    border : int
+        Exclude this many pixels at each edge (authors 9, else 0).
+    x_junctions : bool
+        Report each X-junction once, on its saddle point (hr True; needs
+        threshold_units="grey").
+    levels : int
+        Levels of the image pyramid (1: none).
+    scale_factor : float
+        Scale between pyramid levels (2.0)."""
+
+
+def _documented(func):
+    """Fill the shared parameter entries into ``func``'s docstring."""
+    func.__doc__ = func.__doc__.replace("{measure}", _MEASURE_DOC).replace("{select}", _SELECT_DOC)
+    return func
+
+
+@_documented
+def corner_response(
+    image, *, preset: str = "paper", device: str = "cpu",
+    sigma2: float = PRESET, n_orientations: int = PRESET, window: int = PRESET, window_shape: str = PRESET,
+    kernel_radius_rule: str = PRESET, zero_mean: bool = PRESET, padding: str = PRESET,
+    authors_measure: bool = PRESET, gray_weights: tuple[float, float, float] = PRESET,
+    gray_round: bool = PRESET, channel_order: str = PRESET, value_range: tuple[float, float] | None = PRESET,
+) -> np.ndarray:
     """The corner measure Upsilon (eq. 25) of an image: an H x W float64 map.
 
     Parameters
     ----------
     image : ndarray
         Grey (H, W) or colour (H, W, 3|4) image; uint8, uint16, float in [0, 1]
-        or bool. Converted to grey on the 0-255 scale (see :mod:`sogdd.image.validate`).
+        or bool. Converted to grey on the 0-255 scale (see :mod:`sogdd.image.grey`).
     preset : {"paper", "authors", "hr"}
-        Starting parameter set; keyword arguments override it.
+        Starting parameter set; every keyword left at ``PRESET`` takes its value.
     device : {"cpu", "cuda"}
         ``"cuda"`` runs on an NVIDIA GPU (:mod:`sogdd.gpu`); a device input gives a device map.
+    {measure}
 
     Returns
     -------
@@ -65,6 +133,10 @@ def corner_response(image, *, preset: str = "paper", device: str = "cpu", **para
     >>> bool(R.max() > 1e9)  # strong corners pass the paper's T_h
     True
     """
+    params = given(sigma2=sigma2, n_orientations=n_orientations, window=window, window_shape=window_shape,
+                   kernel_radius_rule=kernel_radius_rule, zero_mean=zero_mean, padding=padding,
+                   authors_measure=authors_measure, gray_weights=gray_weights, gray_round=gray_round,
+                   channel_order=channel_order, value_range=value_range)
     if (gpu := _gpu(device)) is not None:
         return gpu.corner_response(image, preset=preset, **params)
     p = resolve_params(preset, **params)
@@ -126,7 +198,17 @@ def _gpu(device: str):
     return gpu
 
 
-def detect_corners(image, *, preset: str = "paper", mask=None, device: str = "cpu", **params) -> Corners:
+@_documented
+def detect_corners(
+    image, *, preset: str = "paper", mask=None, device: str = "cpu",
+    sigma2: float = PRESET, n_orientations: int = PRESET, window: int = PRESET, window_shape: str = PRESET,
+    threshold: float | None = PRESET, threshold_rel: float | None = PRESET, quantile: float | None = PRESET,
+    threshold_units: str = PRESET, nms_radius: int = PRESET, max_corners: int | None = PRESET,
+    subpixel: str | bool = PRESET, border: int = PRESET, x_junctions: bool = PRESET, levels: int = PRESET,
+    scale_factor: float = PRESET, kernel_radius_rule: str = PRESET, zero_mean: bool = PRESET,
+    padding: str = PRESET, authors_measure: bool = PRESET, gray_weights: tuple[float, float, float] = PRESET,
+    gray_round: bool = PRESET, channel_order: str = PRESET, value_range: tuple[float, float] | None = PRESET,
+) -> Corners:
     """Detect corners: local maxima of Upsilon above a threshold.
 
     Parameters
@@ -134,10 +216,8 @@ def detect_corners(image, *, preset: str = "paper", mask=None, device: str = "cp
     image : ndarray
         Grey or colour image (see :func:`corner_response`).
     preset : {"paper", "authors", "hr"}
-        Starting parameter set; keyword arguments override it (``sigma2``,
-        ``n_orientations``, ``window``, ``threshold``, ``quantile``,
-        ``nms_radius``, ``max_corners``, ``subpixel``, ``border``, ``levels``,
-        ``scale_factor``, ...).
+        Starting parameter set; every keyword left at ``PRESET`` takes its value
+        (the README's preset table gives them all, with the reason for each).
     mask : ndarray of uint8 or bool, optional
         Same height and width as the image; corners are kept where it is non-zero.
         Mask and ``border`` hold for the final positions: a point that sub-pixel
@@ -145,6 +225,8 @@ def detect_corners(image, *, preset: str = "paper", mask=None, device: str = "cp
     device : {"cpu", "cuda"}
         ``"cuda"`` runs on an NVIDIA GPU (:mod:`sogdd.gpu`, ``pip install 'sogdd[gpu]'``);
         it also takes grey torch/CuPy device arrays.
+    {select}
+    {measure}
 
     Returns
     -------
@@ -171,6 +253,13 @@ def detect_corners(image, *, preset: str = "paper", mask=None, device: str = "cp
     >>> bool(np.median(d) < 0.5)  # sub-pixel: on the rendered vertices
     True
     """
+    params = given(sigma2=sigma2, n_orientations=n_orientations, window=window, window_shape=window_shape,
+                   threshold=threshold, threshold_rel=threshold_rel, quantile=quantile,
+                   threshold_units=threshold_units, nms_radius=nms_radius, max_corners=max_corners,
+                   subpixel=subpixel, border=border, x_junctions=x_junctions, levels=levels,
+                   scale_factor=scale_factor, kernel_radius_rule=kernel_radius_rule, zero_mean=zero_mean,
+                   padding=padding, authors_measure=authors_measure, gray_weights=gray_weights,
+                   gray_round=gray_round, channel_order=channel_order, value_range=value_range)
     if (gpu := _gpu(device)) is not None:
         return gpu.detect_corners(image, preset=preset, mask=mask, **params)
     p = resolve_params(preset, **params)

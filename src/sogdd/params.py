@@ -19,9 +19,47 @@ from .measure.gaussian_window import gaussian_window_spec
 from .measure.soddc import MeasureSpec
 from .measure.window import window_halfwidths
 
-__all__ = ["PRESETS", "Params", "resolve_params"]
+__all__ = ["CHOICES", "PRESET", "PRESETS", "Params", "given", "resolve_params"]
 
 _SUBPIXEL = ("gradient", "quadratic", "none", "adaptive")
+#: the values of each text-valued parameter (one list: validation, the CLI's choices, spec parsing)
+CHOICES: dict[str, tuple[str, ...]] = {
+    "window_shape": ("square", "disk", "gaussian"),
+    "subpixel": _SUBPIXEL,
+    "threshold_units": ("measure", "grey"),
+}
+
+
+class _FromPreset:
+    """The default of every detector keyword: the value of the chosen preset."""
+
+    _instance = None
+
+    def __new__(cls):  # one object, so that ``is`` tests work across pickling and copies
+        if cls._instance is None:
+            cls._instance = super().__new__(cls)
+        return cls._instance
+
+    def __repr__(self) -> str:
+        return "PRESET"
+
+    def __reduce__(self):
+        return (_FromPreset, ())
+
+
+#: the default of the detector's keywords in signatures: "the preset's value" (README, preset table)
+PRESET = _FromPreset()
+
+
+def given(**params) -> dict:
+    """The keywords a caller set: those whose value is not :data:`PRESET`.
+
+    Examples
+    --------
+    >>> given(sigma2=1.5, window=PRESET)
+    {'sigma2': 1.5}
+    """
+    return {k: v for k, v in params.items() if v is not PRESET}
 
 
 @dataclass(frozen=True)
@@ -162,7 +200,7 @@ def resolve_params(preset: str = "paper", **params) -> Params:
     )
     _check(_is_int(p.n_orientations) and 1 <= p.n_orientations <= 64,
            f"n_orientations must be an integer in [1, 64], got {p.n_orientations!r}")
-    _check(p.window_shape in ("square", "disk", "gaussian"),
+    _check(p.window_shape in CHOICES["window_shape"],
            f"window_shape must be 'square', 'disk' or 'gaussian', got {p.window_shape!r}")
     _check(p.window_shape != "gaussian" or (p.padding == "response" and not p.authors_measure),
            "window_shape='gaussian' needs padding='response' and authors_measure=False")
@@ -199,7 +237,7 @@ def resolve_params(preset: str = "paper", **params) -> Params:
            and all(isinstance(v, (int, float, np.number)) and math.isfinite(v) and v >= 0 for v in w)
            and sum(w) > 0, f"gray_weights must be three finite non-negative numbers, got {w!r}")
     _check(p.channel_order in ("rgb", "bgr"), "channel_order must be 'rgb' or 'bgr'")
-    _check(p.threshold_units in ("measure", "grey"),
+    _check(p.threshold_units in CHOICES["threshold_units"],
            f"threshold_units must be 'measure' or 'grey', got {p.threshold_units!r}")
     _check(isinstance(p.x_junctions, (bool, np.bool_)),
            f"x_junctions must be True or False, got {p.x_junctions!r}")

@@ -48,13 +48,21 @@ def test_bad_images(image, msg):
         {"levels": 0},
         {"scale_factor": 1.0},
         {"subpixel": "cubic"},
-        {"bogus": 1},
     ],
 )
 def test_bad_parameters(params):
     with pytest.raises(ValueError) as exc:
         sogdd.detect_corners(GOOD, **params)
     assert "\n" not in str(exc.value)
+
+
+def test_unknown_keyword_is_python_s_own_one_line_error():
+    """detect_corners shows every keyword in its signature (0.2.0), so an unknown one is a TypeError."""
+    with pytest.raises(TypeError, match="bogus") as exc:
+        sogdd.detect_corners(GOOD, bogus=1)
+    assert "\n" not in str(exc.value)
+    with pytest.raises(ValueError, match="bogus"):  # resolve_params still names it
+        sogdd.resolve_params("paper", bogus=1)
 
 
 def test_bad_preset_and_mask():
