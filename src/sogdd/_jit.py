@@ -1,7 +1,7 @@
 """Compiled code's settings, in one place: numba's options, row padding, the thread count.
 
 ``cache=True`` keeps the compiled code between runs; ``nogil=True`` lets the
-tile driver run kernels in threads; ``error_model="numpy"`` drops Python's
+tile driver run compiled functions in threads; ``error_model="numpy"`` drops Python's
 zero-division checks from the hot loops; ``fastmath={"contract"}`` allows fused
 multiply-adds only (no reassociation, so results stay deterministic and
 independent of tiling).

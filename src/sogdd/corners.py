@@ -29,7 +29,12 @@ class Corners:
         ``x`` (column) and ``y`` (row), pixel centres at integer coordinates
         (OpenCV's convention).
     response : (N,) float64
-        Detector strength (for SOGDD: the measure Upsilon, eq. 25).
+        What the detector ranks by, strongest first. For SOGDD it depends on
+        ``threshold_units``: ``"measure"`` (``paper``, ``authors``) holds the
+        response Upsilon itself (eq. 25); ``"grey"`` (``hr``) holds the
+        *strength*, Upsilon in grey levels of corner contrast
+        (:func:`sogdd.measure.units.grey_strength`; an X-junction's saddle
+        strength on the same scale). Baselines hold their own measure.
     size : (N,) float64
         Diameter of the meaningful neighbourhood in pixels (OpenCV ``KeyPoint.size``).
     level : (N,) int64

@@ -49,7 +49,7 @@ def fischer_row(srow, quad, pair, pi2, pj2, floor, keep, nb, work):  # pragma: n
     ``nr x nr`` terms is off by at most ``~(2 nr + 1) eps sum w |g_p g_q| <= (2 nr + 1)
     eps sqrt(S_pp S_qq)`` (Cauchy-Schwarz with positive weights), so ``d_i`` and ``t_ij``
     by at most ``~4 (2 nr + 7) eps u^2``: 2e-14 u^2 at nr = 7, 3e-13 u^2 at the
-    largest window (nr = 153), under ``_GAMMA``; the kernel's own det is off by less
+    largest window (nr = 153), under ``_GAMMA``; the tile function's own det is off by less
     than ``K (2 nr + 1) eps`` plus the elimination's ``~K^3 eps`` times the Hadamard
     bound, under ``_HADAMARD_SLACK``.
     """
@@ -154,7 +154,7 @@ def neighbour_need(out, floor, r0, H, need):  # pragma: no cover - jit
 
 @numba.njit(**JIT)
 def spread_masks(need, R, colneed, rowneed, lo, hi):  # pragma: no cover - jit
-    """From the pixels to evaluate (rows ``lo .. hi - 1`` of ``need``) to what the square kernel computes.
+    """From the pixels to evaluate (rows ``lo .. hi - 1`` of ``need``) to what the square tile code computes.
 
     ``colneed`` (Ht, W + 2R): columns -R..W+R-1 whose column sums those pixels
     use; ``rowneed`` (Ht + 2R, W + 2R): window rows and columns whose products
@@ -189,7 +189,7 @@ def bound_mask(planes, nr, quad, pair, pi2, pj2, floor, keep, block, wts):  # pr
     The six products of the basis responses are kept for the last ``nr + 3`` rows
     (a ring); groups of 4 keep rows sum them down the columns in one pass (as the
     exact kernel does: :func:`sogdd.measure.square_tiles.column_sums`), then each row along the
-    row; with a non-empty ``wts``, weighted sums as the kernel's (:func:`fischer_row`
+    row; with a non-empty ``wts``, weighted sums as the tile function's (:func:`fischer_row`
     holds for positive weights).
     """
     Hk, Wk = keep.shape

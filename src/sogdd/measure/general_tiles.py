@@ -1,4 +1,4 @@
-"""The compiled tile kernel of the SODDC measure for any window shape (the authors' disk).
+"""The compiled tile function of the SODDC measure for any window shape (the authors' disk).
 
 Each row of products is summed along the row with that row's half-width (the
 row sums are kept in a ring of the last window-height rows), then the rows are

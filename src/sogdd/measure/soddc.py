@@ -130,7 +130,7 @@ def _tiled(
     weights: np.ndarray | None = None,
     on_planes: PlanesHook | None = None,
 ) -> np.ndarray | tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Run the compiled tile kernel over row tiles, in threads.
+    """Run the compiled tile function over row tiles, in threads.
 
     ``domain(r0, r1)`` returns the filter-response planes of one tile with
     ``margin`` extra rows and columns on each side (at least the window

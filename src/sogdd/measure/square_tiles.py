@@ -1,18 +1,18 @@
-"""Compiled kernels of the SODDC measure: steering, window sums, det/trace.
+"""Compiled tile code of the SODDC measure: steering, window sums, det/trace.
 
 The K x K SODDC matrix of every pixel is the window sum of ``|l| |l|^T``
 (eq. 24), and the measure is ``det / (trace + varsigma)`` (eq. 25). These
-kernels work on one row tile at a time (see :mod:`sogdd.measure.soddc` for the
+functions work on one row tile at a time (see :mod:`sogdd.measure.soddc` for the
 driver). Sums are direct and in a fixed pair-wise order (no running sums), so a
 value never depends on where a tile starts and never suffers cancellation.
 
-Two tile kernels are kept. :func:`tile_square` (square windows, the paper
+Two tile functions are kept. :func:`tile_square` (square windows, the paper
 preset) keeps column sums and can evaluate only masked pixels (pruning);
 :func:`sogdd.measure.general_tiles.tile_general` handles any window shape (the authors' disk). On the full
 map the square one is faster (paper preset's kernel alone, one thread: 50 against
 64 ms/MP, its column sums serving 4 output rows per pass), and only it evaluates
 the masked pixels that pruned detection needs (README's speed table). Where the
-square kernel's time goes (K = 8, full map, one thread, by leaving stages out):
+square tile function's time goes (K = 8, full map, one thread, by leaving stages out):
 products 10 ms/MP, column sums 10, row sums 16.5, the elimination 5, the rest 6.
 """
 

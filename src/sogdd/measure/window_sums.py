@@ -1,4 +1,4 @@
-"""Weighted window sums for the compiled kernels (the Gaussian window of :mod:`sogdd.measure.gaussian_window`).
+"""Weighted window sums for the compiled tile code (the Gaussian window, :mod:`.gaussian_window`).
 
 A separable window of positive weights ``w`` (length ``nr``) sums a plane as
 weighted column sums, then weighted row sums::
