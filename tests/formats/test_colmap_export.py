@@ -268,3 +268,16 @@ def test_read_descriptors_is_the_schema_of_the_field(tmp_path):
     assert features.read_descriptors(tmp_path / "a.csv") is None  # CSV and JSON hold no descriptors
     with pytest.raises(ValueError, match="no such file"):
         features.read_descriptors(tmp_path / "gone.npz")
+
+
+def test_an_image_colmap_cannot_read_is_one_line_naming_it(tmp_path, capfd):
+    img, feat = _setup(tmp_path)
+    a = np.random.default_rng(0).integers(0, 255, (60, 80), dtype=np.uint8)
+    assert cv2.imwrite(str(img / "im9.jp2"), a)  # OpenCV writes JPEG 2000; pycolmap's reader may not read it
+    _features(feat, "im9.jp2", XY, (60, 80))
+    db = tmp_path / "db.db"
+    if _export(feat, db, "--images", str(img)) == 0:
+        pytest.skip("this pycolmap reads JPEG 2000")
+    line = _one_error(capfd)
+    assert "im9.jp2: COLMAP could not import it: im9.jp2" in line
+    assert not db.exists()

@@ -224,8 +224,10 @@ def import_images(database_path: str | Path, image_dir: str | Path, image_names:
             ids = {im.name: im.image_id for im in d.read_all_images()}
     lost = [n for n in names if n not in ids]
     if lost:
-        said = log.last_line()
-        raise ValueError(f"{img_dir / lost[0]}: COLMAP could not import it" + (f" ({said})" if said else ""))
+        said = log.last_line(lost[0])
+        more = f" (and {len(lost) - 1} other image(s))" if len(lost) > 1 else ""
+        why = f": {said}" if said else ""
+        raise ValueError(f"{img_dir / lost[0]}: COLMAP could not import it{more}{why}")
     return ids
 
 

@@ -125,8 +125,9 @@ class _Log:
 
     text = ""
 
-    def last_line(self) -> str:
-        lines = [x.split("] ", 1)[-1].strip() for x in self.text.splitlines() if x.strip()]
+    def last_line(self, about: str = "") -> str:
+        """The last line (glog's prefix removed) that contains ``about``; ``""`` if none."""
+        lines = [x.split("] ", 1)[-1].strip() for x in self.text.splitlines() if about in x and x.strip()]
         return lines[-1] if lines else ""
 
 
