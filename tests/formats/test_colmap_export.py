@@ -194,21 +194,26 @@ def test_features_of_another_image_size_than_the_camera_are_refused(tmp_path, ca
 
 
 # ----------------------------------------------------------------- re-exporting
-def _matches(db) -> set[tuple[int, int]]:
+def _matches(db, table="matches") -> set[tuple[int, int]]:
     with pycolmap.Database.open(str(db)) as d:
         ids = {im.image_id: im.name for im in d.read_all_images()}
-        con = sqlite3.connect(db)
-        pids = [r[0] for r in con.execute("SELECT pair_id FROM matches")]
-        con.close()
+    con = sqlite3.connect(db)
+    pids = [r[0] for r in con.execute(f"SELECT pair_id FROM {table}")]
+    con.close()
     return {tuple(sorted(ids[i] for i in pycolmap.pair_id_to_image_pair(p))) for p in pids}
 
 
 def _match_everything(db):
+    """Matches and verified geometries (inliers) between every pair of images."""
+    pairs = np.array([[0, 1], [1, 0]], np.uint32)
     with pycolmap.Database.open(str(db)) as d:
         ids = sorted(im.image_id for im in d.read_all_images())
         for a in range(len(ids)):
             for b in range(a + 1, len(ids)):
-                d.write_matches(ids[a], ids[b], np.array([[0, 1], [1, 0]], np.uint32))
+                d.write_matches(ids[a], ids[b], pairs)
+                g = pycolmap.TwoViewGeometry()
+                g.inlier_matches = pairs
+                d.write_two_view_geometry(ids[a], ids[b], g)
 
 
 def test_re_exporting_without_descriptors_leaves_none_stale(tmp_path, capfd):
@@ -222,7 +227,8 @@ def test_re_exporting_without_descriptors_leaves_none_stale(tmp_path, capfd):
     out = capfd.readouterr().out
     # im0's old descriptors are gone with its old keypoints; the others' keypoints did not change
     assert _consistent(db) == {"im0.png": (3, 0), "im1.png": (4, 4), "im2.png": (4, 4)}
-    assert _matches(db) == {("im1.png", "im2.png")}  # matches indexing im0's old keypoints are gone
+    # matches and inliers indexing im0's old keypoints are gone
+    assert _matches(db) == _matches(db, "two_view_geometries") == {("im1.png", "im2.png")}
     assert "old descriptors of 1 image(s)" in out and "matches of 2 image pair(s)" in out
 
 

@@ -27,6 +27,7 @@ from __future__ import annotations
 import os
 import re
 import shutil
+import sqlite3
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -235,7 +236,10 @@ def write_features(db, image_id: int, xy: np.ndarray, size: np.ndarray | None = 
                    angle_deg: np.ndarray | None = None, descriptors: np.ndarray | None = None) -> None:
     """Write one image's keypoints (and descriptors) into an open ``pycolmap.Database``.
 
-    Existing keypoints/descriptors of that image are replaced.
+    Existing keypoints of that image are replaced. Existing descriptors are
+    refused (``ValueError``): pycolmap cannot replace one image's, so
+    :func:`export_features` deletes them first
+    (:func:`~sogdd.formats.colmap_database.forget_features`).
     """
     pycolmap = require_pycolmap()
     kp = keypoints_to_colmap(xy, size, angle_deg)
@@ -317,7 +321,10 @@ def export_features(feature_dir: str | Path, database: str | Path, images: str |
     exists = check_database(db_path)
     real = Path(os.path.realpath(db_path))  # a symbolic link keeps pointing at the database
     # all or nothing: the work happens on a copy that replaces the database only when everything is written
-    fd, tmp = tempfile.mkstemp(prefix=f".{real.name}.", suffix=".sogdd.tmp", dir=real.parent)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{real.name}.", suffix=".sogdd.tmp", dir=real.parent)
+    except OSError as exc:  # the message names the database, not the temporary file
+        raise ValueError(f"{db_path}: cannot write in its folder ({exc.strerror.lower()})") from None
     os.close(fd)
     work = Path(tmp)
     try:
@@ -331,7 +338,10 @@ def export_features(feature_dir: str | Path, database: str | Path, images: str |
             mask = os.umask(0o022)  # read it (the only portable way) and put it back
             os.umask(mask)
             os.chmod(work, 0o666 & ~mask)
-        os.replace(work, real)
+        try:
+            os.replace(work, real)
+        except OSError as exc:
+            raise ValueError(f"{db_path}: cannot replace it ({exc.strerror.lower()})") from None
     finally:
         for leftover in (work, Path(f"{work}-wal"), Path(f"{work}-shm"), Path(f"{work}-journal")):
             leftover.unlink(missing_ok=True)
@@ -393,7 +403,10 @@ def _export(pycolmap, files: dict[str, Path], db_path: Path, work: Path, images,
         changed = {known[n] for n, (c, _d) in loaded.items()
                    if db.exists_keypoints(known[n]) and not _same_points(db.read_keypoints(known[n]), c.xy)}
     renewed = {known[n] for n, (_c, d) in loaded.items() if d is not None}
-    _, n_pairs = forget_features(work, had_desc & (changed | renewed), changed)
+    try:
+        _, n_pairs = forget_features(work, had_desc & (changed | renewed), changed)
+    except sqlite3.Error as exc:
+        raise ValueError(f"{db_path}: cannot delete stale rows (SQLite: {exc})") from None
     n_kp = n_desc = 0
     said = []
     with quiet_colmap(str(db_path)), pycolmap.Database.open(str(work)) as db:
