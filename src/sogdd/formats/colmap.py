@@ -184,7 +184,12 @@ def _sizes(image_dir: Path, names: list[str]) -> dict[tuple[int, int], list[str]
     for n in names:
         p = image_dir / n
         try:
-            head = probe(p.read_bytes())
+            with open(p, "rb") as f:
+                # the size is in the first bytes of the usual formats; a TIFF's may be anywhere
+                data = f.read(1 << 20)
+                head = probe(data)
+                if head is None and len(data) == 1 << 20:
+                    head = probe(data + f.read())
         except OSError as exc:
             raise ValueError(f"{p}: cannot read ({exc.strerror.lower()})") from None
         wh = (head[0], head[1]) if head else tuple(read_image(p).shape[1::-1])
