@@ -54,9 +54,11 @@ def run_matching(args: argparse.Namespace) -> int:
     specs = parse_specs(args.detectors, DEFAULT_MATCHING)
     out = Path(args.out) if args.out else None
     feat_dir = out / "features" if out is not None and args.save_features else None
-    res = evaluate_specs(seqs, specs, feature_dir=feat_dir, progress=reporter(args))
+    res = evaluate_specs(seqs, specs, feature_dir=feat_dir, progress=reporter(args),
+                         max_features=args.max_features, jobs=args.jobs)
     info = benchmark_info(root, layout, seqs)
-    obj = jsonable({label: {**r.summary(), "benchmark": info} for label, r in res.items()})
+    budget = {} if args.max_features is None else {"budget": args.max_features}
+    obj = jsonable({label: {**r.summary(), **budget, "benchmark": info} for label, r in res.items()})
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
         (out / "matching.json").write_text(json.dumps(obj, indent=1))
@@ -91,6 +93,7 @@ def run_sfm(args: argparse.Namespace) -> int:
     if gt is not None and not gt.is_dir():
         raise ValueError(f"{gt}: not a folder")
     specs = parse_specs(args.detectors, DEFAULT_SFM)
+    seeds = parse_seeds(args.seeds) if args.seeds else None
     out = Path(args.out) if args.out else None
     if args.work:
         work_root = Path(args.work)
@@ -106,7 +109,8 @@ def run_sfm(args: argparse.Namespace) -> int:
 
     obj = jsonable(evaluate_sfm(images, specs, work_root, dataset=dataset, on_result=keep,
                                 matcher=args.matcher, gt_cameras=gt, dense=not args.no_dense,
-                                num_threads=args.threads, seed=args.seed,
+                                num_threads=args.threads, seed=args.seed, seeds=seeds,
+                                max_features=args.max_features, jobs=args.jobs,
                                 max_runtime_seconds=args.time_limit, progress=reporter(args)))
     table = sfm_markdown(obj, dataset, reference_file("paper_table2.csv"))
     if out is not None:
@@ -116,6 +120,41 @@ def run_sfm(args: argparse.Namespace) -> int:
     else:
         print(table, end="")
     return 0
+
+
+def parse_seeds(text: str) -> list[int]:
+    """``"0,1,2"`` -> ``[0, 1, 2]`` (distinct integers; ``ValueError`` otherwise).
+
+    Examples
+    --------
+    >>> parse_seeds("0, 1,2")
+    [0, 1, 2]
+    """
+    try:
+        seeds = [int(t) for t in text.split(",") if t.strip()]
+    except ValueError:
+        raise ValueError(f"--seeds must be comma-separated integers, got {text!r}") from None
+    if not seeds or len(set(seeds)) != len(seeds):
+        raise ValueError(f"--seeds must be distinct integers, got {text!r}")
+    return seeds
+
+
+def _positive_int(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
+    return v
+
+
+def add_budget_arguments(p: argparse.ArgumentParser) -> None:
+    """``--max-features N`` (an equal budget for every detector) and ``--jobs N``."""
+    p.add_argument("--max-features", type=_positive_int, metavar="N",
+                   help="an equal budget: every detector keeps its N strongest points per image "
+                        "(labels gain :top_k=N; a detector with fewer keeps all)")
+    p.add_argument("--jobs", type=_positive_int, default=1, help="detectors evaluated in this many processes")
 
 
 def register(eval_subparsers) -> None:
@@ -137,6 +176,7 @@ def register(eval_subparsers) -> None:
                    "[default: $SOGDD_DATA/../reference/hpatches_published_mma.csv]")
     m.add_argument("--published-methods", metavar="A,B", help="overlay only these published methods")
     m.add_argument("--no-published", action="store_true", help="no published curves on the plot")
+    add_budget_arguments(m)
     m.set_defaults(func=run_matching)
 
     s = eval_subparsers.add_parser(
@@ -154,5 +194,9 @@ def register(eval_subparsers) -> None:
     s.add_argument("--no-dense", action="store_true", help="do not try MVS (it needs a CUDA build anyway)")
     s.add_argument("--threads", type=int, default=-1, help="COLMAP threads (-1: all)")
     s.add_argument("--seed", type=int, default=0, help="COLMAP random seed")
+    s.add_argument("--seeds", metavar="S,S,...",
+                   help="run matching and mapping once per seed with the same features (e.g. 0,1,2): the "
+                        "table gives the median and the spread (min-max) over the seeds; overrides --seed")
+    add_budget_arguments(s)
     s.add_argument("--time-limit", type=float, default=-1, help="mapper time limit in seconds (-1: none)")
     s.set_defaults(func=run_sfm)

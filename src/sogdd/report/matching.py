@@ -8,7 +8,7 @@ import numpy as np
 
 from ..evaluation.matching.protocol import SPLITS, THRESHOLDS
 
-__all__ = ["homography_table", "matching_markdown", "plot_mma"]
+__all__ = ["budget_table", "homography_table", "matching_markdown", "plot_mma"]
 
 
 def matching_markdown(results: dict, info: dict) -> str:
@@ -88,6 +88,75 @@ def homography_table(paths: list[Path]) -> str:
         "(SuperGlue's `pose_auc`, used by LoFTR on HPatches); H from the mutual-NN matches by MAGSAC++ "
         "(`cv2.USAC_MAGSAC`, 3 px); a failed estimate counts as an infinite error. Median corner error in "
         "px over the pairs. With 5 to 8 pairs per set, one pair moves an AUC by 0.1 to 0.2.\n")
+
+
+def _set_name(info: dict, fallback: str) -> str:
+    seqs = info.get("sequences", [])
+    return info.get("layout", fallback) + (f" `{seqs[0]}`" if len(seqs) == 1 else "")
+
+
+def _base_key(s: dict) -> str:
+    """A detector without its top-k: the key that pairs a budget run with the default run."""
+    import json
+
+    spec = s.get("spec") or {}
+    return json.dumps([spec.get("detector"), spec.get("params"), spec.get("remove_border"),
+                       spec.get("descriptor"), spec.get("desc_size")], sort_keys=True, default=str)
+
+
+def budget_table(paths: list[Path]) -> str:
+    """Matching at an equal budget beside the detectors' defaults: MMA@1 / MMA@3 (features) per set.
+
+    ``paths`` are ``matching.json`` files; a run made with ``--max-features N``
+    records ``budget: N`` in every result. Rows are the detectors that have a
+    budget result; each set (layout and sequence) gives two columns, the
+    detector at its defaults and at the budget. A default run is paired with a
+    budget run of the same detector, parameters, border and descriptor (its own
+    ``top_k`` aside; the run without one is preferred). Empty string when no
+    run has a budget.
+    """
+    import json
+
+    sets: dict[str, dict] = {}
+    for p in paths:
+        obj = json.loads(Path(p).read_text())
+        for label, s in obj.items():
+            name = _set_name(s.get("benchmark") or {}, Path(p).parent.name)
+            cell = sets.setdefault(name, {"n_pairs": (s.get("benchmark") or {}).get("n_pairs", "?"),
+                                          "default": {}, "budget": {}})
+            key = _base_key(s)
+            if s.get("budget"):
+                cell["budget"][key] = (label, s)
+            elif key not in cell["default"] or (s.get("spec") or {}).get("top_k") is None:
+                cell["default"][key] = (label, s)
+    budgets = sorted({s["budget"] for c in sets.values() for _, s in c["budget"].values()})
+    if not budgets:
+        return ""
+    names = [n for n, c in sets.items() if c["budget"]]
+    keys = list(dict.fromkeys(k for n in names for k in sets[n]["budget"]))
+
+    def cell(entry) -> str:
+        if entry is None:
+            return "–"
+        s = entry[1]
+        return f"{_f(s['mma']['overall'][0])} / {_f(s['mma']['overall'][2])} ({s['features']:.0f})"
+
+    n_txt = ", ".join(str(b) for b in budgets)
+    head = "| detector | " + " | ".join(f"{n} ({sets[n]['n_pairs']} pairs): defaults | at {n_txt}"
+                                       for n in names) + " |"
+    lines = [head, "|---|" + "---|---|" * len(names)]
+    for k in keys:
+        label = next((sets[n]["default"][k][0] for n in names if k in sets[n]["default"]), None)
+        if label is None:
+            label = next(sets[n]["budget"][k][0] for n in names if k in sets[n]["budget"])
+        cells = [f"{cell(sets[n]['default'].get(k))} | {cell(sets[n]['budget'].get(k))}" for n in names]
+        lines.append(f"| `{label}` | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n\n" + (
+        f"MMA@1 / MMA@3 (mean features per image), overall. **At {n_txt}**: every detector keeps its "
+        f"{n_txt} strongest points per image (`sogdd eval matching --max-features N`), so the detectors are "
+        "compared at equal counts; a detector that finds fewer keeps all of its points (the count shows it). "
+        "At their defaults the detectors return between a few hundred and ten thousand points, and MMA "
+        "falls as the count grows.\n")
 
 
 def _f(v, digits: int = 3) -> str:

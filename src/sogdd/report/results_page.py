@@ -32,7 +32,7 @@ from ..evaluation.specs import DetectorSpec, default_fast_specs, default_gt_spec
 from .chessboard_section import chessboard_stage
 from .fig1_section import fig1_stage
 from .gt import PAPER_ROWS, gt_overlay_montage, paper_vs_ours
-from .matching import homography_table
+from .matching import budget_table, homography_table
 from .overlays import save_png
 from .plots import repeatability_figure
 from .resolution_section import resolution_stage
@@ -187,6 +187,9 @@ def downstream_stage(folder: Path, page_dir: Path) -> list[str]:
           "Oxford `graf`, the 8 HOMOGR pairs), not the 540 pairs of the full HPatches benchmark; every "
           "detector is described with OpenCV SIFT (the paper's SOSNet weights and REKD orientation filter "
           "are not available); homography AUC is not in the paper.\n"]
+    bud = budget_table(sorted(folder.glob("matching_*/matching.json")))
+    if bud:
+        md += ["\n### Matching at an equal budget beside the defaults\n", bud]
     hom = homography_table(sorted(folder.glob("matching_*/matching.json")))
     if hom:
         md += ["\n### Homography accuracy beside MMA\n", hom,

@@ -27,10 +27,36 @@ def _fmt(v, nd=2):
     return str(v)
 
 
+def _spread(r: dict, key: str, nd: int) -> str:
+    """``median (min–max)`` over the seeds where the run has them, else the single value."""
+    sp = (r.get("spread") or {}).get(key)
+    if key in ("rotation_deg_median", "position_median"):
+        v = r.get(key, (r.get("pose_errors") or {}).get(key))
+    else:
+        v = r.get(key)
+    if not sp:
+        return _fmt(v, nd) if key != "points" or v is None else str(int(round(v)))
+    if key == "points":
+        return f"{sp['median']:.0f} ({sp['min']:.0f}–{sp['max']:.0f})"
+    return f"{sp['median']:.{nd}f} ({sp['min']:.{nd}f}–{sp['max']:.{nd}f})"
+
+
 def sfm_markdown(obj: dict, dataset: str, paper_csv: str | Path | None = None) -> str:
-    """Table 2-style Markdown: our rows, then the paper's rows for the same data set (from ``paper_csv``)."""
+    """Table 2-style Markdown: our rows, then the paper's rows for the same data set (from ``paper_csv``).
+
+    Rows run over several seeds (``sogdd eval sfm --seeds``) show ``median (min–max)`` over the seeds
+    for the points, the reprojection error and the median rotation and position errors; their
+    registered count is the smallest over the seeds.
+    """
+    seeds = sorted({tuple(r["seeds"]) for r in obj.values() if r.get("seeds")})
+    budgets = sorted({r["budget"] for r in obj.values() if r.get("budget")})
+    notes = ([f"Seeds: {', '.join(','.join(map(str, s)) for s in seeds)}; numbers are the median over the "
+              "seeds (min–max), #reg. images the smallest."] if seeds else [])
+    notes += [f"Equal budget: every detector keeps its {', '.join(map(str, budgets))} strongest points per "
+              "image."] if budgets else []
     lines = [
         f"Data set: {dataset}",
+        *(["", *notes] if notes else []),
         "",
         "| method | source | #reg. images | #sparse points | #dense points | track length | reproj. error (px) "
         "| features/img | seconds | rot. err. (deg, median) | pos. err. (median) |",
@@ -43,11 +69,11 @@ def sfm_markdown(obj: dict, dataset: str, paper_csv: str | Path | None = None) -
         if gpu:
             dense = f"{gpu['points']} (CUDA run, images <= {gpu['max_image_size']} px)"
         lines.append(
-            f"| `{label}` | this run | {r['registered']}/{r['images']} | {r['points']} | "
+            f"| `{label}` | this run | {r['registered']}/{r['images']} | {_spread(r, 'points', 0)} | "
             f"{dense} | "
-            f"{_fmt(r.get('track_length'))} | {_fmt(r.get('reproj_error'))} | {r['features']:.0f} | "
-            f"{_fmt(r.get('seconds'), 1)} | {_fmt(pe.get('rotation_deg_median'), 3)} | "
-            f"{_fmt(pe.get('position_median'), 4)} |"
+            f"{_fmt(r.get('track_length'))} | {_spread(r, 'reproj_error', 2)} | {r['features']:.0f} | "
+            f"{_fmt(r.get('seconds'), 1)} | {_spread({**pe, **r}, 'rotation_deg_median', 3)} | "
+            f"{_spread({**pe, **r}, 'position_median', 4)} |"
         )
     for p in paper_rows(paper_csv, dataset):
         lines.append(

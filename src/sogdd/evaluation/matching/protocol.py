@@ -31,6 +31,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -38,6 +39,7 @@ import numpy as np
 from ...image.files import read_image
 from ..features import FeatureSet, extract_features
 from ..specs import DetectorSpec, build_detector
+from .budget import map_specs, with_budget
 from .data import D2NET_EXCLUDED, HomographySequence
 from .homography import AUC_THRESHOLDS, auc_of_errors, corner_error, estimate_homography
 
@@ -224,6 +226,24 @@ def evaluate_features(
     return res
 
 
+def _evaluate_one(spec: DetectorSpec, sequences, thresholds, feature_dir, method_names, progress
+                  ) -> MatchingResult:
+    det = build_detector(spec)
+    method = (method_names or {}).get(spec.label) or _safe(spec.label)
+
+    def feats(seq: HomographySequence, path: Path) -> FeatureSet:
+        fs = extract_features(read_image(path), spec, det)
+        if feature_dir is not None:
+            d = Path(feature_dir) / seq.name
+            d.mkdir(parents=True, exist_ok=True)
+            fs.save_npz(d / f"{path.name}.{method}")
+        return fs
+
+    r = evaluate_features(sequences, feats, label=spec.label, thresholds=thresholds, progress=progress)
+    r.spec = spec.to_json()
+    return r
+
+
 def evaluate_specs(
     sequences: Sequence[HomographySequence],
     specs: Sequence[DetectorSpec],
@@ -232,30 +252,28 @@ def evaluate_specs(
     feature_dir: str | Path | None = None,
     method_names: dict[str, str] | None = None,
     progress: Callable[[str], None] | None = None,
+    max_features: int | None = None,
+    jobs: int = 1,
 ) -> dict[str, MatchingResult]:
     """Evaluate each detector spec; optionally save every image's features.
 
     Features go to ``feature_dir/<sequence>/<image>.<method>`` in D2-Net's
     ``.npz`` layout, ``<method>`` being ``method_names[label]`` or the label
-    with unsafe characters replaced.
+    with unsafe characters replaced. ``max_features`` gives every detector the
+    same budget (:func:`.budget.with_budget`: labels gain ``:top_k=N``);
+    ``jobs`` evaluates the detectors in that many processes (progress messages
+    then come only as each detector finishes).
     """
-    out = {}
-    for spec in specs:
-        det = build_detector(spec)
-        method = (method_names or {}).get(spec.label) or _safe(spec.label)
+    specs = [with_budget(s, max_features) for s in specs]
+    fn = partial(_evaluate_one, sequences=list(sequences), thresholds=tuple(thresholds),
+                 feature_dir=feature_dir, method_names=method_names, progress=progress if jobs <= 1 else None)
 
-        def feats(seq: HomographySequence, path: Path, _det=det, _spec=spec, _method=method) -> FeatureSet:
-            fs = extract_features(read_image(path), _spec, _det)
-            if feature_dir is not None:
-                d = Path(feature_dir) / seq.name
-                d.mkdir(parents=True, exist_ok=True)
-                fs.save_npz(d / f"{path.name}.{_method}")
-            return fs
+    def done(spec: DetectorSpec, r: MatchingResult) -> None:
+        if progress is not None and jobs > 1:
+            progress(f"{spec.label}: done in {r.seconds:.0f} s")
 
-        r = evaluate_features(sequences, feats, label=spec.label, thresholds=thresholds, progress=progress)
-        r.spec = spec.to_json()
-        out[spec.label] = r
-    return out
+    results = map_specs(fn, specs, jobs, on_result=done)
+    return {s.label: r for s, r in zip(specs, results)}
 
 
 def _shape(fs: FeatureSet, path: Path) -> tuple[int, int]:

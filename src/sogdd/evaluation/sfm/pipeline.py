@@ -6,7 +6,7 @@ Pipeline, per detector (:func:`run_sfm`), one function per stage:
    camera (seeded from ``K.txt`` or a YAML next to the images, see
    :func:`sogdd.formats.colmap.find_camera_prior`);
 2. :func:`feature_stage`: detect with the detector spec, describe every point
-   with OpenCV's SIFT descriptor (:func:`sogdd.descriptors`), write keypoints
+   with OpenCV's SIFT descriptor (:func:`sogdd.describe`), write keypoints
    (+0.5: COLMAP's pixel centres) and ``uint8`` descriptors;
 3. :func:`match_stage`: match every pair, either with COLMAP's exhaustive CPU
    matcher (``matcher="colmap"``: mutual nearest neighbours, no ratio test, as
@@ -45,7 +45,7 @@ from ..specs import DetectorSpec, build_detector
 from .cameras import camera_errors, read_strecha_cameras
 from .dense import dense_points
 
-__all__ = ["evaluate_sfm", "feature_stage", "import_stage", "map_stage", "match_stage", "model_stats",
+__all__ = ["feature_stage", "import_stage", "map_stage", "match_stage", "model_stats",
            "run_sfm"]
 
 
@@ -255,7 +255,10 @@ def run_sfm(
         rec = recs[key]
         result.update(model_stats(rec), model_dir=str(sparse / str(key)))
         if gt_cameras is not None:
-            result["pose_errors"] = _pose_errors(rec, gt_cameras)
+            result["pose_errors"] = pe = _pose_errors(rec, gt_cameras)
+            if pe.get("aligned"):
+                result.update(rotation_deg_median=pe["rotation_deg_median"],
+                              position_median=pe["position_median"])
         t0 = time.perf_counter()
         if dense:
             try:
@@ -273,20 +276,3 @@ def run_sfm(
 
 def _safe(label: str) -> str:
     return "".join(ch if ch.isalnum() or ch in "-_=" else "_" for ch in label)
-
-
-def evaluate_sfm(image_dir: str | Path, specs: list[DetectorSpec], work_root: str | Path, *, dataset: str,
-                 on_result: Callable[[dict], None] | None = None, **options) -> dict[str, dict]:
-    """:func:`run_sfm` for every spec (work in ``work_root/<dataset>-<label>``): ``{label: result}``.
-
-    ``on_result`` gets the results so far after each detector, so that a caller
-    can keep what is done if a later detector fails or is stopped.
-    """
-    out: dict[str, dict] = {}
-    for spec in specs:
-        r = run_sfm(image_dir, spec, Path(work_root) / f"{dataset}-{_safe(spec.label)}", **options)
-        r["dataset"] = dataset
-        out[spec.label] = r
-        if on_result is not None:
-            on_result(out)
-    return out
