@@ -7,8 +7,13 @@ common folder>.<format>`` (``photos/a/0001.jpg`` and ``photos/b/0001.jpg`` give
 file; the same file given twice is processed once.
 
 Resume. A feature file counts as done only if it loads, and records the same
-resolved parameters, the same sogdd version, and the size and modification
-time of the image file it was made from; anything else is redone. Temporary
+resolved parameters (every one: a changed threshold or ``max_corners`` redoes
+it), the same sogdd version, and the size and SHA-256 of the image file it was
+made from; anything else is redone. The content hash, not the modification
+time, decides: an edit in place that keeps the size and the time (a rewrite
+within one clock tick, ``cp -p``, ``touch -r``) is still seen, and a file only
+touched or copied with a new time is not redone for nothing (hashing costs
+about 10 ms for a 10 MB photo, far less than its detection). Temporary
 files an interrupted run left behind are removed when the next run starts.
 Files are written atomically (:func:`sogdd.formats.features.write_features`).
 
@@ -31,6 +36,7 @@ import ctypes
 import glob
 import os
 import signal
+import socket
 import sys
 import threading
 from collections import deque
@@ -41,19 +47,23 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import cv2
+import numpy as np
 
 from ._jit import thread_count
 from ._version import __version__
 from .detector import detect_corners
 from .formats.features import (
     FORMATS,
+    check_name,
     make_record,
     params_dict,
     read_features,
     remove_stale_temporaries,
+    source_stamp,
     write_features,
 )
 from .image.files import list_images, opencv_message, read_image
+from .image.validate import check_mask
 from .params import resolve_params
 
 __all__ = [
@@ -144,33 +154,37 @@ class BatchItem:
     message: str = ""
 
 
-def _current(target: Path, image: str, params: dict) -> bool:
-    """Whether ``target`` loads and was made from this image file, unchanged, with these parameters."""
-
+def _current(target: Path, params: dict, source: tuple) -> bool:
+    """Whether ``target`` loads and was made with these parameters from a file with the stamp ``source``
+    (:func:`~sogdd.formats.features.source_stamp`: its size and content hash are compared)."""
+    size, _, digest = source
+    if digest is None:
+        return False
     try:
         recs = read_features(target)
-        st = os.stat(image)
-    except (ValueError, OSError):
+    except ValueError:
         return False
     if len(recs) != 1:
         return False
     r = recs[0]
-    return (r.params == params and r.sogdd_version == __version__ and r.source_size == st.st_size
-            and r.source_mtime_ns == st.st_mtime_ns)
+    return (r.params == params and r.sogdd_version == __version__ and r.source_size == size
+            and r.source_sha256 == digest)
 
 
 def detect_to_file(image: str, target: str, fmt: str, preset: str, params: dict, resume: bool,
-                   read_options: dict | None = None, device: str = "cpu") -> BatchItem:
+                   read_options: dict | None = None, device: str = "cpu", mask=None) -> BatchItem:
     """Detect on one image and write its feature file (the unit of work, picklable)."""
     p = resolve_params(preset, **params)
     out = Path(target)
-    if resume and _current(out, image, params_dict(preset, p)):
+    source = source_stamp(image)  # before reading: an edit during detection is seen next time
+    if resume and _current(out, params_dict(preset, p, mask), source):
         return BatchItem(image, "skipped")
     try:
+        check_name(image)
         img = read_image(image, **(read_options or {}))
-        c = detect_corners(img, preset=preset, device=device, **params)
+        c = detect_corners(img, preset=preset, mask=mask, device=device, **params)
         out.parent.mkdir(parents=True, exist_ok=True)
-        write_features(out, make_record(image, c, img.shape, preset, p), fmt)
+        write_features(out, make_record(image, c, img.shape, preset, p, source, mask=mask), fmt)
     except (ValueError, OSError, cv2.error) as exc:
         msg = opencv_message(exc) if isinstance(exc, cv2.error) else str(exc)
         return BatchItem(image, "failed", message=msg if str(image) in msg else f"{image}: {msg}")
@@ -192,6 +206,7 @@ def run_batch(
     progress: Callable[[BatchItem], None] | None = None,
     read_options: dict | None = None,
     device: str = "cpu",
+    mask=None,
 ) -> list[BatchItem]:
     """Detect on every image, one feature file each; a bad image never stops the others.
 
@@ -200,17 +215,20 @@ def run_batch(
     :func:`sogdd.read_image` (``max_pixels``, ``allow_corrupt``,
     ``ignore_orientation``). ``device="cuda"`` detects on the GPU
     (:mod:`sogdd.gpu`); each worker process opens its own CUDA context, so with
-    ``jobs > 1`` they share the GPU. Returns one :class:`BatchItem` per image, in
-    input order. Raises :class:`BatchInterrupted` on ``SIGINT``/``SIGTERM``.
+    ``jobs > 1`` they share the GPU. ``mask`` (uint8 or bool, the images' size)
+    applies to every image; an image of another size fails. Returns one
+    :class:`BatchItem` per image, in input order. Raises :class:`BatchInterrupted` on ``SIGINT``/``SIGTERM``.
     """
     params = dict(params or {})
     _check_batch(preset, params, fmt, jobs, device, in_process=jobs == 1 and not scheduler)
+    if mask is not None:
+        mask = check_mask(mask, np.shape(mask))  # a bad dtype fails once, not once per image
     names = [str(p) for p in images]
     rel = relative_names(names)  # collisions fail before any work
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     remove_stale_temporaries(out)
-    args = [(n, str(feature_path(out, r, fmt)), fmt, preset, params, resume, read_options, device)
+    args = [(n, str(feature_path(out, r, fmt)), fmt, preset, params, resume, read_options, device, mask)
             for n, r in zip(names, rel)]
     results: dict[str, BatchItem] = {}
 
@@ -335,6 +353,7 @@ def _run_dask(args: list[tuple], scheduler: str, done: Callable[[BatchItem], Non
         from distributed import Client, as_completed
     except ImportError as exc:
         raise ValueError("--scheduler needs Dask: pip install 'sogdd[distributed]'") from exc
+    _probe_scheduler(scheduler)
     try:
         client = Client(scheduler, timeout="10s")
     except OSError as exc:
@@ -345,3 +364,24 @@ def _run_dask(args: list[tuple], scheduler: str, done: Callable[[BatchItem], Non
             done(f.result())
     finally:
         client.close()
+
+
+def _probe_scheduler(address: str) -> None:
+    """Fail at once when nothing listens at a ``tcp://host:port`` scheduler (Dask would retry for 10 s).
+
+    Only a refused or unresolvable address fails here; one that does not answer
+    within a second is left to Dask's own timeout.
+    """
+    scheme, _, rest = address.rpartition("://")
+    if scheme not in ("", "tcp"):
+        return  # tls://, ucx://, inproc://: Dask's business
+    host, _, port = rest.rpartition(":")
+    if not host or not port.isdigit():
+        return
+    try:
+        socket.create_connection((host.strip("[]"), int(port)), timeout=1.0).close()
+    except (ConnectionRefusedError, socket.gaierror) as exc:
+        raise ValueError(f"cannot reach the Dask scheduler at {address}: "
+                         f"{exc.strerror or exc} (is it running?)") from None
+    except OSError:
+        pass  # a timeout or an unreachable network: Dask's timeout decides

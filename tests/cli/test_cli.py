@@ -19,8 +19,8 @@ def test_detect_csv_json_npz_overlay(tmp_path, capsys):
     f = _write(tmp_path / "a.png", img)
     assert main(["detect", f]) == 0
     out = capsys.readouterr().out.splitlines()
-    assert out[0].startswith("# sogdd {") and out[1] == "x,y,response,size"  # provenance, then the header
-    rows = np.array([[float(v) for v in ln.split(",")] for ln in out[2:]])
+    assert out[0] == "x,y,response,size"  # stdout: the header, then the rows, nothing else
+    rows = np.array([[float(v) for v in ln.split(",")] for ln in out[1:]])
     assert len(rows) >= 0.9 * len(gt) and np.all(rows[:, 2] > 1e9)
     assert main(["detect", f, "--format", "json", "--max-corners", "5"]) == 0
     (obj,) = json.loads(capsys.readouterr().out)  # always a list, one object per image
@@ -41,8 +41,8 @@ def test_detect_batch_with_one_bad_file(tmp_path, capsys):
     code = main(["detect", good1, str(bad), good2, "-o", str(tmp_path / "all.csv")])
     assert code == 2
     lines = (tmp_path / "all.csv").read_text().splitlines()
-    assert lines[1] == "image,x,y,response,size"
-    images = {ln.split(",")[0] for ln in lines[2:]}
+    assert lines[0] == "image,x,y,response,size"
+    images = {ln.split(",")[0] for ln in lines[1:]}
     assert images == {"g1.png", "g2.png"}  # relative to the inputs' common folder
     assert "bad.png" in capsys.readouterr().err
 

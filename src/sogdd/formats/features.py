@@ -12,46 +12,61 @@ records; each record has
   which ``sogdd colmap export`` writes into the database. ``sogdd detect``
   does not write them; :func:`read_descriptors` is the one reader;
 - provenance: ``params`` (every resolved detector parameter and the preset),
-  ``sogdd_version``, ``source_size`` and ``source_mtime_ns`` (of the image file
-  when it was read), which ``--resume`` compares before trusting a file.
+  ``sogdd_version``, ``source_size``, ``source_mtime_ns`` and
+  ``source_sha256`` (of the image file, taken before it was read), which
+  ``--resume`` compares before trusting a file.
 
 Encodings:
 
 - ``npz``: one image: the arrays above by name (``params`` as a JSON string);
   several: ``images`` (M,) and each image's arrays under ``<image>/<name>``.
-- ``csv``: a first line ``# sogdd {json}`` with the provenance of every image,
-  a header, then one row per corner, written with the :mod:`csv` module:
-  ``[image,]x,y,response,size[,level]`` (``image`` when the file holds several
-  images; ``level`` when the parameters have ``levels > 1``). Readers that
-  skip ``#`` comments (``pandas.read_csv(..., comment="#")``) read it as is.
+- ``csv``: a header, then one row per corner, written with the :mod:`csv`
+  module: ``[image,]x,y,response,size[,level]`` (``image`` when the file holds
+  several images; ``level`` when the parameters have ``levels > 1``). Nothing
+  else is in the file, so ``pandas.read_csv(path)`` and ``csv.DictReader``
+  read it with no options. The provenance goes to a *sidecar*, ``<file>.json``
+  (``all.csv`` -> ``all.csv.json``): ``{"format": "sogdd-csv-sidecar",
+  "csv_sha256": ..., "images": [one object per image: image, image_shape and
+  the provenance]}``. Why a sidecar: a ``# sogdd {json}`` first line (sogdd <=
+  0.1) made every plain CSV reader see JSON fragments as column names, and for
+  a large batch it was most of the file; a sidecar harms no reader and keeps
+  images without corners (which have no rows). ``csv_sha256`` binds it to the
+  bytes of its CSV: a sidecar that does not match (the CSV edited or replaced,
+  or a run interrupted between the two renames) is ignored, and the CSV then
+  reads as plain rows without provenance (so ``--resume`` redoes it). CSV on
+  stdout is header and rows only. Files with the old first line still read.
 - ``json``: always a list with one object per image: ``image``,
   ``image_shape``, ``n``, ``x``, ``y``, ``response``, ``size``, ``level``,
-  ``params``, ``sogdd_version``, ``source_size``, ``source_mtime_ns``.
+  ``params``, ``sogdd_version``, ``source_size``, ``source_mtime_ns``,
+  ``source_sha256``.
 
-Files are written to a temporary file (``.<name>.<random>.sogdd.tmp``) in the
-target folder, then renamed, so an interrupted run never leaves a half-written
-file; the final file gets the permissions of a normal file (0644 under umask 022).
+Image names must be valid UTF-8 in every encoding (a file name such as the
+bytes ``b"caf\\xe9.png"`` on Linux is refused by :func:`check_name`, naming it
+escaped). Files are written to a temporary file (``.<name>.<random>.sogdd.tmp``)
+in the target folder, then renamed, so an interrupted run never leaves a
+half-written file; the final file gets the permissions of a normal file (0644
+under umask 022). A failed write raises ``OSError`` naming the target, never
+the temporary file.
 """
 
 from __future__ import annotations
 
-import csv
-import dataclasses
 import io
 import json
 import os
 import tempfile
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from .._version import __version__
 from ..corners import Corners
+from .feature_csv import SIDECAR, encode_csv, encode_sidecar, read_csv, sidecar_path
+from .record import META, FeatureRecord, check_name, make_record, params_dict, record, source_stamp
 
 __all__ = [
     "FORMATS",
     "FeatureRecord",
+    "check_name",
     "encode_features",
     "load_features",
     "make_record",
@@ -59,66 +74,33 @@ __all__ = [
     "read_descriptors",
     "read_features",
     "remove_stale_temporaries",
+    "sidecar_path",
+    "source_stamp",
     "write_features",
 ]
 
 FORMATS = ("npz", "csv", "json")
 TMP_SUFFIX = ".sogdd.tmp"
-_META = ("params", "sogdd_version", "source_size", "source_mtime_ns")
-
-
-@dataclass(frozen=True)
-class FeatureRecord:
-    """One image's corners with their provenance (see the module docstring)."""
-
-    image: str
-    corners: Corners
-    image_shape: tuple[int, int]
-    params: dict | None = None
-    sogdd_version: str | None = None
-    source_size: int | None = None
-    source_mtime_ns: int | None = None
-
-    def meta(self) -> dict:
-        """The provenance fields and the image shape, JSON-ready."""
-        return {"image": self.image, "image_shape": [int(v) for v in self.image_shape],
-                **{k: getattr(self, k) for k in _META}}
-
-
-def params_dict(preset: str, params) -> dict:
-    """Resolved :class:`~sogdd.params.Params` as a JSON-ready dict, with the preset's name."""
-    d = {k: list(v) if isinstance(v, tuple) else v for k, v in dataclasses.asdict(params).items()}
-    return {"preset": preset, **d}
-
-
-def make_record(image: str | os.PathLike, corners: Corners, shape: tuple[int, ...], preset: str,
-                params) -> FeatureRecord:
-    """A record for ``corners`` detected on the file ``image`` with resolved ``params``."""
-
-    try:
-        st = os.stat(image)
-        size, mtime = int(st.st_size), int(st.st_mtime_ns)
-    except OSError:
-        size = mtime = None
-    return FeatureRecord(str(image), corners, (int(shape[0]), int(shape[1])), params_dict(preset, params),
-                         __version__, size, mtime)
 
 
 def _as_records(records) -> list[FeatureRecord]:
-    return [records] if isinstance(records, FeatureRecord) else list(records)
-
-
-def _with_level(recs: list[FeatureRecord]) -> bool:
-    return any((r.params or {}).get("levels", 1) > 1 or np.any(r.corners.level) for r in recs)
+    recs = [records] if isinstance(records, FeatureRecord) else list(records)
+    for r in recs:
+        check_name(r.image)
+    return recs
 
 
 def encode_features(records: FeatureRecord | list[FeatureRecord], fmt: str) -> bytes:
-    """The bytes of one feature file in format ``fmt`` holding ``records``."""
+    """The bytes of one feature file in format ``fmt`` holding ``records``.
+
+    For ``csv`` these are the header and the rows only; the provenance is the
+    sidecar's (:func:`write_features` writes both).
+    """
     recs = _as_records(records)
     if fmt == "npz":
         return _encode_npz(recs)
     if fmt == "csv":
-        return _encode_csv(recs)
+        return encode_csv(recs)
     if fmt == "json":
         return (json.dumps([_json_object(r) for r in recs]) + "\n").encode()
     raise ValueError(f"unknown format {fmt!r}; choose from {', '.join(FORMATS)}")
@@ -130,7 +112,8 @@ def _npz_arrays(r: FeatureRecord) -> dict[str, np.ndarray]:
             "image_shape": np.asarray(r.image_shape, np.int64), "image": np.asarray(r.image),
             "params": np.asarray(json.dumps(r.params)), "sogdd_version": np.asarray(r.sogdd_version or ""),
             "source_size": np.asarray(-1 if r.source_size is None else r.source_size, np.int64),
-            "source_mtime_ns": np.asarray(-1 if r.source_mtime_ns is None else r.source_mtime_ns, np.int64)}
+            "source_mtime_ns": np.asarray(-1 if r.source_mtime_ns is None else r.source_mtime_ns, np.int64),
+            "source_sha256": np.asarray(r.source_sha256 or "")}
 
 
 def _encode_npz(recs: list[FeatureRecord]) -> bytes:
@@ -145,47 +128,59 @@ def _encode_npz(recs: list[FeatureRecord]) -> bytes:
     return buf.getvalue()
 
 
-def _encode_csv(recs: list[FeatureRecord]) -> bytes:
-    many, level = len(recs) > 1, _with_level(recs)
-    buf = io.StringIO()
-    buf.write("# sogdd " + json.dumps({"images": [r.meta() for r in recs]}) + "\n")
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow((["image"] if many else []) + ["x", "y", "response", "size"] + (["level"] if level else []))
-    for r in recs:
-        c = r.corners
-        for (x, y), resp, s, lv in zip(c.xy, c.response, c.size, c.level):
-            w.writerow(([r.image] if many else []) + [f"{x:.4f}", f"{y:.4f}", f"{resp:.9g}", f"{s:.4g}"]
-                       + ([int(lv)] if level else []))
-    return buf.getvalue().encode()
-
-
 def _json_object(r: FeatureRecord) -> dict:
     c = r.corners
     return {"image": r.image, "image_shape": [int(v) for v in r.image_shape], "n": len(c),
             "x": c.xy[:, 0].round(4).tolist(), "y": c.xy[:, 1].round(4).tolist(),
             "response": c.response.tolist(), "size": c.size.tolist(), "level": c.level.tolist(),
-            **{k: getattr(r, k) for k in _META}}
+            **{k: getattr(r, k) for k in META}}
 
 
 def write_features(path: str | os.PathLike, records: FeatureRecord | list[FeatureRecord],
                    fmt: str | None = None) -> None:
     """Write one feature file atomically (a temporary file, then ``os.replace``).
 
-    ``fmt`` defaults to the file's suffix. The file gets ``0666 & ~umask``
-    permissions, as ``open()`` would give it.
+    ``fmt`` defaults to the file's suffix. A CSV file gets its provenance
+    sidecar :func:`sidecar_path` beside it (both temporary files are written
+    before either is renamed). The files get ``0666 & ~umask`` permissions, as
+    ``open()`` would give them. Raises ``OSError`` naming ``path`` (never the
+    temporary file) when the folder cannot be written, the disk is full or
+    ``path`` is a folder.
     """
     path = Path(path)
     fmt = fmt or path.suffix.lower().lstrip(".")
-    data = encode_features(records, fmt)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=TMP_SUFFIX, dir=path.parent)
+    recs = _as_records(records)
+    data = encode_features(recs, fmt)
+    files = [(path, data)]
+    if fmt == "csv":
+        files.append((sidecar_path(path), encode_sidecar(recs, data)))
+    for target, _ in files:
+        if target.is_dir():
+            raise IsADirectoryError(f"{target}: is a folder, not a file name")
+    temps: list[str] = []
+    try:
+        try:
+            for target, blob in files:
+                temps.append(_write_temporary(target, blob))
+            for (target, _), tmp in zip(files, temps):
+                os.replace(tmp, target)
+        except OSError as exc:  # the target's name, not the temporary file's
+            raise type(exc)(exc.errno, f"{path}: cannot write ({exc.strerror or exc})") from None
+    finally:
+        for tmp in temps:
+            Path(tmp).unlink(missing_ok=True)
+
+
+def _write_temporary(target: Path, data: bytes) -> str:
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=TMP_SUFFIX, dir=target.parent)
     try:
         with os.fdopen(fd, "wb") as f:
             f.write(data)
         os.chmod(tmp, 0o666 & ~_umask())
-        os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+    return tmp
 
 
 def _umask() -> int:
@@ -206,12 +201,6 @@ def remove_stale_temporaries(folder: str | os.PathLike) -> int:
     return n
 
 
-def _record(image, c: Corners, shape, meta: dict) -> FeatureRecord:
-    return FeatureRecord(str(image), c, tuple(int(v) for v in shape), meta.get("params"),
-                         meta.get("sogdd_version") or None, meta.get("source_size"),
-                         meta.get("source_mtime_ns"))
-
-
 def _read_npz(p: Path) -> list[FeatureRecord]:
     with np.load(p, allow_pickle=False) as z:
         keys = set(z.files)
@@ -223,44 +212,28 @@ def _read_npz(p: Path) -> list[FeatureRecord]:
             level = g["level"] if "level" in g else None
             c = Corners(g["xy"], g["response"], g.get("size"), level)
             meta = {"params": json.loads(str(g["params"])) if "params" in g else None,
-                    "sogdd_version": str(g["sogdd_version"]) if "sogdd_version" in g else None}
+                    "sogdd_version": str(g["sogdd_version"]) if "sogdd_version" in g else None,
+                    "source_sha256": str(g["source_sha256"]) if "source_sha256" in g else None}
             for k in ("source_size", "source_mtime_ns"):
                 v = int(g[k]) if k in g else -1
                 meta[k] = None if v < 0 else v
             image = str(g["image"]) if "image" in g else (name or p.stem)
             shape = g["image_shape"] if "image_shape" in g else (0, 0)
-            out.append(_record(image, c, shape, meta))
-    return out
-
-
-def _read_csv(p: Path) -> list[FeatureRecord]:
-    with open(p, newline="") as f:
-        first = f.readline()
-        metas = json.loads(first[len("# sogdd "):])["images"] if first.startswith("# sogdd ") else []
-        if not metas:
-            f.seek(0)
-        rows = list(csv.DictReader(f))
-    if not metas:
-        metas = [{"image": p.stem, "image_shape": [0, 0]}]
-    out = []
-    for m in metas:
-        mine = [r for r in rows if r.get("image", m["image"]) == m["image"]]
-        cols = {k: np.array([float(r[k]) for r in mine]) for k in ("x", "y", "response", "size")}
-        level = np.array([int(r["level"]) for r in mine]) if mine and "level" in mine[0] else None
-        xy = np.stack([cols["x"], cols["y"]], axis=1) if mine else np.zeros((0, 2))
-        out.append(_record(m["image"], Corners(xy, cols["response"], cols["size"], level), m["image_shape"], m))
+            out.append(record(image, c, shape, meta))
     return out
 
 
 def _read_json(p: Path) -> list[FeatureRecord]:
     objs = json.loads(p.read_text())
+    if isinstance(objs, dict) and objs.get("format") == SIDECAR:
+        raise ValueError(f"the provenance sidecar of a CSV; read {p.name[: -len('.json')]} instead")
     if isinstance(objs, dict):  # files of sogdd <= 0.1 held one object
         objs = [objs]
     out = []
     for o in objs:
         xy = np.stack([o["x"], o["y"]], axis=1) if o["n"] else np.zeros((0, 2))
         c = Corners(xy, o["response"], o["size"], o.get("level"))
-        out.append(_record(o["image"], c, o.get("image_shape", (0, 0)), o))
+        out.append(record(o["image"], c, o.get("image_shape", (0, 0)), o))
     return out
 
 
@@ -275,7 +248,7 @@ def read_features(path: str | os.PathLike) -> list[FeatureRecord]:
     if fmt not in FORMATS:
         raise ValueError(f"{p}: not a feature file (expected .npz, .csv or .json)")
     try:
-        recs = {"npz": _read_npz, "csv": _read_csv, "json": _read_json}[fmt](p)
+        recs = {"npz": _read_npz, "csv": read_csv, "json": _read_json}[fmt](p)
         for r in recs:
             if len(r.corners.xy) != len(r.corners.response):
                 raise ValueError("arrays of different lengths")
