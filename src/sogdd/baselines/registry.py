@@ -78,6 +78,11 @@ class BaselineDetector:
         self._validate()
 
     # -- to override ------------------------------------------------------
+    @classmethod
+    def ready(cls) -> bool:
+        """Whether ``get(name)`` works with no arguments here (the learned entries: their extra)."""
+        return True
+
     def _validate(self) -> None:
         """Check ``self.params``; raise ``ValueError`` (one line) on a bad value."""
 
@@ -236,12 +241,13 @@ def available(include_learned: bool = False) -> list[str]:
     Parameters
     ----------
     include_learned : bool
-        Also list the learned detectors (``disk``, ``aliked``). They need an
-        ONNX model file (``model_path=...``) that OpenCV does not ship, so they
-        are left out by default: every name returned by ``available()`` then
-        works as ``get(name)`` with no arguments.
+        Also list the detectors that cannot run here with no arguments: the
+        learned ones (``xfeat``, ``aliked``, ``disk``) where the ``learned``
+        extra is not installed (``disk`` and ``aliked`` then still run an ONNX
+        file given as ``model_path``). By default every name returned works as
+        ``get(name)`` with no arguments.
     """
-    return [n for n, c in _REGISTRY.items() if include_learned or c.family != "learned"]
+    return [n for n, c in _REGISTRY.items() if include_learned or c.ready()]
 
 
 def get(name: str, **params: Any) -> BaselineDetector:
