@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import errno
 import json
 import math
 import os
@@ -20,6 +21,7 @@ __all__ = [
     "print_json",
     "reference_file",
     "reporter",
+    "write_stdout",
 ]
 
 
@@ -94,7 +96,43 @@ def jsonable(obj):
 
 def print_json(obj) -> None:
     """One JSON object on stdout (non-finite floats as null)."""
-    sys.stdout.write(json.dumps(jsonable(obj)) + "\n")
+    write_stdout((json.dumps(jsonable(obj)) + "\n").encode())
+
+
+class OutputClosed(Exception):
+    """Stdout's reader went away (``| head``): the command ends quietly (:func:`sogdd.cli.main.main`)."""
+
+
+def write_stdout(data: bytes) -> None:
+    """All of ``data`` on stdout, or an error: never a silent short write.
+
+    Python's buffered stdout can drop the rest of a large write that the disk
+    only partly took (a full disk gave exit 0 and a truncated CSV), so this
+    writes to the file descriptor itself until every byte is taken. Raises
+    ``OSError`` ("cannot write to stdout: ...") on a full disk or any other
+    write error, and :class:`OutputClosed` when the reader has closed the pipe.
+    """
+    out = sys.stdout
+    try:
+        out.flush()
+        fd = out.fileno()
+    except (AttributeError, OSError, ValueError):  # a captured stream (tests, an embedding program)
+        fd = None
+    try:
+        if fd is None:
+            out.write(data.decode())
+            out.flush()
+            return
+        view = memoryview(data)
+        while view:
+            n = os.write(fd, view)
+            if n <= 0:
+                raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+            view = view[n:]
+    except BrokenPipeError:
+        raise OutputClosed() from None
+    except OSError as exc:
+        raise OSError(exc.errno, f"cannot write to stdout: {exc.strerror or exc}") from None
 
 
 def add_detectors_argument(p: argparse.ArgumentParser, default: str) -> None:

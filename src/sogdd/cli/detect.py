@@ -3,6 +3,11 @@
 Without --out all results go to one output (stdout by default). With --out DIR
 each image gets its own feature file (the schema of sogdd.formats.features), written by
 local worker processes or a Dask cluster, resumable.
+
+A CSV file FILE.csv gets its provenance in FILE.csv.json beside it; CSV on
+stdout is the header and the rows only. Writing stdout: a full disk (or any
+write error) is one error line and exit 2; a reader that stops early (| head)
+ends the command quietly with exit 141, as SIGPIPE ends cat or seq.
 """
 
 from __future__ import annotations
@@ -20,12 +25,27 @@ from tqdm import tqdm
 from .._jit import thread_count
 from ..collection import BatchInterrupted, expand_inputs, relative_names, run_batch
 from ..detector import detect_corners
-from ..formats.features import FeatureRecord, encode_features, make_record, write_features
+from ..formats.features import (
+    FeatureRecord,
+    check_name,
+    encode_features,
+    make_record,
+    source_stamp,
+    write_features,
+)
 from ..image.files import opencv_message, read_image
 from ..image.validate import intensity_hint
 from ..params import resolve_params
+from ._common import write_stdout
 from .overlay import check_overlay_path, save_overlay
-from .params import add_detector_arguments, add_read_arguments, detector_overrides, read_options
+from .params import (
+    add_detector_arguments,
+    add_mask_argument,
+    add_read_arguments,
+    detector_overrides,
+    read_mask,
+    read_options,
+)
 
 # fewer corners than this from an absolute threshold on a structured image earns a hint
 _FEW = 5
@@ -34,7 +54,7 @@ _FEW = 5
 def write_results(records: list[FeatureRecord], fmt: str, output: str) -> None:
     """All images' records into one output (stdout as ``-``), in the schema of :mod:`sogdd.formats.features`."""
     if output == "-":
-        sys.stdout.write(encode_features(records, fmt).decode())
+        write_stdout(encode_features(records, fmt))
     else:
         write_features(output, records, fmt)
 
@@ -65,6 +85,8 @@ def _check_options(args: argparse.Namespace, n_images: int) -> str:
 
 
 def _check_writable(path: Path) -> None:
+    if path.is_dir():
+        raise ValueError(f"--output {path}: is a folder; give a file name (--out DIR: a file per image)")
     folder = path.parent if str(path.parent) else Path(".")
     if not folder.is_dir():
         raise ValueError(f"{path}: folder {folder} does not exist")
@@ -94,26 +116,27 @@ def run(args: argparse.Namespace) -> int:
     p = resolve_params(args.preset, **params)  # bad parameters fail before any work
     thread_count()  # and a bad SOGDD_NUM_THREADS
     reading = read_options(args)
+    mask = read_mask(args.mask, reading)
     paths = expand_inputs(args.images, recursive=args.recursive)
     if not paths:
         raise ValueError("no input images")
     fmt = _check_options(args, len(paths))
     names = relative_names(paths)  # collisions fail before any work
     if args.out:
-        return _run_folder(args, paths, params, fmt, reading)
+        return _run_folder(args, paths, params, fmt, reading, mask)
     many = len(paths) > 1 or Path(args.images[0]).is_dir()
     records: list[FeatureRecord] = []
     failures, hinted = 0, False
     try:
         for path, name in tqdm(list(zip(paths, names)), desc="detect", unit="img", file=sys.stderr,
                                disable=not many):
-            rec, hint = _detect_one(path, args, params, p, reading)
+            rec, hint = _detect_one(path, name if many else str(path), args, params, p, reading, mask)
             if rec is None:
                 failures += 1
                 continue
-            records.append(dataclasses.replace(rec, image=name) if many else rec)  # unique names
+            records.append(rec)
             if hint and not hinted:
-                print(f"sogdd: note: {path}: {hint}", file=sys.stderr)
+                _say(f"sogdd: note: {path}: {hint}")  # above the progress bar, never into its line
                 hinted = True
     except KeyboardInterrupt:
         print(f"sogdd: interrupted after {len(records)} image(s); nothing written", file=sys.stderr)
@@ -125,22 +148,36 @@ def run(args: argparse.Namespace) -> int:
     return 2 if failures else 0
 
 
-def _detect_one(path: Path, args, params: dict, p, reading: dict) -> tuple[FeatureRecord | None, str | None]:
-    """One image's record and hint; a failure is reported on stderr and gives ``(None, None)``."""
+def _say(line: str) -> None:
+    tqdm.write(line, file=sys.stderr)
+
+
+def _detect_one(path: Path, name: str, args, params: dict, p, reading: dict, mask
+                ) -> tuple[FeatureRecord | None, str | None]:
+    """One image's record (named ``name``) and hint; a failure is reported on stderr and gives
+    ``(None, None)``."""
     try:
+        check_name(name)  # a name no output can hold fails this image alone, before any work
+    except ValueError as exc:
+        _say(f"sogdd: error: {exc}")
+        return None, None
+    try:
+        source = source_stamp(path)
         img = read_image(path, **reading)
-        c = detect_corners(img, preset=args.preset, device=args.device, **params)
+        c = detect_corners(img, preset=args.preset, mask=mask, device=args.device, **params)
     except (ValueError, OSError, MemoryError, cv2.error) as exc:
         text = "out of memory" if isinstance(exc, MemoryError) else \
             opencv_message(exc) if isinstance(exc, cv2.error) else str(exc)
-        print(f"sogdd: error: {text if str(path) in text else f'{path}: {text}'}", file=sys.stderr)
+        _say(f"sogdd: error: {text if str(path) in text else f'{path}: {text}'}")
         return None, None
     if args.overlay:
         save_overlay(img, c, args.overlay)
-    return make_record(path, c, img.shape, args.preset, p), _hint_few(img, len(c), p)
+    rec = make_record(path, c, img.shape, args.preset, p, source, mask=mask)
+    return dataclasses.replace(rec, image=name), _hint_few(img, len(c), p)
 
 
-def _run_folder(args: argparse.Namespace, paths: list[Path], params: dict, fmt: str, reading: dict) -> int:
+def _run_folder(args: argparse.Namespace, paths: list[Path], params: dict, fmt: str, reading: dict,
+                mask) -> int:
     """One feature file per image in ``--out``; resumable; processes or Dask."""
     bar = tqdm(total=len(paths), desc="detect", unit="img", file=sys.stderr)
 
@@ -153,7 +190,7 @@ def _run_folder(args: argparse.Namespace, paths: list[Path], params: dict, fmt: 
         items = run_batch(
             paths, args.out, fmt=fmt, preset=args.preset, params=params, resume=args.resume,
             jobs=args.jobs, scheduler=args.scheduler, progress=progress, read_options=reading,
-            device=args.device,
+            device=args.device, mask=mask,
         )
     except BatchInterrupted as exc:
         bar.close()
@@ -186,6 +223,7 @@ def configure(p: argparse.ArgumentParser) -> None:
     p.description = __doc__
     p.add_argument("images", nargs="+", help="image files, folders or glob patterns")
     add_detector_arguments(p)
+    add_mask_argument(p)
     p.add_argument("--device", choices=["cpu", "cuda"], default="cpu",
                    help="cuda: run on an NVIDIA GPU (pip install 'sogdd[gpu]')")
     add_read_arguments(p)

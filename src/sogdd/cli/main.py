@@ -6,17 +6,24 @@ which adds its arguments and sets func: a callable taking the parsed
 argparse.Namespace and returning an exit code. Errors a user can fix (bad
 files, bad parameters) are raised as ValueError or OSError and reported here as
 one line on stderr with exit code 2, never as a traceback.
+
+Stdout is flushed before the exit code is returned, so a write error (a full
+disk) is such an error too, never exit 0 with a truncated output. A reader that
+closes the pipe early (sogdd detect ... | head -1) ends the command quietly
+with exit code 141 (128 + SIGPIPE), what a shell reports for cat or seq in the
+same place: the output was not all read, and a script with pipefail sees it.
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 from collections.abc import Sequence
 
 from .._version import __version__
-from ._common import HelpFormatter
+from ._common import HelpFormatter, OutputClosed
 
 __all__ = ["COMMANDS", "build_parser", "main"]
 
@@ -76,9 +83,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help(sys.stderr)
         return 2
     try:
-        return int(args.func(args) or 0)
+        code = int(args.func(args) or 0)
+        try:
+            sys.stdout.flush()  # a write error shows now, as an error, not at exit (or never)
+        except BrokenPipeError:
+            raise OutputClosed() from None
+        return code
+    except OutputClosed:
+        return _reader_gone()
     except (ValueError, OSError) as exc:
-        print(f"sogdd: error: {exc}", file=sys.stderr)
+        print(f"sogdd: error: {_message(exc)}", file=sys.stderr)
         return 2
     except Exception as exc:  # an OpenCV error is one line too (cv2 is not imported just to name it)
         if type(exc).__module__ != "cv2":
@@ -89,6 +103,25 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     except KeyboardInterrupt as exc:  # Ctrl-C: 130; a batch stopped by SIGTERM: 143 (128 + signal)
         return 128 + int(getattr(exc, "signum", 2))
+
+
+def _message(exc: Exception) -> str:
+    """One line for ``exc``: an OSError without a file name by its own text, without ``[Errno N]``."""
+    if isinstance(exc, OSError) and exc.strerror and exc.filename is None:
+        return exc.strerror
+    return str(exc)
+
+
+def _reader_gone() -> int:
+    """Stdout's reader has gone: point stdout at /dev/null, so that the interpreter's last flush
+    finds nowhere to fail, and return 141 (128 + SIGPIPE)."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError):  # a stream without a descriptor has nothing left to flush
+        pass
+    return 141
 
 
 if __name__ == "__main__":  # pragma: no cover
