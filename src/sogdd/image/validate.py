@@ -48,13 +48,25 @@ def validate_image(image: object, *, value_range=None) -> np.ndarray:
 
     Raises ``ValueError`` with a one-line message for anything the detector can't
     give a meaningful answer on. With ``value_range`` a float image may hold any
-    finite values (they are mapped from that range).
+    finite values (they are mapped from that range). A supported dtype in the
+    other byte order (big-endian ``>u2`` from a FITS or raw file) is converted to
+    the native order: the same values.
+
+    Examples
+    --------
+    >>> validate_image(np.array([[1, 2], [3, 4]], ">u2")).dtype.str
+    '<u2'
+    >>> validate_image([[0, 255], [255, 0]])
+    Traceback (most recent call last):
+    ...
+    ValueError: a list becomes an int64 array, which the detector does not take; convert it: ...
     """
+    given = image
     image = _as_array(image)
+    if image.dtype.byteorder not in ("=", "|") and image.dtype.newbyteorder("=") in _DTYPES:
+        image = image.astype(image.dtype.newbyteorder("="))  # the same values in native order
     if image.dtype == object or not any(image.dtype == d for d in _DTYPES):
-        raise ValueError(
-            f"unsupported dtype {image.dtype}; use uint8, uint16, float32, float64 or bool"
-        )
+        raise ValueError(_dtype_message(given, image.dtype))
     if image.ndim == 3 and image.shape[2] == 1:
         image = image[:, :, 0]
     if image.ndim == 3 and image.shape[2] not in (3, 4):
@@ -71,6 +83,17 @@ def validate_image(image: object, *, value_range=None) -> np.ndarray:
     if image.dtype.kind == "f":
         _check_float(image, value_range is None)
     return image
+
+
+def _dtype_message(given: object, dtype: np.dtype) -> str:
+    """What to do about an unsupported dtype: the conversion, when the values say which."""
+    fix = "np.asarray(image, np.uint8) for 0-255 values (np.uint16 for 0-65535, float32 for 0-1)"
+    if not isinstance(given, np.ndarray) and dtype.kind in "iu":
+        return (f"a {type(given).__name__} becomes an {dtype} array, which the detector does not take; "
+                f"convert it: {fix}")
+    if dtype.kind in "iu":
+        return f"unsupported dtype {dtype}; use uint8, uint16, float32, float64 or bool: {fix}"
+    return f"unsupported dtype {dtype}; use uint8, uint16, float32, float64 or bool"
 
 
 def _as_array(image: object) -> np.ndarray:
