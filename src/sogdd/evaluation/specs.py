@@ -3,7 +3,9 @@
 A *detector spec* is a registry name with optional settings, written ``NAME`` or
 ``NAME:key=value:key=value`` (``sogdd:subpixel=false``, ``sogdd:levels=5:top_k=2000``).
 Values are parsed as ``true``/``false``/``none``, int, finite float, or else kept
-as text. The spec text is the row label in every table.
+as text, except that a value a text-valued SOGDD parameter documents
+(:data:`sogdd.params.CHOICES`: ``subpixel=none``, ``window_shape=gaussian``) is
+kept as that text. The spec text is the row label in every table.
 
 Five keys belong to the feature pipeline around the detector and apply to every
 detector alike; every other key is passed to the detector:
@@ -29,7 +31,7 @@ that suppress non-maxima first and threshold afterwards (SOGDD, Harris,
 Shi-Tomasi, FAST, whose score is the largest threshold at which a pixel still
 passes the segment test); for detectors whose threshold acts before
 non-maximum suppression or refinement (SIFT's contrast threshold, KAZE) it is a
-close approximation. :func:`sweep_equivalence` measures the agreement.
+close approximation.
 """
 
 from __future__ import annotations
@@ -43,7 +45,7 @@ import numpy as np
 from .. import baselines
 from ..corners import Corners
 from ..descriptors import METHODS
-from .points import match_points
+from ..params import CHOICES
 
 __all__ = [
     "DEFAULT_MATCHING",
@@ -61,7 +63,6 @@ __all__ = [
     "permissive_detections",
     "registry_names",
     "select",
-    "sweep_equivalence",
 ]
 
 PIPELINE_KEYS = ("remove_border", "top_k", "desc", "upright", "desc_size")
@@ -107,6 +108,19 @@ def parse_value(text: str):
     except ValueError:
         pass
     return text.strip()
+
+
+def _spec_value(key: str, text: str):
+    """``text`` as the value of ``key``: the text itself where it is one of the key's documented
+    values (``subpixel=none`` stays ``"none"``, not ``None``), else :func:`parse_value`.
+
+    Examples
+    --------
+    >>> _spec_value("subpixel", "none"), _spec_value("threshold", "none"), _spec_value("subpixel", "off")
+    ('none', None, False)
+    """
+    low = text.strip().lower()
+    return low if low in CHOICES.get(key, ()) else parse_value(text)
 
 
 def _is_int(v) -> bool:
@@ -198,7 +212,7 @@ def parse_spec(text: str) -> DetectorSpec:
         if "=" not in p:
             raise ValueError(f"detector option {p!r} in {text!r} is not key=value")
         k, v = (s.strip() for s in p.split("=", 1))
-        (pipe if k in PIPELINE_KEYS else det)[k] = parse_value(v)
+        (pipe if k in PIPELINE_KEYS else det)[k] = _spec_value(k, v)
     if "desc" in pipe:
         pipe["desc"] = str(pipe["desc"])
     if "upright" in pipe:
@@ -305,36 +319,3 @@ def permissive_detections(spec: DetectorSpec, image) -> tuple[Corners, Corners, 
         return default, c.subset(np.argsort(-resp, kind="stable")), over
     order = np.argsort(-np.nan_to_num(default.response, nan=-np.inf), kind="stable")
     return default, default.subset(order), None
-
-
-def sweep_equivalence(spec: DetectorSpec, image, n_points: int = 5, tol: float = 1e-6) -> dict:
-    """Compare the response sweep with re-running the detector at explicit thresholds.
-
-    For ``n_points`` thresholds taken from quantiles of the permissive run's
-    responses, runs the detector with its strength parameter at ``t`` and
-    compares its points with the permissive points whose response is above
-    ``t``. Returns the mean Jaccard agreement of the two point sets (positions
-    within ``tol`` px) and the per-threshold detail. Only meaningful where the
-    strength parameter is in the units of the ``response``.
-    """
-    _, perm, over = permissive_detections(spec, image)
-    resp = perm.response
-    out = {"detector": spec.label, "overrides": over, "checks": []}
-    if len(perm) < 2:
-        out["agreement"] = float("nan")
-        return out
-    param = build_detector(spec).strength_param
-    out["param"] = param
-    for t in np.quantile(resp, np.linspace(0.5, 0.98, n_points)):
-        try:
-            rerun = detect(spec, image, build_detector(spec, **{param: float(t)}))
-        except ValueError:
-            continue
-        kept = perm.xy[resp > t]
-        m = match_points(kept, rerun.xy, tol)
-        union = len(kept) + len(rerun) - len(m)
-        out["checks"].append({"threshold": float(t), "sweep": len(kept), "rerun": len(rerun),
-                              "jaccard": len(m) / union if union else 1.0})
-    vals = [c["jaccard"] for c in out["checks"]]
-    out["agreement"] = float(np.mean(vals)) if vals else float("nan")
-    return out
