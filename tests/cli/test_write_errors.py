@@ -96,3 +96,13 @@ def test_write_errors_name_the_target_not_a_temporary_file(tmp_path):
     with pytest.raises(OSError) as info:  # mkstemp's own message names the temporary file
         write_features(tmp_path / "missing" / "x.csv", c)
     assert "x.csv" in str(info.value) and ".sogdd.tmp" not in str(info.value)
+
+
+def test_response_output_that_is_a_folder_is_refused_before_the_map(tmp_path, noisy, capsys, monkeypatch):
+    calls = []
+    monkeypatch.setattr("sogdd.cli.response.corner_response", lambda *a, **k: calls.append(1))
+    (tmp_path / "r.npy").mkdir()
+    for out in (tmp_path / "r.npy", tmp_path / "missing" / "r.npy"):
+        assert main(["response", noisy, "-o", str(out)]) == 2
+        err = capsys.readouterr().err
+        assert calls == [] and "Traceback" not in err and ("is a folder" in err or "does not exist" in err)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 import numpy as np
 
@@ -14,6 +15,11 @@ from .params import SELECTION, add_detector_arguments, add_read_arguments, detec
 def run(args: argparse.Namespace) -> int:
     if not args.output.endswith(".npy"):
         raise ValueError("--output must be a .npy file")
+    out = Path(args.output)
+    if out.is_dir():  # found now, not after the map has been computed
+        raise ValueError(f"--output {out}: is a folder; give a file name")
+    if not (out.parent if str(out.parent) else Path(".")).is_dir():
+        raise ValueError(f"--output {out}: folder {out.parent} does not exist")
     params = detector_overrides(args)
     unused = [name for name in params if name in SELECTION]
     if unused:  # they choose points; the map does not depend on them
