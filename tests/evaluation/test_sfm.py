@@ -154,7 +154,7 @@ def test_cli_colmap_export(tmp_path, capsys):
         ims = {im.name: im.image_id for im in d.read_all_images()}
         np.testing.assert_allclose(d.read_keypoints(ims["im0.png"])[:, :2], xy + 0.5)
         assert d.num_keypoints_for_image(ims["im1.png"]) == 2
-        assert d.num_descriptors_for_image(ims["im0.png"]) == 3  # computed with sogdd.descriptors
+        assert d.num_descriptors_for_image(ims["im0.png"]) == 3  # computed with sogdd.describe
 
 
 def _chair(data_dir):

@@ -2,7 +2,7 @@
 
 :func:`extract_features` runs a spec's detector, its border removal and top-k
 (:func:`sogdd.evaluation.specs.select`), and describes every point with OpenCV's
-SIFT descriptor (:func:`sogdd.descriptors`) at the diameter given by
+SIFT descriptor (:func:`sogdd.describe`) at the diameter given by
 :func:`sogdd.descriptors.descriptor_sizes`.
 """
 
