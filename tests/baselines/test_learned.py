@@ -35,6 +35,8 @@ def test_learned_entries_are_listed_exactly_when_the_extra_is_installed():
     assert set(LEARNED) <= set(baselines.available(include_learned=True))
     assert (set(LEARNED) <= names) == learned_extra.installed()
     assert (set(LEARNED) & names == set()) == (not learned_extra.installed())
+    listed = baselines.available(include_learned=True)
+    assert listed[-3:] == LEARNED  # after the classics, in every table that follows the registry
 
 
 @pytest.mark.parametrize("name", LEARNED)

@@ -236,7 +236,7 @@ def registered() -> dict[str, type[BaselineDetector]]:
 
 
 def available(include_learned: bool = False) -> list[str]:
-    """Names of the registered detectors, in registration order.
+    """Names of the registered detectors, in registration order, the learned ones last.
 
     Parameters
     ----------
@@ -247,7 +247,9 @@ def available(include_learned: bool = False) -> list[str]:
         file given as ``model_path``). By default every name returned works as
         ``get(name)`` with no arguments.
     """
-    return [n for n, c in _REGISTRY.items() if include_learned or c.ready()]
+    names = [n for n, c in _REGISTRY.items() if include_learned or c.ready()]
+    # learned entries register first (module order) but belong after the classics in every table
+    return sorted(names, key=lambda n: _REGISTRY[n].family == "learned")
 
 
 def get(name: str, **params: Any) -> BaselineDetector:
