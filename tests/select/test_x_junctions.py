@@ -51,8 +51,7 @@ def test_saddle_on_an_x_junction_and_none_on_an_l_apex():
     assert np.hypot(*(best - q[0])) < 0.05
     l_img = render_polygons((61, 61), [Polygon(q, 200.0)], background=50.0)
     xy, s = find_saddles(l_img, 1.2)
-    strong = xy[s > 0.05 * 4 * 1.2 * 150]
-    assert len(strong) == 0 or np.hypot(*(strong - q[0]).T).min() > 1.5
+    assert len(s) == 0  # the apex's iterate leaves the pixel; a clean L-corner has no saddle at all
 
 
 def test_x_junctions_need_grey_units():
