@@ -201,7 +201,7 @@ def test_cli_sfm_json(data_dir, tmp_path, capsys):
     assert rc == 0
     obj = json.loads(capsys.readouterr().out)
     r = obj["sogdd"]
-    for key in ("registered", "points", "track_length", "reproj_error", "seconds"):
-        assert key in r
-    assert r["registered"] >= 3
+    # a reconstruction, not just its keys: 3-4 cameras, tracks of 2+ views, sub-2 px reprojection
+    assert 3 <= r["registered"] <= 4 and r["points"] > 50
+    assert r["track_length"] >= 2.0 and 0 < r["reproj_error"] < 2.0 and r["seconds"] > 0
     assert (tmp_path / "out" / "sfm.json").is_file() and (tmp_path / "out" / "sfm.md").is_file()
