@@ -112,7 +112,10 @@ def _wait_for(cond, timeout: float) -> bool:
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
 @pytest.mark.parametrize("sig, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
 def test_signal_stops_a_parallel_batch_fast_and_keeps_finished_files(tmp_path, sig, code):
-    _images(tmp_path / "src", 40, shape=(400, 600))
+    # 4 small images, then 36 large ones: when the first 2 files exist, 34 or more large images
+    # (seconds of work at any load) are still to do, so the signal always finds work in flight
+    _images(tmp_path / "src", 4, prefix="a")
+    _images(tmp_path / "src", 36, shape=(900, 1200), prefix="b")
     out = tmp_path / "out"
     env = {**os.environ, "SOGDD_NUM_THREADS": "1"}
     proc = subprocess.Popen(_cli("detect", str(tmp_path / "src"), "--out", str(out), "--jobs", "2"),
