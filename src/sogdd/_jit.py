@@ -1,13 +1,36 @@
-"""Compiled code's settings, in one place: numba's options, row padding, the thread count.
+"""Compiled code's settings, in one place: numba's options, row padding, the thread count,
+and the arguments that choose at compile time what numba compiles.
 
 ``cache=True`` keeps the compiled code between runs; ``nogil=True`` lets the
 tile driver run compiled functions in threads; ``error_model="numpy"`` drops Python's
 zero-division checks from the hot loops; ``fastmath={"contract"}`` allows fused
 multiply-adds only (no reassociation, so results stay deterministic and
 independent of tiling).
+
+Numba compiles a function again for each new combination of argument *types*,
+and drops a branch before typing it when the branch tests ``x is None`` on an
+argument or ``len(t)`` of a tuple argument (dead branch pruning). The kernels use
+that to compile only what a call runs: ``wts=None`` for a box window (no
+weighted sums), :func:`elimination` for K and :func:`window_rows` for the window
+height. The first ``sogdd demo`` compiles about half the code it did before
+(``benchmarks/bench_compile.py``).
+
+**The on-disk cache is keyed on the sources of the whole core.** Numba checks a
+cached function against its own file only, yet a compiled function carries the
+code of every compiled function it calls, from any module, and the values of the
+globals it reads: after an edit of ``measure/window.py``, ``filters._basis_tile``
+would load its old copy of ``reflect1``. Importing this module therefore puts in
+front of numba's cache locators copies that, for the files of this package, add
+:func:`sources_key` (a hash of the package version and of every source file of the
+core) to numba's own stamp: any edit of the core, or another version, makes every
+cached entry of the package stale, and numba compiles it again (and overwrites
+it). Other packages' numba caches are untouched.
 """
 
+import functools
+import hashlib
 import os
+from pathlib import Path
 
 JIT = dict(cache=True, nogil=True, error_model="numpy", fastmath={"contract"})
 
@@ -30,3 +53,98 @@ def thread_count() -> int:
             raise ValueError(f"SOGDD_NUM_THREADS must be a positive integer, got {env!r}")
         return int(env)
     return max(1, min(os.cpu_count() or 1, 8))
+
+
+def elimination(K: int) -> tuple:
+    """The ``kdim`` argument of the compiled elimination for K orientations.
+
+    See :func:`sogdd.measure.square_tiles.det_trace`. A tuple of K zeros for the K
+    with an unrolled elimination (4, 6, 8), else empty. Numba knows a tuple's
+    length when it compiles (its type is ``UniTuple(int64, K)``) and drops the
+    branches on it, so each call compiles the one elimination it runs: the first
+    run of the ``paper`` preset (K = 8) no longer compiles those of K = 4, 6 and
+    the loop.
+
+    Examples
+    --------
+    >>> len(elimination(8)), elimination(5)
+    (8, ())
+    """
+    return (0,) * K if K in (4, 6, 8) else ()
+
+
+def window_rows(nr: int) -> tuple:
+    """The ``wdim`` argument of the compiled code for a window of ``nr`` rows.
+
+    Seven zeros for the 7-row windows (the ``paper`` preset's 7 x 7 box and ``hr``'s
+    7-tap Gaussian), else empty: as :func:`elimination` does for K, a branch on
+    ``len(wdim) == 7`` is decided when numba compiles, so a 7-row window compiles the
+    7-row sums alone and any other size the code for every size (one compilation
+    for all of them).
+
+    Examples
+    --------
+    >>> len(window_rows(7)), window_rows(5)
+    (7, ())
+    """
+    return (0,) * 7 if nr == 7 else ()
+
+
+#: The package's folders whose sources key the cache: the root modules and the core's stage folders
+#: (the clients, which compiled code never imports, are left out).
+CORE_FOLDERS = ("", "image", "measure", "select", "gpu", "formats")
+_PACKAGE = Path(__file__).resolve().parent
+
+
+@functools.cache
+def sources_key() -> str:
+    """A hash of the package version and of every ``.py`` file of the core (:data:`CORE_FOLDERS`).
+
+    Computed once per process (about 50 files).
+
+    Examples
+    --------
+    >>> len(sources_key())
+    64
+    """
+    from ._version import __version__
+
+    h = hashlib.sha256(__version__.encode())
+    for folder in CORE_FOLDERS:
+        for f in sorted((_PACKAGE / folder).glob("*.py")):
+            h.update(f"{folder}/{f.name}".encode())
+            h.update(f.read_bytes())
+    return h.hexdigest()
+
+
+class _CoreKeyed:
+    """Mix-in for a numba cache locator: this package's files only, stamped with :func:`sources_key`."""
+
+    @classmethod
+    def from_function(cls, py_func, py_file):
+        try:
+            Path(py_file).resolve().relative_to(_PACKAGE)
+        except (ValueError, OSError):
+            return None  # another package's function: numba's own locators take it
+        return super().from_function(py_func, py_file)
+
+    def get_source_stamp(self):
+        return super().get_source_stamp(), sources_key()
+
+
+def _key_the_cache() -> None:
+    """Put :class:`_CoreKeyed` copies of numba's cache locators in front of them (once)."""
+    try:
+        from numba.core import caching
+
+        impl = getattr(caching, "CacheImpl", None) or caching._CacheImpl
+        classes = list(impl._locator_classes)
+    except (ImportError, AttributeError):  # another numba: its own stamps only (module docstring)
+        return
+    if any(issubclass(c, _CoreKeyed) for c in classes):
+        return
+    keyed = [type(f"CoreKeyed{c.__name__}", (_CoreKeyed, c), {}) for c in classes]
+    impl._locator_classes = keyed + classes
+
+
+_key_the_cache()

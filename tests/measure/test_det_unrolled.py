@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from sogdd._jit import elimination
 from sogdd.measure import det_unrolled as _det_unrolled
 from sogdd.measure.square_tiles import det_trace, det_trace_loop, pair_index
 
@@ -57,7 +58,7 @@ def test_det_trace_dispatch_matches_loop(K):
     acc, _ = _packed_psd(K, 64, seed=10 + K)
     _, _, diag = pair_index(K)
     outs = []
-    for fn in (det_trace, det_trace_loop):
+    for fn in (lambda *a: det_trace(*a, elimination(K)), det_trace_loop):  # kdim: the compiled elimination
         det, tr, f = np.empty(64), np.empty(64), np.empty(64)
         fn(acc.copy(), diag, det, tr, f, 64)
         outs.append((det, tr))

@@ -183,14 +183,16 @@ def spread_masks(need, R, colneed, rowneed, lo, hi):  # pragma: no cover - jit
 
 
 @numba.njit(**JIT)
-def bound_mask(planes, nr, quad, pair, pi2, pj2, floor, keep, block, wts):  # pragma: no cover - jit
+def bound_mask(planes, nr, quad, pair, pi2, pj2, floor, keep, block, wts, wdim):  # pragma: no cover - jit
     """keep (Ht + 2, W + 2): the Fischer bound of tile rows -1..Ht, columns -1..W (margin R + 1).
 
     The six products of the basis responses are kept for the last ``nr + 3`` rows
     (a ring); groups of 4 keep rows sum them down the columns in one pass (as the
     exact kernel does: :func:`sogdd.measure.square_tiles.column_sums`), then each row along the
-    row; with a non-empty ``wts``, weighted sums as the tile function's (:func:`fischer_row`
-    holds for positive weights).
+    row; with ``wts`` (None: the box window), weighted sums as the tile function's (:func:`fischer_row`
+    holds for positive weights). ``wts`` is tested as the argument itself, so that numba leaves the
+    weighted code out of the box window's compilation (see :func:`sogdd.measure.square_tiles.tile_square`),
+    as ``wdim`` (:func:`sogdd.measure.square_tiles.window_rows`) does the other window sizes' code.
     """
     Hk, Wk = keep.shape
     nbm = block + 2
@@ -201,7 +203,8 @@ def bound_mask(planes, nr, quad, pair, pi2, pj2, floor, keep, block, wts):  # pr
     srow = np.empty((6, nbm))
     work = (np.empty(nbm), np.empty(nbm), np.empty(nbm), np.empty(nbm))
     row = np.empty(nbm, np.bool_)
-    weighted = wts.shape[0] > 0
+    # np.int64, not literals: a literal argument compiles its own specialisation of the callee
+    zero, everyone = np.int64(0), np.int64(-1)
     for x0 in range(0, Wk - 2, block):
         nb = min(block, Wk - 2 - x0) + 2
         wcols = nb + nr - 1
@@ -222,16 +225,16 @@ def bound_mask(planes, nr, quad, pair, pi2, pj2, floor, keep, block, wts):  # pr
             g0 = r - r % G  # keep rows g0 .. r: their column sums in one pass
             ng = r - g0 + 1
             for q in range(6):
-                if weighted:
-                    wcolumn_sums(pring[q], g0, wts, ng, -1, scol[q], 0, wcols)
+                if wts is None:
+                    column_sums(pring[q], g0, nr, ng, scol[q], zero, wcols, wdim)
                 else:
-                    column_sums(pring[q], g0, nr, ng, scol[q], 0, wcols)
+                    wcolumn_sums(pring[q], g0, wts, ng, everyone, scol[q], zero, wcols, wdim)
             for i in range(ng):
                 for q in range(6):
-                    if weighted:
-                        wrow_sum(scol[q, i], wts, srow[q], nb)
+                    if wts is None:
+                        row_sum(scol[q, i], nr, srow[q], nb, wdim)
                     else:
-                        row_sum(scol[q, i], nr, srow[q], nb)
+                        wrow_sum(scol[q, i], wts, srow[q], nb, wdim)
                 fischer_row(srow, quad, pair, pi2, pj2, floor, row, nb, work)
                 kr = keep[g0 + i, x0 : x0 + nb]
                 for c in range(nb):

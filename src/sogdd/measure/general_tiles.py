@@ -21,7 +21,7 @@ __all__ = ["tile_general"]
 
 
 @numba.njit(**JIT)
-def tile_general(planes, off, coef, halfw, want_parts, out, det_out, tr_out, block):  # pragma: no cover
+def tile_general(planes, off, coef, halfw, want_parts, out, det_out, tr_out, block, kdim):  # pragma: no cover
     """Fill ``out`` (Ht, W) with det/(tr + varsigma) for any window shape.
 
     ``planes`` (n, Ht + 2M, W + 2M) are filter responses on the tile plus a margin
@@ -30,7 +30,8 @@ def tile_general(planes, off, coef, halfw, want_parts, out, det_out, tr_out, blo
     SOGDD, or K responses with the identity). Each row of products is summed
     along the row with that row's half-width, then the rows are summed. Work goes
     in column blocks of ``block`` pixels so the rows stay in cache. With
-    ``want_parts`` the raw det and trace are written too.
+    ``want_parts`` the raw det and trace are written too. ``kdim``: the elimination
+    (:func:`sogdd.measure.square_tiles.elimination`).
     """
     K = coef.shape[0]
     P = K * (K + 1) // 2
@@ -66,7 +67,7 @@ def tile_general(planes, off, coef, halfw, want_parts, out, det_out, tr_out, blo
                     prod[x] = ai[x] * aj[x]
                 for u in range(nu):
                     h = uniq[u]
-                    row_sum(prod[R - h :], 2 * h + 1, ring[slot, u, q], n)
+                    row_sum(prod[R - h :], 2 * h + 1, ring[slot, u, q], n, ())  # every width: one compilation
             if y < 2 * R:
                 continue
             yo = y - 2 * R
@@ -79,7 +80,7 @@ def tile_general(planes, off, coef, halfw, want_parts, out, det_out, tr_out, blo
                     src = ring[(yo + dy) % nr, which[dy], q]
                     for x in range(n):
                         dst[x] += src[x]
-            det_trace(acc, diag, det, tr, f, n)
+            det_trace(acc, diag, det, tr, f, n, kdim)
             for x in range(n):
                 out[yo, x0 + x] = det[x] / (tr[x] + VARSIGMA)
                 if want_parts:

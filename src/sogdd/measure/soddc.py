@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
-from .._jit import JIT, thread_count
+from .._jit import JIT, elimination, thread_count, window_rows
 from ..image.grey import exact_grey
 from .bound import bound_mask, bound_tables, need_from_keep, neighbour_need, spread_masks
 from .filters import basis_tile, kernel_radius, orientations, steerable_basis, steering_coefficients
@@ -157,7 +157,9 @@ def _tiled(
     ends = starts[1:] + [H]
     tables = bound_tables(coef) if floor is not None else None
     none = np.zeros((0, 0), np.uint8)
-    wts = np.zeros(0) if weights is None else np.ascontiguousarray(weights, dtype=np.float64)
+    # None, not an empty array: the box window's kernels are then compiled without the weighted code
+    wts = None if weights is None else np.ascontiguousarray(weights, dtype=np.float64)
+    kdim, wdim = elimination(coef.shape[0]), window_rows(nr)  # what numba compiles (square_tiles)
 
     def run(r0: int, r1: int) -> None:
         planes = domain(r0, r1)
@@ -166,29 +168,29 @@ def _tiled(
         o = np.empty((r1 - r0, W)) if out is None else out[r0:r1]
         d, t = (det[r0:r1], tr[r0:r1]) if parts else (det, tr)
         if not square:
-            tile_general(planes, margin - R, coef, halfw, parts, o, d, t, 256)
+            tile_general(planes, margin - R, coef, halfw, parts, o, d, t, 256, kdim)
             return
         h = r1 - r0
         if tables is None:
             tile_square(planes, margin - R, coef, nr, none, none, none, parts, o, d, t, 256, 32, 0, h, True,
-                        wts)
+                        wts, kdim, wdim)
             return
         # pass 1: the pixels whose bound reaches the floor; pass 2: the 3 x 3 patches around
         # those found at or above it (sub-pixel refinement reads them), when not evaluated yet
         keep = np.empty((h + 2, W + 2), np.uint8)
-        bound_mask(planes, nr, *tables, float(floor), keep, 256, wts)
+        bound_mask(planes, nr, *tables, float(floor), keep, 256, wts, wdim)
         need = np.empty((h, W), np.uint8)
         colneed = np.empty((h, W + 2 * R), np.uint8)
         rowneed = np.empty((h + 2 * R, W + 2 * R), np.uint8)
         need_from_keep(keep, need)
         spread_masks(need, R, colneed, rowneed, 0, h)
         tile_square(planes, margin - R, coef, nr, need, colneed, rowneed, parts, o, d, t, 256, 32, 0, h, True,
-                    wts)
+                    wts, kdim, wdim)
         lo, hi = neighbour_need(o, float(floor), r0, H, need)
         if lo < hi:
             spread_masks(need, R, colneed, rowneed, lo, hi)
             tile_square(planes, margin - R, coef, nr, need, colneed, rowneed, parts, o, d, t, 256, 32,
-                        lo, hi, False, wts)
+                        lo, hi, False, wts, kdim, wdim)
 
     n = threads or thread_count()
     if n == 1 or len(starts) == 1:
@@ -349,7 +351,7 @@ def soddc_at(responses: np.ndarray, halfwidths, rows: np.ndarray, cols: np.ndarr
     pi, pj, diag = pair_index(K)
     acc = np.ascontiguousarray(lam[pi, pj])  # packed upper triangle, (P, n)
     det, tr, f = np.empty(n), np.empty(n), np.empty(n)
-    det_trace(acc, diag, det, tr, f, n)
+    det_trace(acc, diag, det, tr, f, n, elimination(K))
     return det / (tr + VARSIGMA)
 
 

@@ -64,13 +64,13 @@ def steer(planes, y, x0, coef, absl, a, b):  # pragma: no cover - jit
 
 
 @numba.njit(**JIT)
-def row_sum(src, width, dst, n):  # pragma: no cover - jit
-    """dst[x] = sum(src[x : x + width]) for x < n.
+def row_sum(src, width, dst, n, wdim):  # pragma: no cover - jit
+    """dst[x] = sum(src[x : x + width]) for x < n (``wdim``: :func:`sogdd._jit.window_rows`).
 
     The common widths are written out as one fused loop with a fixed pair-wise
     order, which vectorises far better than a loop over the window.
     """
-    if width == 7:
+    if len(wdim) == 7 or width == 7:
         for x in range(n):
             dst[x] = ((src[x] + src[x + 1]) + (src[x + 2] + src[x + 3])) + (
                 (src[x + 4] + src[x + 5]) + src[x + 6]
@@ -90,14 +90,17 @@ def row_sum(src, width, dst, n):  # pragma: no cover - jit
 
 
 @numba.njit(**JIT)
-def column_sum(ring, first, nr, dst, a, b):  # pragma: no cover - jit
-    """dst[x] = sum of ring[r % nh, x] for r = first .. first + nr - 1, a <= x < b, in a fixed order."""
+def column_sum(ring, first, nr, dst, a, b, wdim):  # pragma: no cover - jit
+    """dst[x] = sum of ring[r % nh, x] for r = first .. first + nr - 1, a <= x < b, in a fixed order.
+
+    ``wdim``: :func:`sogdd._jit.window_rows`.
+    """
     # 1-D views indexed from 0 (here and in every hot loop): numba's negative-index
     # handling otherwise stops the loops from vectorising
     nh = ring.shape[0]  # the ring's rows, >= nr
     n = b - a
     d = dst[a:b]
-    if nr == 7:
+    if len(wdim) == 7 or nr == 7:
         r0, r1, r2 = ring[first % nh, a:b], ring[(first + 1) % nh, a:b], ring[(first + 2) % nh, a:b]
         r3, r4, r5 = ring[(first + 3) % nh, a:b], ring[(first + 4) % nh, a:b], ring[(first + 5) % nh, a:b]
         r6 = ring[(first + 6) % nh, a:b]
@@ -119,16 +122,17 @@ def column_sum(ring, first, nr, dst, a, b):  # pragma: no cover - jit
 
 
 @numba.njit(**JIT)
-def column_sums(ring, first, nr, ng, dst, a, b):  # pragma: no cover - jit
+def column_sums(ring, first, nr, ng, dst, a, b, wdim):  # pragma: no cover - jit
     """dst[i, x] = :func:`column_sum` of ring rows ``first + i`` on (modulo the ring's rows), i < ng.
 
     Several output rows in one pass load each ring row once for all of them (the
     pass is bound by loads and stores, not additions); every sum keeps the
-    order of :func:`column_sum`, so the values are the same bit for bit.
+    order of :func:`column_sum`, so the values are the same bit for bit (``wdim``:
+    :func:`sogdd._jit.window_rows`).
     """
     nh = ring.shape[0]
     n = b - a
-    if nr == 7 and ng == 4:
+    if (len(wdim) == 7 or nr == 7) and ng == 4:
         r0, r1, r2 = ring[first % nh, a:b], ring[(first + 1) % nh, a:b], ring[(first + 2) % nh, a:b]
         r3, r4, r5 = ring[(first + 3) % nh, a:b], ring[(first + 4) % nh, a:b], ring[(first + 5) % nh, a:b]
         r6, r7, r8 = ring[(first + 6) % nh, a:b], ring[(first + 7) % nh, a:b], ring[(first + 8) % nh, a:b]
@@ -143,7 +147,8 @@ def column_sums(ring, first, nr, ng, dst, a, b):  # pragma: no cover - jit
             d1[x] = ((r1[x] + r2[x]) + p34) + (p56 + r7[x])
             d2[x] = (p23 + p45) + ((r6[x] + r7[x]) + r8[x])
             d3[x] = (p34 + p56) + ((r7[x] + r8[x]) + r9[x])
-    elif nr == 5 and ng == 4:
+        return
+    if len(wdim) != 7 and nr == 5 and ng == 4:
         r0, r1, r2 = ring[first % nh, a:b], ring[(first + 1) % nh, a:b], ring[(first + 2) % nh, a:b]
         r3, r4, r5 = ring[(first + 3) % nh, a:b], ring[(first + 4) % nh, a:b], ring[(first + 5) % nh, a:b]
         r6, r7 = ring[(first + 6) % nh, a:b], ring[(first + 7) % nh, a:b]
@@ -155,13 +160,13 @@ def column_sums(ring, first, nr, ng, dst, a, b):  # pragma: no cover - jit
             d1[x] = ((r1[x] + r2[x]) + p34) + r5[x]
             d2[x] = (p23 + (r4[x] + r5[x])) + r6[x]
             d3[x] = (p34 + (r5[x] + r6[x])) + r7[x]
-    else:
-        for i in range(ng):
-            column_sum(ring, first + i, nr, dst[i], a, b)
+        return
+    for i in range(ng):
+        column_sum(ring, first + i, nr, dst[i], a, b, wdim)
 
 
 @numba.njit(**JIT)
-def det_trace(acc, diag, det, tr, f, n):  # pragma: no cover - jit
+def det_trace(acc, diag, det, tr, f, n, kdim):  # pragma: no cover - jit
     """det and trace of packed symmetric K x K matrices, one per column of ``acc``.
 
     Symmetric Gaussian elimination (LDL^T without pivoting) vectorised across
@@ -169,14 +174,14 @@ def det_trace(acc, diag, det, tr, f, n):  # pragma: no cover - jit
     zero row, hence det = 0, which the zero inverse pivot carries through.
     ``acc`` may be overwritten. K = 4, 6 and 8 run :func:`det_trace_loop`'s
     operations unrolled, values in registers (:mod:`sogdd.measure.det_unrolled`; 2.6x
-    faster at K = 8), with the same values bit for bit.
+    faster at K = 8), with the same values bit for bit; ``kdim`` (:func:`sogdd._jit.elimination`)
+    says which, when numba compiles (each ``len(kdim)`` is a constant of its type).
     """
-    K = diag.shape[0]
-    if K == 8:
+    if len(kdim) == 8:
         det_trace_8(acc, det, tr, n)
-    elif K == 6:
+    elif len(kdim) == 6:
         det_trace_6(acc, det, tr, n)
-    elif K == 4:
+    elif len(kdim) == 4:
         det_trace_4(acc, det, tr, n)
     else:
         det_trace_loop(acc, diag, det, tr, f, n)
@@ -254,7 +259,7 @@ def next_run(mask, start, stop, gap):  # pragma: no cover - jit
 
 @numba.njit(**JIT)
 def tile_square(planes, off, coef, nr, need, colneed, rowneed, want_parts, out, det_out, tr_out,
-                block, gap, y0, y1, clear, wts):  # pragma: no cover - jit
+                block, gap, y0, y1, clear, wts, kdim, wdim):  # pragma: no cover - jit
     """Fill ``out`` (Ht, W) with det/(tr + varsigma) for an ``nr x nr`` square window.
 
     ``planes`` as in :func:`sogdd.measure.general_tiles.tile_general`. Products of the K absolute
@@ -268,15 +273,19 @@ def tile_square(planes, off, coef, nr, need, colneed, rowneed, want_parts, out, 
     (without it they keep their value: a second pass adds pixels). An empty
     ``need`` (shape (0, 0)) means all. Only output rows ``y0 .. y1 - 1`` are
     touched. Evaluated pixels get the same value, bit for bit, whatever the
-    masks and rows. A non-empty ``wts`` (``nr`` positive weights) makes the window
-    separable-weighted (:mod:`sogdd.measure.window_sums`): weighted column sums, then row sums.
+    masks and rows. ``wts`` (``nr`` positive weights) makes the window
+    separable-weighted (:mod:`sogdd.measure.window_sums`): weighted column sums, then row sums;
+    ``None`` is the box window. Each test of ``wts`` is written ``wts is None`` on the
+    argument itself, so that numba drops the weighted code from the box window's
+    compilation (dead branch pruning on a None argument: less to compile on the first run);
+    ``kdim`` (:func:`sogdd._jit.elimination`) and ``wdim`` (:func:`sogdd._jit.window_rows`) do the same for
+    the elimination and the window's sums.
     """
     K = coef.shape[0]
     P = K * (K + 1) // 2
     R = (nr - 1) // 2
     Ht, W = out.shape
     dense = need.shape[0] == 0
-    weighted = wts.shape[0] > 0
     pi, pj, diag = pair_index(K)
     WB = block + 2 * R
     labs = np.empty((K, WB))
@@ -299,7 +308,10 @@ def tile_square(planes, off, coef, nr, need, colneed, rowneed, want_parts, out, 
     tr = np.empty(cap)
     ys = np.empty(cap, np.int64)
     xs = np.empty(cap, np.int64)
-    pos = 0
+    # np.int64(0), not 0: a literal would compile a second, Literal[int](0) specialisation of
+    # every callee it reaches before numba's type inference has unified it with the loop's values
+    zero = np.int64(0)
+    pos = zero
     for x0 in range(0, W, block):
         n = min(block, W - x0)
         m = n + 2 * R
@@ -308,7 +320,7 @@ def tile_square(planes, off, coef, nr, need, colneed, rowneed, want_parts, out, 
             xp = x0 + off
             a, b = 0, m
             if not dense:
-                a, b = next_run(rowneed[y, x0:], 0, m, gap)
+                a, b = next_run(rowneed[y, x0:], zero, m, gap)
             while a < b:
                 w = b - a
                 steer(planes, y + off, xp, coef, labs, a, b)
@@ -332,9 +344,9 @@ def tile_square(planes, off, coef, nr, need, colneed, rowneed, want_parts, out, 
             if dense:
                 ca[0], cb[0], ci[0] = 0, m, -1
                 nc = 1
-            elif weighted:  # row by row: no shared loads would repay a union's extra columns
+            elif wts is not None:  # row by row: no shared loads would repay a union's extra columns
                 for i in range(ng):
-                    a, b = next_run(colneed[g0 + i, x0:], 0, m, gap)
+                    a, b = next_run(colneed[g0 + i, x0:], zero, m, gap)
                     while a < b:
                         ca[nc], cb[nc], ci[nc] = a, b, i
                         nc += 1
@@ -345,7 +357,7 @@ def tile_square(planes, off, coef, nr, need, colneed, rowneed, want_parts, out, 
                 for i in range(1, ng):
                     for c in range(m):
                         cm[c] |= colneed[g0 + i, x0 + c]
-                a, b = next_run(cm, 0, m, gap)
+                a, b = next_run(cm, zero, m, gap)
                 while a < b:
                     ca[nc], cb[nc], ci[nc] = a, b, -1
                     nc += 1
@@ -361,7 +373,7 @@ def tile_square(planes, off, coef, nr, need, colneed, rowneed, want_parts, out, 
                         orow = out[yo, x0 : x0 + n]
                         for c in range(n):
                             orow[c] = -np.inf
-                    a, b = next_run(need[yo, x0:], 0, n, gap)
+                    a, b = next_run(need[yo, x0:], zero, n, gap)
                 while a < b:
                     na[nn], nb[nn], ni[nn] = a, b, i
                     nn += 1
@@ -370,35 +382,36 @@ def tile_square(planes, off, coef, nr, need, colneed, rowneed, want_parts, out, 
                         break
                     a, b = next_run(need[yo, x0:], b, n, gap)
             if pos + tot > cap:
-                flush_gathered(acc, diag, det, tr, f, pos, ys, xs, want_parts, out, det_out, tr_out)
-                pos = 0
+                flush_gathered(acc, diag, det, tr, f, pos, ys, xs, want_parts, out, det_out, tr_out, kdim)
+                pos = zero
             # one pair at a time: its column sums stay in L1 for the row sums
             for q in range(P):
                 for r in range(nc):
-                    if not weighted:
-                        column_sums(pring[q], g0, nr, ng, vsum, ca[r], cb[r])
-                        continue
-                    wcolumn_sums(pring[q], g0, wts, ng, ci[r], vsum, ca[r], cb[r])
+                    if wts is None:
+                        column_sums(pring[q], g0, nr, ng, vsum, ca[r], cb[r], wdim)
+                    else:
+                        wcolumn_sums(pring[q], g0, wts, ng, ci[r], vsum, ca[r], cb[r], wdim)
                 p = pos
                 for r in range(nn):
                     w = nb[r] - na[r]
-                    if weighted:
-                        wrow_sum(vsum[ni[r], na[r]:], wts, acc[q, p:], w)
+                    if wts is None:
+                        row_sum(vsum[ni[r], na[r]:], nr, acc[q, p:], w, wdim)
                     else:
-                        row_sum(vsum[ni[r], na[r]:], nr, acc[q, p:], w)
+                        wrow_sum(vsum[ni[r], na[r]:], wts, acc[q, p:], w, wdim)
                     p += w
             for r in range(nn):
                 for t in range(nb[r] - na[r]):
                     ys[pos + t] = g0 + ni[r]
                     xs[pos + t] = x0 + na[r] + t
                 pos += nb[r] - na[r]
-    flush_gathered(acc, diag, det, tr, f, pos, ys, xs, want_parts, out, det_out, tr_out)
+    flush_gathered(acc, diag, det, tr, f, pos, ys, xs, want_parts, out, det_out, tr_out, kdim)
 
 
 @numba.njit(**JIT)
-def flush_gathered(acc, diag, det, tr, f, n, ys, xs, want_parts, out, det_out, tr_out):  # pragma: no cover
+def flush_gathered(acc, diag, det, tr, f, n, ys, xs, want_parts, out, det_out, tr_out,
+                   kdim):  # pragma: no cover - jit
     """det / (tr + varsigma) of the n gathered window sums, written to their pixels."""
-    det_trace(acc, diag, det, tr, f, n)
+    det_trace(acc, diag, det, tr, f, n, kdim)
     for t in range(n):
         out[ys[t], xs[t]] = det[t] / (tr[t] + VARSIGMA)
         if want_parts:

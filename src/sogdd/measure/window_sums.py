@@ -10,6 +10,8 @@ term, so a value depends only on the ``nr x nr`` values under its window, never
 on where a tile, a run of pixels or a band starts. Against the literal
 ``sum_(u, v) w[u] w[v] P`` the order and grouping of the roundings differ, which
 changes a sum by a few ulp (~1e-15 relative; :func:`sogdd.measure.gaussian_window.gaussian_window_reference`).
+``wdim`` (:func:`sogdd.measure.square_tiles.window_rows`) tells numba, when it compiles, that the
+window has 7 rows, so that the other sizes' code is left out.
 """
 
 from __future__ import annotations
@@ -35,7 +37,7 @@ def _seven(w0, w1, w2, w3, w4, w5, w6, v0, v1, v2, v3, v4, v5, v6):  # pragma: n
 
 
 @numba.njit(**JIT)
-def wcolumn_sum(ring, first, wts, dst, a, b):  # pragma: no cover - jit
+def wcolumn_sum(ring, first, wts, dst, a, b, wdim):  # pragma: no cover - jit
     """dst[x] = sum_t wts[t] ring[(first + t) % nring, x] for a <= x < b, t = 0 .. nr - 1 in order.
 
     ``nr`` is the window's height (``wts``), ``nring >= nr`` the ring's rows. The
@@ -46,7 +48,7 @@ def wcolumn_sum(ring, first, wts, dst, a, b):  # pragma: no cover - jit
     nring = ring.shape[0]
     n = b - a
     d = dst[a:b]  # 1-D views from 0: they vectorise (see sogdd.measure.square_tiles.column_sum)
-    if nr == 7:
+    if len(wdim) == 7 or nr == 7:
         r0, r1, r2 = ring[first % nring, a:b], ring[(first + 1) % nring, a:b], ring[(first + 2) % nring, a:b]
         r3, r4 = ring[(first + 3) % nring, a:b], ring[(first + 4) % nring, a:b]
         r5, r6 = ring[(first + 5) % nring, a:b], ring[(first + 6) % nring, a:b]
@@ -66,7 +68,7 @@ def wcolumn_sum(ring, first, wts, dst, a, b):  # pragma: no cover - jit
 
 
 @numba.njit(**JIT)
-def wcolumn_sums(ring, first, wts, ng, only, dst, a, b):  # pragma: no cover - jit
+def wcolumn_sums(ring, first, wts, ng, only, dst, a, b, wdim):  # pragma: no cover - jit
     """dst[i] = :func:`wcolumn_sum` of ring rows ``first + i`` on, for i < ng (``only`` >= 0: that i alone).
 
     Four 7-row windows in one pass load each of their 10 ring rows once (the
@@ -93,15 +95,15 @@ def wcolumn_sums(ring, first, wts, ng, only, dst, a, b):  # pragma: no cover - j
         return
     for i in range(ng):
         if only < 0 or only == i:
-            wcolumn_sum(ring, first + i, wts, dst[i], a, b)
+            wcolumn_sum(ring, first + i, wts, dst[i], a, b, wdim)
 
 
 @numba.njit(**JIT)
-def wrow_sum(src, wts, dst, n):  # pragma: no cover - jit
+def wrow_sum(src, wts, dst, n, wdim):  # pragma: no cover - jit
     """dst[x] = sum_t wts[t] src[x + t] for x < n, t = 0 .. nr - 1 in order (7 taps in registers)."""
     nr = wts.shape[0]
     d = dst[:n]
-    if nr == 7:
+    if len(wdim) == 7 or nr == 7:
         w0, w1, w2, w3, w4, w5, w6 = wts[0], wts[1], wts[2], wts[3], wts[4], wts[5], wts[6]
         for x in range(n):
             d[x] = _seven(w0, w1, w2, w3, w4, w5, w6, src[x], src[x + 1], src[x + 2], src[x + 3], src[x + 4],

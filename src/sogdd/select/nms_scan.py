@@ -37,7 +37,7 @@ def maxima_scan_sparse(response, thr, radius):  # pragma: no cover - jit
     H, W = response.shape
     rows = np.empty(64, np.int64)
     cols = np.empty(64, np.int64)
-    n = 0
+    n = np.int64(0)  # not 0: a literal compiles a second, Literal[int](0) specialisation of _append
     for y in range(H):
         row = response[y]
         for x in range(W):

@@ -11,6 +11,7 @@ import cv2
 import numba
 import numpy as np
 
+from .. import _jit  # noqa: F401 - keys numba's on-disk cache (sogdd._jit) before the decorators below run
 from .nms_scan import count_above, maxima_scan_sparse
 
 #: maxima_above examines only the pixels above the threshold while at most 1 in this many pass
