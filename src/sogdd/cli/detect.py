@@ -171,7 +171,7 @@ def _detect_one(path: Path, name: str, args, params: dict, p, reading: dict, mas
         _say(f"sogdd: error: {text if str(path) in text else f'{path}: {text}'}")
         return None, None
     if args.overlay:
-        save_overlay(img, c, args.overlay)
+        save_overlay(img, c, args.overlay, label=f"preset {args.preset}")
     rec = make_record(path, c, img.shape, args.preset, p, source, mask=mask)
     return dataclasses.replace(rec, image=name), _hint_few(img, len(c), p)
 

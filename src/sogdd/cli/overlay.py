@@ -1,4 +1,8 @@
-"""Overlay images: detections (red crosses) and optional ground truth (green circles)."""
+"""The command line's overlay files: the path check before any work, and the write.
+
+The drawing itself is :func:`sogdd.report.overlays.detections_overlay`, the one
+home of every overlay (markers sized from the picture, outlined, with a legend).
+"""
 
 from __future__ import annotations
 
@@ -11,6 +15,7 @@ import numpy as np
 from ..corners import Corners
 from ..image.grey import to_gray255
 from ..image.validate import validate_image
+from ..report.overlays import detections_overlay
 
 
 def check_overlay_path(path: str | Path) -> None:
@@ -23,21 +28,14 @@ def check_overlay_path(path: str | Path) -> None:
         raise ValueError(f"--overlay {p}: folder {folder} does not exist or is not writable")
 
 
-def save_overlay(image: np.ndarray, corners: Corners, path: str | Path, gt: np.ndarray | None = None) -> None:
-    """Draw corners (red crosses) and optional GT (green circles) on the image; write a PNG."""
+def save_overlay(image: np.ndarray, corners: Corners, path: str | Path, gt: np.ndarray | None = None,
+                 label: str = "") -> None:
+    """Write ``image`` with the corners (red crosses), optional GT (green circles) and a legend.
+
+    Any image :func:`sogdd.detect_corners` takes (its grey levels on the 0-255
+    scale are drawn); ``label`` names the detections in the legend (e.g. the preset).
+    """
     grey = np.clip(to_gray255(validate_image(image)), 0, 255).astype(np.uint8)
-    vis = cv2.cvtColor(grey, cv2.COLOR_GRAY2BGR)
-    scale = max(1, int(np.ceil(600 / max(grey.shape))))
-    if scale > 1:
-        vis = cv2.resize(vis, None, fx=scale, fy=scale, interpolation=cv2.INTER_NEAREST)
-
-    def at(x, y):  # pixel centres at integers -> the upscaled canvas
-        return (int(round((x + 0.5) * scale - 0.5)), int(round((y + 0.5) * scale - 0.5)))
-
-    if gt is not None:
-        for x, y in gt:
-            cv2.circle(vis, at(x, y), 2 + scale, (0, 200, 0), 1, cv2.LINE_AA)
-    for x, y in corners.xy:
-        cv2.drawMarker(vis, at(x, y), (0, 0, 255), cv2.MARKER_CROSS, 3 + 2 * scale, 1, cv2.LINE_AA)
+    vis = detections_overlay(grey, corners.xy, gt, label=label)
     if not cv2.imwrite(str(path), vis):
         raise ValueError(f"{path}: could not write the overlay image")
