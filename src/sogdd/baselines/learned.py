@@ -106,6 +106,11 @@ class LearnedDetector(BaselineDetector):
         side = self.params.get("max_side")
         return max(shape) if side is None else min(max(shape), int(side))
 
+    @property
+    def native_descriptors(self) -> bool:
+        """Whether :meth:`describe_native` works (the evaluations' ``desc=native`` asks first)."""
+        return True
+
     def detect_and_describe(self, image: Any, mask: Any = None) -> tuple[Corners, np.ndarray]:
         """``detect_corners`` and the network's own descriptors of those points, (N, D) float32."""
         c = self.detect_corners(image, mask)
@@ -192,6 +197,10 @@ class _OnnxCapable(LearnedDetector):
         out = sort_strongest_first(Corners.from_keypoints(kps))
         k = self.params["max_corners"]
         return out if k == -1 else out.subset(np.arange(min(k, len(out))))
+
+    @property
+    def native_descriptors(self) -> bool:
+        return self.params["model_path"] is None  # the ONNX route has none
 
     def describe_native(self, image: Any, corners: Corners) -> np.ndarray:
         if self.params["model_path"] is not None:

@@ -153,7 +153,8 @@ def register(eval_subparsers) -> None:
     r.add_argument("--limit", type=int, default=None, help="use the first N images only")
     r.add_argument("--margin", type=float, default=0.0,
                    help="border margin (reference px) of the common region")
-    add_detectors_argument(r, "sogdd and the fast OpenCV baselines")
+    add_detectors_argument(r, "sogdd and the fast OpenCV baselines; where the learned extra is installed, "
+                              "also xfeat aliked disk")
     add_output_arguments(r, "repeatability.json, the CSVs and repeatability.png")
     r.set_defaults(func=run_repeatability)
 

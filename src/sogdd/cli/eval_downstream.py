@@ -19,7 +19,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from ..evaluation.specs import DEFAULT_MATCHING, DEFAULT_SFM
+from ..evaluation.specs import DEFAULT_MATCHING, DEFAULT_SFM, LEARNED_DOWNSTREAM, default_matching, default_sfm
 from ._common import (
     HelpFormatter,
     add_detectors_argument,
@@ -31,6 +31,8 @@ from ._common import (
 )
 
 __all__ = ["register"]
+
+_LEARNED_HELP = "; where the learned extra is installed, also " + " ".join(LEARNED_DOWNSTREAM)
 
 
 def run_matching(args: argparse.Namespace) -> int:
@@ -51,7 +53,7 @@ def run_matching(args: argparse.Namespace) -> int:
     layout = detect_layout(root) if args.layout == "auto" else args.layout
     seqs = load_sequences(root, layout, exclude=None if args.no_exclude else D2NET_EXCLUDED,
                           include=args.sequences)
-    specs = parse_specs(args.detectors, DEFAULT_MATCHING)
+    specs = parse_specs(args.detectors, default_matching())
     out = Path(args.out) if args.out else None
     feat_dir = out / "features" if out is not None and args.save_features else None
     res = evaluate_specs(seqs, specs, feature_dir=feat_dir, progress=reporter(args),
@@ -92,7 +94,7 @@ def run_sfm(args: argparse.Namespace) -> int:
     gt = Path(args.gt_cameras) if args.gt_cameras else None
     if gt is not None and not gt.is_dir():
         raise ValueError(f"{gt}: not a folder")
-    specs = parse_specs(args.detectors, DEFAULT_SFM)
+    specs = parse_specs(args.detectors, default_sfm())
     seeds = parse_seeds(args.seeds) if args.seeds else None
     out = Path(args.out) if args.out else None
     if args.work:
@@ -166,7 +168,7 @@ def register(eval_subparsers) -> None:
                    help="folder of sequences [default: $SOGDD_DATA/homography/hpatches]")
     m.add_argument("--layout", choices=("auto", "hpatches", "oxford", "homogr"), default="auto",
                    help="data layout")
-    add_detectors_argument(m, " ".join(DEFAULT_MATCHING))
+    add_detectors_argument(m, " ".join(DEFAULT_MATCHING) + _LEARNED_HELP)
     m.add_argument("--sequences", nargs="+", metavar="NAME", help="only these sequences (names or regexes)")
     m.add_argument("--no-exclude", action="store_true", help="keep D2-Net's 8 excluded HPatches sequences")
     add_output_arguments(m, "matching.json, matching.md and mma.png")
@@ -183,7 +185,7 @@ def register(eval_subparsers) -> None:
         "sfm", help="3D reconstruction with COLMAP via pycolmap (Table 2)",
         description=__doc__, formatter_class=HelpFormatter)
     s.add_argument("--images", metavar="DIR", help="image folder [default: $SOGDD_DATA/multiview/chair]")
-    add_detectors_argument(s, " ".join(DEFAULT_SFM))
+    add_detectors_argument(s, " ".join(DEFAULT_SFM) + _LEARNED_HELP)
     s.add_argument("--gt-cameras", metavar="DIR", help="Strecha-format GT cameras: report pose errors")
     s.add_argument("--matcher", choices=("colmap", "mnn"), default="colmap",
                    help="COLMAP's exhaustive CPU matcher, or our mutual-NN matches")

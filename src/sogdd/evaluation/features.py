@@ -3,7 +3,8 @@
 :func:`extract_features` runs a spec's detector, its border removal and top-k
 (:func:`sogdd.evaluation.specs.select`), and describes every point with OpenCV's
 SIFT descriptor (:func:`sogdd.describe`) at the diameter given by
-:func:`sogdd.descriptors.descriptor_sizes`.
+:func:`sogdd.descriptors.descriptor_sizes`, or, with ``desc=native``, with the
+detector's own descriptor (``describe_native``: the learned entries).
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ import numpy as np
 
 from ..corners import Corners
 from ..descriptors import describe, descriptor_sizes
-from .specs import DetectorSpec, build_detector, detect
+from .specs import NATIVE, DetectorSpec, build_detector, check_descriptor, detect
 
 __all__ = ["FeatureSet", "extract_features"]
 
@@ -53,14 +54,32 @@ class FeatureSet:
 
 
 def extract_features(image: np.ndarray, spec: DetectorSpec, detector=None) -> FeatureSet:
-    """Detect with ``spec``'s detector, apply its pipeline, describe every point."""
-    det = detector if detector is not None else build_detector(spec)
+    """Detect with ``spec``'s detector, apply its pipeline, describe every point.
+
+    ``desc=native`` describes the selected points with the detector's own
+    ``describe_native(image, corners)`` (float32, L2-normalised); a detector
+    without one is a one-line ``ValueError`` before any detection.
+
+    Examples
+    --------
+    >>> from sogdd.evaluation.specs import parse_spec
+    >>> from sogdd.synthetic import pattern_image
+    >>> fs = extract_features(pattern_image()[0], parse_spec("sift:top_k=5"))
+    >>> len(fs) <= 5, fs.descriptors.shape[1:]
+    (True, (128,))
+    """
+    det = check_descriptor(spec, detector) if detector is not None else build_detector(spec)
     t0 = time.perf_counter()
     corners = detect(spec, image, det)
     t1 = time.perf_counter()
     sizes = descriptor_sizes(corners, spec.desc_size, getattr(det, "family", None))
-    described = Corners(corners.xy, corners.response, sizes, corners.level)
-    desc = describe(image, described, spec.desc, upright=spec.upright)
+    if spec.desc == NATIVE:
+        # the points the network just found: the learned entries reuse their descriptors (no second pass)
+        own = det.describe_native(image, corners)
+        desc = np.ascontiguousarray(own, dtype=np.float32).reshape(len(corners), -1 if len(corners) else 0)
+    else:
+        described = Corners(corners.xy, corners.response, sizes, corners.level)
+        desc = describe(image, described, spec.desc, upright=spec.upright)
     t2 = time.perf_counter()
     return FeatureSet(corners.xy.copy(), corners.response.copy(), desc, sizes,
                       corners.level.copy(), tuple(image.shape[:2]), t1 - t0, t2 - t1)

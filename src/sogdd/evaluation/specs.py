@@ -15,9 +15,11 @@ detector alike; every other key is passed to the detector:
     75 px for its HPatches run);
 ``top_k=K``
     keep the ``K`` strongest points (by ``Corners.response``);
-``desc=sift|rootsift``, ``upright=true``, ``desc_size=auto|own|PX``
+``desc=sift|rootsift|native``, ``upright=true``, ``desc_size=auto|own|PX``
     the descriptor of the matching and SfM evaluations
-    (:func:`sogdd.descriptors.descriptor_sizes`).
+    (:func:`sogdd.descriptors.descriptor_sizes`); ``native`` is the detector's
+    own descriptor (``describe_native``: the learned entries ``xfeat``,
+    ``aliked``, ``disk``), where ``upright`` and ``desc_size`` do not apply.
 
 Detectors are built only by :func:`sogdd.baselines.get`.
 
@@ -43,6 +45,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import baselines
+from ..baselines import learned_extra
 from ..corners import Corners
 from ..descriptors import METHODS
 from ..params import CHOICES
@@ -50,12 +53,19 @@ from ..params import CHOICES
 __all__ = [
     "DEFAULT_MATCHING",
     "DEFAULT_SFM",
+    "DESCRIPTORS",
     "FAST_BASELINES",
+    "LEARNED",
+    "LEARNED_DOWNSTREAM",
+    "NATIVE",
     "PIPELINE_KEYS",
     "DetectorSpec",
     "build_detector",
+    "check_descriptor",
     "default_fast_specs",
     "default_gt_specs",
+    "default_matching",
+    "default_sfm",
     "detect",
     "parse_spec",
     "parse_specs",
@@ -80,6 +90,15 @@ DEFAULT_MATCHING = (
 #: SfM defaults. The paper preset's threshold (1e9) leaves ~200 corners on a 6 MP
 #: photo, too few for SfM, so SOGDD runs with the threshold off and its strongest 8000.
 DEFAULT_SFM = ("sogdd:threshold=none:top_k=8000", "sift")
+
+#: the ``desc`` value of a detector's own descriptor (``describe_native``)
+NATIVE = "native"
+#: every ``desc`` a spec accepts
+DESCRIPTORS = (*METHODS, NATIVE)
+#: the learned registry entries (the ``learned`` extra), in the order of every default list
+LEARNED = ("xfeat", "aliked", "disk")
+#: their rows in the matching and SfM defaults: the common SIFT descriptor, then each one's own
+LEARNED_DOWNSTREAM = tuple(row for n in LEARNED for row in (n, f"{n}:desc={NATIVE}"))
 
 
 def parse_value(text: str):
@@ -156,8 +175,8 @@ class DetectorSpec:
             raise ValueError(f"remove_border must be an integer >= 0, got {self.remove_border!r}")
         if self.top_k is not None and (not _is_int(self.top_k) or self.top_k < 1):
             raise ValueError(f"top_k must be a positive integer, got {self.top_k!r}")
-        if self.desc not in METHODS:
-            raise ValueError(f"desc must be one of {', '.join(METHODS)}, got {self.desc!r}")
+        if self.desc not in DESCRIPTORS:
+            raise ValueError(f"desc must be one of {', '.join(DESCRIPTORS)}, got {self.desc!r}")
         ok = self.desc_size in ("auto", "own") or (
             isinstance(self.desc_size, (int, float)) and not isinstance(self.desc_size, bool)
             and math.isfinite(self.desc_size) and self.desc_size > 0)
@@ -226,8 +245,66 @@ def registry_names() -> list[str]:
 
 
 def build_detector(spec: DetectorSpec, **extra):
-    """The registry's detector for ``spec`` (plus ``extra`` parameters): ``baselines.get``."""
-    return baselines.get(spec.name, **{**spec.params, **extra})
+    """The registry's detector for ``spec`` (plus ``extra`` parameters): ``baselines.get``.
+
+    A spec with ``desc=native`` whose detector has no descriptor of its own is
+    a one-line ``ValueError`` here, before any work (:func:`check_descriptor`).
+    """
+    return check_descriptor(spec, baselines.get(spec.name, **{**spec.params, **extra}))
+
+
+def check_descriptor(spec: DetectorSpec, detector):
+    """``detector``, after checking that it can give ``spec``'s descriptor (``ValueError`` if not).
+
+    ``desc=native`` needs a detector with its own descriptors: a
+    ``describe_native(image, corners)`` method and, where it has one, a true
+    ``native_descriptors`` (false for ``aliked``/``disk`` on an ONNX file).
+
+    Examples
+    --------
+    >>> check_descriptor(parse_spec("sift"), baselines.get("sift")).name
+    'sift'
+    >>> try:
+    ...     check_descriptor(parse_spec("sift:desc=native"), baselines.get("sift"))
+    ... except ValueError as exc:
+    ...     print(exc)
+    sift:desc=native: sift has no descriptor of its own (desc=native needs xfeat, aliked or disk); use desc=sift
+    """
+    if spec.desc == NATIVE and not (callable(getattr(detector, "describe_native", None))
+                                    and getattr(detector, "native_descriptors", True)):
+        raise ValueError(f"{spec.label}: {spec.name} has no descriptor of its own "
+                         f"(desc={NATIVE} needs {', '.join(LEARNED[:-1])} or {LEARNED[-1]}); use desc=sift")
+    return detector
+
+
+def _with_learned(default: Sequence[str], rows: Sequence[str]) -> list[str]:
+    return [*default, *rows] if learned_extra.installed() else list(default)
+
+
+def default_matching() -> list[str]:
+    """``sogdd eval matching``'s detectors: :data:`DEFAULT_MATCHING`, then, where the ``learned``
+    extra is installed, :data:`LEARNED_DOWNSTREAM` (each learned entry with SIFT and its own descriptor).
+
+    Examples
+    --------
+    >>> default_matching()[: len(DEFAULT_MATCHING)] == list(DEFAULT_MATCHING)
+    True
+    >>> ("xfeat:desc=native" in default_matching()) == learned_extra.installed()
+    True
+    """
+    return _with_learned(DEFAULT_MATCHING, LEARNED_DOWNSTREAM)
+
+
+def default_sfm() -> list[str]:
+    """``sogdd eval sfm``'s detectors: :data:`DEFAULT_SFM`, then the learned rows as in
+    :func:`default_matching` where the extra is installed.
+
+    Examples
+    --------
+    >>> default_sfm()[: len(DEFAULT_SFM)] == list(DEFAULT_SFM)
+    True
+    """
+    return _with_learned(DEFAULT_SFM, LEARNED_DOWNSTREAM)
 
 
 def parse_specs(items: str | Sequence[str] | None, default: Sequence[DetectorSpec | str]) -> list[DetectorSpec]:
@@ -264,9 +341,9 @@ def default_gt_specs() -> list[DetectorSpec]:
 
 
 def default_fast_specs() -> list[DetectorSpec]:
-    """sogdd plus the fast OpenCV baselines."""
+    """sogdd plus the fast OpenCV baselines, then the learned entries where the extra is installed."""
     names = registry_names()
-    return [DetectorSpec("sogdd")] + [DetectorSpec(n) for n in FAST_BASELINES if n in names]
+    return [DetectorSpec("sogdd")] + [DetectorSpec(n) for n in (*FAST_BASELINES, *LEARNED) if n in names]
 
 
 def select(corners: Corners, shape: tuple[int, int], remove_border: int = 0, top_k: int | None = None

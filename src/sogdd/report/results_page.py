@@ -32,6 +32,7 @@ from ..evaluation.specs import DetectorSpec, default_fast_specs, default_gt_spec
 from .chessboard_section import chessboard_stage
 from .fig1_section import fig1_stage
 from .gt import PAPER_ROWS, gt_overlay_montage, paper_vs_ours
+from .learned_rows import learned_labels, learned_note
 from .matching import budget_table, homography_table
 from .overlays import save_png
 from .plots import repeatability_figure
@@ -101,7 +102,7 @@ def gt_stage(page: Page, data: Path, paper_csv: Path | None) -> None:
         "with the fewest missed + false is kept, ties broken by lower Le. *tuned* picks it per "
         "image (the paper's setting, optimistic); *joint* picks one threshold per detector for "
         "all images; *default* is the detector as shipped.\n",
-        "### Pooled over all images\n", gt_summary_table(gt),
+        "### Pooled over all images\n", gt_summary_table(gt), learned_note(gt.detectors()),
         "\n### Geometric and block, per-image tuned threshold (Table 1 layout)\n",
         gt_table(gt, "tuned", [i for i in ("geometric", "block") if i in gt.images]),
         "\n### Beside the paper's Table 1 ('Geometric')\n",
@@ -151,6 +152,7 @@ def repeatability_stage(page: Page, data: Path) -> None:
         "other image; R_avg is eq. 27, averaged per family over images and parameters. "
         f"Run time: {rr.seconds:.0f} s with {page.jobs} processes.\n",
         repeatability_table(rr, rr.specs),
+        learned_note(rr.specs),
         f"\nsogdd's rank per family: {fam_ranks}. The `blur` family (Gaussian σ 0.5-5 px, motion blur "
         "3-15 px at a seeded random angle) is beyond the paper, which claims blur robustness in its "
         "abstract but tests none; it is not in the overall mean.\n",
@@ -163,8 +165,10 @@ def repeatability_stage(page: Page, data: Path) -> None:
         f"![repeatability]({page.rel}/repeatability.png)\n",
         "**What differs from the paper:** 12 images instead of 30; "
         + ("the paper's full grid" if page.full else "a quick grid (fewer parameters per family)")
-        + "; the comparators are the registry's OpenCV and re-implemented baselines, not the paper's 16 "
-        "methods (no learned detectors); `blur` and the fixed-count mode are additions. The paper's Fig. 9 "
+        + "; the comparators are the registry's OpenCV and re-implemented baselines"
+        + (", with the learned XFeat, ALIKED and DISK (not the paper's learned methods)"
+           if learned_labels(rr.specs) else " (no learned detectors)")
+        + ", not the paper's 16 methods; `blur` and the fixed-count mode are additions. The paper's Fig. 9 "
         "claims that the proposed detector has the best average repeatability under all six families.\n",
     ]
     page.summary["repeatability"] = summ
@@ -186,7 +190,10 @@ def downstream_stage(folder: Path, page_dir: Path) -> list[str]:
           "**What differs from the paper:** the local homography data is 18 pairs (HPatches `v_wormhole`, "
           "Oxford `graf`, the 8 HOMOGR pairs), not the 540 pairs of the full HPatches benchmark; every "
           "detector is described with OpenCV SIFT (the paper's SOSNet weights and REKD orientation filter "
-          "are not available); homography AUC is not in the paper.\n"]
+          "are not available), and the learned ones also with their own (`desc=native`); homography AUC is "
+          "not in the paper.\n"]
+    runs = sorted(folder.glob("matching_*/matching.json")) + sorted(folder.glob("sfm_*/sfm.json"))
+    md.append(learned_note(lab for p in runs for lab in json.loads(p.read_text())))
     bud = budget_table(sorted(folder.glob("matching_*/matching.json")))
     if bud:
         md += ["\n### Matching at an equal budget beside the defaults\n", bud]

@@ -15,9 +15,10 @@ processes (the matching and SfM evaluations' ``--jobs``).
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import as_completed
 from typing import TypeVar
 
+from ..pools import process_pool
 from ..specs import DetectorSpec
 
 __all__ = ["budget_of", "map_specs", "with_budget"]
@@ -90,7 +91,7 @@ def map_specs(fn: Callable[[DetectorSpec], T], specs: Sequence[DetectorSpec], jo
             if on_result is not None:
                 on_result(s, out[i])
         return out
-    with ProcessPoolExecutor(max_workers=min(jobs, len(specs))) as ex:
+    with process_pool(min(jobs, len(specs))) as ex:  # spawned once PyTorch is loaded
         futs = {ex.submit(fn, s): i for i, s in enumerate(specs)}
         for f in as_completed(futs):
             i = futs[f]

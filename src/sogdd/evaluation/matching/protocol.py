@@ -303,5 +303,6 @@ def benchmark_info(root: str | Path, layout: str, sequences: Sequence[Homography
         "n_viewpoint": n_v,
         "n_pairs": int(sum(len(s) for s in sequences)),
         "full_hpatches": bool(full),
-        "descriptor": "OpenCV SIFT at every detector's points (the paper's SOSNet weights are not available)",
+        "descriptor": "OpenCV SIFT at every detector's points (the paper's SOSNet weights are not available); "
+                      "rows with desc=native: the detector's own",
     }

@@ -42,7 +42,7 @@ import math
 import os
 import time
 from collections import defaultdict
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -51,6 +51,7 @@ import numpy as np
 from tqdm import tqdm
 
 from ..points import match_points
+from ..pools import process_pool
 from ..specs import DetectorSpec, build_detector, detect
 from .transforms import ALL_FAMILIES, FAMILIES, apply_transform, family_grid, map_points
 
@@ -253,7 +254,7 @@ def evaluate_repeatability(
                 secs[k] += v
             bar.update(1)
     else:
-        with ProcessPoolExecutor(max_workers=jobs) as ex:
+        with process_pool(jobs) as ex:  # spawned once PyTorch is loaded (a learned detector)
             futs = [ex.submit(_task, *t) for t in tasks]
             for fut in as_completed(futs):
                 recs, s = fut.result()

@@ -41,12 +41,28 @@ from ...formats.colmap import (
 from ...image.files import read_image
 from ..features import extract_features
 from ..matching.protocol import mutual_nn
-from ..specs import DetectorSpec, build_detector
+from ..specs import NATIVE, DetectorSpec, build_detector
 from .cameras import camera_errors, read_strecha_cameras
 from .dense import dense_points
 
-__all__ = ["feature_stage", "import_stage", "map_stage", "match_stage", "model_stats",
+__all__ = ["feature_stage", "import_stage", "map_stage", "match_stage", "matcher_for", "model_stats",
            "run_sfm"]
+
+
+def matcher_for(spec: DetectorSpec, matcher: str) -> str:
+    """The matcher that can run ``spec``'s descriptor: ``mnn`` for ``desc=native``, else ``matcher``.
+
+    COLMAP's matcher takes 128-D SIFT-scaled ``uint8`` descriptors; a learned
+    descriptor (64-D for XFeat, signed) is matched by our mutual-NN matcher on its
+    float values, the same rule (mutual nearest neighbours, no ratio test).
+
+    Examples
+    --------
+    >>> from sogdd.evaluation.specs import parse_spec
+    >>> matcher_for(parse_spec("sift"), "colmap"), matcher_for(parse_spec("xfeat:desc=native"), "colmap")
+    ('colmap', 'mnn')
+    """
+    return "mnn" if spec.desc == NATIVE else matcher
 
 
 def import_stage(db_path: str, image_dir: Path, names: list[str]):
@@ -68,8 +84,10 @@ def feature_stage(db_path: str, image_dir: Path, ids: dict[str, int], spec: Dete
     with pycolmap.Database.open(db_path) as db:
         for name, iid in ids.items():
             fs = extract_features(read_image(image_dir / name), spec, det)
-            # the orientation is inside the descriptor; COLMAP's mapper does not use it
-            write_features(db, iid, fs.keypoints, fs.size, None, fs.descriptors)
+            # the orientation is inside the descriptor; COLMAP's mapper does not use it. A native
+            # descriptor is not COLMAP's uint8 SIFT (matcher_for: matched by mnn), so it stays out
+            own = spec.desc == NATIVE
+            write_features(db, iid, fs.keypoints, fs.size, None, None if own else fs.descriptors)
             counts[name] = len(fs)
             if keep_descriptors:
                 descs[iid] = fs.descriptors
@@ -183,6 +201,8 @@ def run_sfm(
     matcher : {"colmap", "mnn"}
         COLMAP's exhaustive CPU matcher (cross-check, ratio test off) or our
         mutual-NN matches; both are followed by COLMAP's geometric verification.
+        ``desc=native`` always uses ``mnn`` (:func:`matcher_for`; the result's
+        ``matcher`` says which ran).
     gt_cameras : path, optional
         Strecha-format camera folder for pose errors.
     dense : bool
@@ -204,6 +224,7 @@ def run_sfm(
     pycolmap = require_pycolmap()
     if matcher not in ("colmap", "mnn"):
         raise ValueError(f"matcher must be 'colmap' or 'mnn', got {matcher!r}")
+    matcher = matcher_for(spec, matcher)
     image_dir = Path(image_dir)
     names = list_image_names(image_dir)
     if image_names is not None:

@@ -29,6 +29,7 @@ from .pipeline import (
     import_stage,
     map_stage,
     match_stage,
+    matcher_for,
     model_stats,
 )
 
@@ -125,6 +126,7 @@ def run_sfm_seeds(
     require_pycolmap()
     if matcher not in ("colmap", "mnn"):
         raise ValueError(f"matcher must be 'colmap' or 'mnn', got {matcher!r}")
+    matcher = matcher_for(spec, matcher)  # desc=native: mnn
     seeds = [int(s) for s in seeds]
     if not seeds or len(set(seeds)) != len(seeds):
         raise ValueError(f"seeds must be distinct integers, got {seeds!r}")
