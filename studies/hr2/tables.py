@@ -99,6 +99,39 @@ def ranking(sfm: dict, mm: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+def finalists_table(half: str) -> str:
+    """B3 (top-500 repeatability per family), B4 (GT F1) and the constraints C1, C2 of the finalists."""
+    rows = load(half, "final")
+    if not rows:
+        return ""
+    fams = ("rotation", "scale", "anisotropic", "shear", "jpeg", "noise", "blur")
+    lines = ["| row | B3 overall | " + " | ".join(fams) + " | B4 GT F1 | C1 chess err. (px, <= 0.10) "
+             "| C2 adjacent (>= 0.881) | time (s) | command |",
+             "|---|---|" + "---|" * len(fams) + "---|---|---|---|---|"]
+    for row, d in rows.items():
+        r = d["result"]
+        c1, c2 = r["C1"]["mean_error"], r["C2"]["mean_rate"]
+        lines.append(f"| `{row}` | {r['B3']['overall']:.3f} | " + " | ".join(f"{r['B3'][f]:.3f}" for f in fams)
+                     + f" | {r['B4']['f1']:.3f} | {c1:.3f} {'ok' if c1 <= 0.10 else 'FAILS'} | "
+                     f"{c2:.3f} {'ok' if c2 >= 0.881 else 'FAILS'} | {d['seconds']:.0f} | `{d['command']}` |")
+    return "\n".join(lines) + "\n"
+
+
+def residuals_table(half: str) -> str:
+    """Bias and spread of the residuals of the matches within 3 px (viewpoint change, 2,000 points)."""
+    rows = load(half, "residuals")
+    if not rows:
+        return ""
+    lines = ["| row | graf: bias / sd / median (n) | v_wormhole | HOMOGR | time (s) | command |",
+             "|---|---|---|---|---|---|"]
+    for row, d in rows.items():
+        r = d["result"]
+        cells = [f"{r[n]['bias']:.3f} / {r[n]['sd']:.3f} / {r[n]['median']:.3f} ({r[n]['n']})"
+                 for n in ("oxford", "hpatches", "homogr")]
+        lines.append(f"| `{row}` | " + " | ".join(cells) + f" | {d['seconds']:.0f} | `{d['command']}` |")
+    return "\n".join(lines) + "\n"
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--half", default="dev")
@@ -107,6 +140,13 @@ def main(argv=None) -> int:
     print(f"### Screening ranking ({a.half})\n\n" + ranking(sfm, mm))
     print(f"### B1: SfM, {a.half} half, seeds 0, 1, 2 (median (min–max))\n\n" + sfm_table(sfm))
     print(f"### B2: matching at 2,000 points, {a.half} pairs\n\n" + matching_table(mm))
+    res = residuals_table(a.half)
+    if res:
+        print(f"### Refinement under viewpoint change: residuals of the matches within 3 px ({a.half})\n\n"
+              + res)
+    fin = finalists_table(a.half)
+    if fin:
+        print(f"### Finalists: B3, B4 and the constraints ({a.half})\n\n" + fin)
     return 0
 
 
