@@ -32,7 +32,7 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(f"--resolution-runs: {args.resolution_runs} is not a folder")
     out = build_report(args.out, data, full=args.full, jobs=args.jobs, paper_csv=args.paper,
                        progress=not args.quiet, resolution_runs=args.resolution_runs,
-                       chessboard_quick=args.chessboard_quick)
+                       chessboard_quick=args.chessboard_quick, readme=args.readme)
     print(out)
     return 0
 
@@ -50,6 +50,9 @@ def configure(p: argparse.ArgumentParser) -> None:
     p.add_argument("--resolution-runs", metavar="DIR",
                    help="cached resolution runs [default: figures/resolution_full next to the page]")
     p.add_argument("--chessboard-quick", action="store_true", help="the checkerboards' quick grid")
+    p.add_argument("--readme", metavar="PATH",
+                   help="also rewrite this README's result blocks from the same run "
+                   "(<!-- results:NAME --> ... <!-- /results:NAME -->)")
     p.add_argument("--jobs", type=int, default=min(2, os.cpu_count() or 1), help="worker processes")
     p.add_argument("--quiet", "--no-progress", dest="quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=run)

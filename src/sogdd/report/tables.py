@@ -13,8 +13,8 @@ from ..evaluation.repeatability.protocol import RepeatabilityReport, top_n_label
 from ..evaluation.repeatability.transforms import FAMILIES as PAPER_FAMILIES
 from ..evaluation.resolution.protocol import ResolutionReport
 
-__all__ = ["markdown_table", "gt_table", "gt_summary_table", "gt_csv", "paper_table1", "rank_of",
-           "repeatability_table", "repeatability_modes_table", "resolution_table", "fmt"]
+__all__ = ["markdown_table", "gt_table", "gt_summary_table", "gt_readme_table", "gt_csv", "paper_table1",
+           "rank_of", "repeatability_table", "repeatability_modes_table", "resolution_table", "fmt"]
 
 
 def rank_of(scores: dict[str, float], name: str, higher_is_better: bool = True) -> tuple[int, int]:
@@ -92,6 +92,26 @@ def gt_summary_table(rep: GTReport) -> str:
             r += [m.missed + m.false, m.le, m.f1]
         cons = [e.consistency for e in rep.entries if e.detector == d]
         rows.append(r + [rep.joint_threshold.get(d), float(sum(cons) / len(cons))])
+    return markdown_table(header, rows)
+
+
+def gt_readme_table(rep: GTReport, keep: tuple[str, ...] = ("sogdd", "sogdd-authors", "sogdd-hr"),
+                    top: int = 5) -> str:
+    """The README's GT summary: the ``top`` detectors by one-threshold missed + false, and ``keep``.
+
+    Columns: default M+F and F1, per-image tuned M+F, one threshold (joint) M+F and F1; rows by
+    joint M+F, sogdd's presets in bold.
+    """
+    joint = {d: rep.pooled(d, "joint") for d in rep.detectors()}
+    order = sorted(joint, key=lambda d: (joint[d].missed + joint[d].false, d))
+    names = [d for d in order if d in order[:top] or d in keep]
+    rows = []
+    for d in names:
+        de, tu, jo = (rep.pooled(d, w) for w in ("default", "tuned", "joint"))
+        label = f"**{d}**" if d.startswith("sogdd") else d
+        rows.append([label, de.missed + de.false, de.f1, tu.missed + tu.false, jo.missed + jo.false, jo.f1])
+    header = ["detector", "default M+F", "default F1", "tuned per image M+F", "one threshold M+F",
+              "one-threshold F1"]
     return markdown_table(header, rows)
 
 
