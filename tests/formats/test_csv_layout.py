@@ -4,7 +4,6 @@ sidecar ``<file>.json`` bound to the CSV's bytes (issue 22, item 2)."""
 import csv
 import json
 
-import cv2
 import numpy as np
 import pytest
 
@@ -12,24 +11,12 @@ import sogdd
 from sogdd.cli.main import main
 from sogdd.collection import run_batch
 from sogdd.formats.features import FeatureRecord, read_features, sidecar_path, write_features
-from sogdd.synthetic import pattern_image
 
 
-@pytest.fixture(scope="module")
-def image():
-    return pattern_image((120, 160), seed=2)[0]
-
-
-def _write(path, img):
-    path.parent.mkdir(parents=True, exist_ok=True)
-    assert cv2.imwrite(str(path), img)
-    return str(path)
-
-
-def test_a_batch_csv_loads_with_plain_pandas_and_dictreader(tmp_path, image):
+def test_a_batch_csv_loads_with_plain_pandas_and_dictreader(tmp_path, image, write_image):
     pd = pytest.importorskip("pandas")
-    a = _write(tmp_path / "a.png", image)
-    b = _write(tmp_path / "b.png", np.roll(image, 7, axis=1))
+    a = write_image(tmp_path / "a.png", image)
+    b = write_image(tmp_path / "b.png", np.roll(image, 7, axis=1))
     out = tmp_path / "all.csv"
     assert main(["detect", a, b, "-o", str(out)]) == 0
     df = pd.read_csv(out)  # no options
@@ -49,9 +36,9 @@ def test_a_batch_csv_loads_with_plain_pandas_and_dictreader(tmp_path, image):
     assert recs[0].source_size == (tmp_path / "a.png").stat().st_size and len(recs[0].source_sha256) == 64
 
 
-def test_stdout_csv_is_the_header_and_the_rows_only(tmp_path, image, capsys):
+def test_stdout_csv_is_the_header_and_the_rows_only(tmp_path, image, capsys, write_image):
     pd = pytest.importorskip("pandas")
-    a = _write(tmp_path / "a.png", image)
+    a = write_image(tmp_path / "a.png", image)
     assert main(["detect", a]) == 0
     text = capsys.readouterr().out
     (tmp_path / "s.csv").write_text(text)
@@ -61,9 +48,9 @@ def test_stdout_csv_is_the_header_and_the_rows_only(tmp_path, image, capsys):
     assert len(sogdd.load_features(tmp_path / "s.csv")) == len(df)  # rows without provenance still load
 
 
-def test_images_without_corners_keep_their_record(tmp_path, image):
-    flat = _write(tmp_path / "flat.png", np.full((60, 80), 128, np.uint8))
-    a = _write(tmp_path / "a.png", image)
+def test_images_without_corners_keep_their_record(tmp_path, image, write_image):
+    flat = write_image(tmp_path / "flat.png", np.full((60, 80), 128, np.uint8))
+    a = write_image(tmp_path / "a.png", image)
     out = tmp_path / "all.csv"
     assert main(["detect", flat, a, "-o", str(out)]) == 0
     recs = read_features(out)
@@ -71,10 +58,10 @@ def test_images_without_corners_keep_their_record(tmp_path, image):
         ("flat.png", False, (60, 80)), ("a.png", True, (120, 160))]
 
 
-def test_an_edited_csv_drops_its_stale_provenance_and_resume_redoes_it(tmp_path, image):
+def test_an_edited_csv_drops_its_stale_provenance_and_resume_redoes_it(tmp_path, image, write_image):
     pd = pytest.importorskip("pandas")
     src = tmp_path / "src" / "a.png"
-    _write(src, image)
+    write_image(src, image)
     out = tmp_path / "feats"
     assert run_batch([src], out, fmt="csv")[0].status == "done"
     f = out / "a.png.csv"

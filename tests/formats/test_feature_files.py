@@ -4,7 +4,6 @@ mask strictness, messages."""
 import csv
 import json
 
-import cv2
 import numpy as np
 import pytest
 
@@ -15,17 +14,6 @@ from sogdd.select import pyramid
 from sogdd.synthetic import pattern_image
 
 
-@pytest.fixture(scope="module")
-def image():
-    return pattern_image((120, 160), seed=2)[0]
-
-
-def _write(path, img):
-    path.parent.mkdir(parents=True, exist_ok=True)
-    assert cv2.imwrite(str(path), img)
-    return str(path)
-
-
 def _error(err: str) -> str:
     assert "Traceback" not in err
     lines = [ln for ln in err.splitlines() if ln.startswith("sogdd: error:")]
@@ -33,9 +21,9 @@ def _error(err: str) -> str:
     return lines[0]
 
 
-def test_csv_survives_commas_and_carries_level(tmp_path, image, capsys):
-    a = _write(tmp_path / "x, y.png", image)
-    b = _write(tmp_path / "plain.png", np.roll(image, 5, axis=1))
+def test_csv_survives_commas_and_carries_level(tmp_path, image, capsys, write_image):
+    a = write_image(tmp_path / "x, y.png", image)
+    b = write_image(tmp_path / "plain.png", np.roll(image, 5, axis=1))
     out = tmp_path / "all.csv"
     assert main(["detect", a, b, "--levels", "2", "-o", str(out)]) == 0
     with open(out, newline="") as f:
@@ -51,8 +39,8 @@ def test_csv_survives_commas_and_carries_level(tmp_path, image, capsys):
 
 
 @pytest.mark.parametrize("n", [1, 2])
-def test_json_has_one_shape_whatever_the_number_of_inputs(tmp_path, image, capsys, n):
-    files = [_write(tmp_path / f"i{i}.png", np.roll(image, 3 * i, axis=0)) for i in range(n)]
+def test_json_has_one_shape_whatever_the_number_of_inputs(tmp_path, image, capsys, n, write_image):
+    files = [write_image(tmp_path / f"i{i}.png", np.roll(image, 3 * i, axis=0)) for i in range(n)]
     assert main(["detect", *files, "--format", "json"]) == 0
     objs = json.loads(capsys.readouterr().out)
     assert isinstance(objs, list) and len(objs) == n
@@ -61,9 +49,9 @@ def test_json_has_one_shape_whatever_the_number_of_inputs(tmp_path, image, capsy
                 "sogdd_version", "source_size", "source_mtime_ns"} <= set(o)
 
 
-def test_one_npz_of_several_images_keeps_every_image(tmp_path, image):
-    a = _write(tmp_path / "a" / "same.png", image)
-    b = _write(tmp_path / "b" / "same.png", np.roll(image, 9, axis=1))
+def test_one_npz_of_several_images_keeps_every_image(tmp_path, image, write_image):
+    a = write_image(tmp_path / "a" / "same.png", image)
+    b = write_image(tmp_path / "b" / "same.png", np.roll(image, 9, axis=1))
     out = tmp_path / "all.npz"
     assert main(["detect", a, b, "--format", "npz", "-o", str(out)]) == 0
     recs = read_features(out)
@@ -74,9 +62,9 @@ def test_one_npz_of_several_images_keeps_every_image(tmp_path, image):
         sogdd.load_features(out)
 
 
-def test_load_features_rejects_truncated_files_in_one_line(tmp_path, image):
+def test_load_features_rejects_truncated_files_in_one_line(tmp_path, image, write_image):
     f = tmp_path / "a.png"
-    _write(f, image)
+    write_image(f, image)
     assert main(["detect", str(f), "--out", str(tmp_path / "feat")]) == 0
     npz = tmp_path / "feat" / "a.png.npz"
     npz.write_bytes(npz.read_bytes()[:100])
@@ -85,11 +73,11 @@ def test_load_features_rejects_truncated_files_in_one_line(tmp_path, image):
     assert "\n" not in str(info.value)
 
 
-def test_colmap_export_is_all_or_nothing_and_the_readme_command_works(tmp_path, image, capsys):
+def test_colmap_export_is_all_or_nothing_and_the_readme_command_works(tmp_path, image, capsys, write_image):
     pytest.importorskip("pycolmap")
     photos = tmp_path / "photos"
     for i in range(3):
-        _write(photos / f"p{i}.png", np.roll(image, 4 * i, axis=1))
+        write_image(photos / f"p{i}.png", np.roll(image, 4 * i, axis=1))
     feats, db = tmp_path / "feats", tmp_path / "db.db"
     assert main(["detect", str(photos), "--out", str(feats)]) == 0
     # the README's commands, as written, on a fresh database
@@ -120,8 +108,8 @@ def test_colmap_export_is_all_or_nothing_and_the_readme_command_works(tmp_path, 
     (["--threshold", "abc"], "--threshold: expected a number or 'none', got 'abc'"),
     (["--value-range", "0"], "--value-range: expected LO,HI"),
 ])
-def test_options_are_checked_before_any_work(tmp_path, image, capsys, monkeypatch, argv, says):
-    f = _write(tmp_path / "a.png", image)
+def test_options_are_checked_before_any_work(tmp_path, image, capsys, monkeypatch, argv, says, write_image):
+    f = write_image(tmp_path / "a.png", image)
     calls = []
     monkeypatch.setattr("sogdd.cli.detect.detect_corners", lambda *a, **k: calls.append(1))
     argv = [str(tmp_path / a) if a in ("NOEXT", "OUTDIR") else a for a in argv]
@@ -140,8 +128,9 @@ class _nothing:
         return False
 
 
-def test_overlay_with_several_images_and_response_selection_flags_are_errors(tmp_path, image, capsys):
-    a, b = (_write(tmp_path / f"{n}.png", image) for n in "ab")
+def test_overlay_with_several_images_and_response_selection_flags_are_errors(
+        tmp_path, image, capsys, write_image):
+    a, b = (write_image(tmp_path / f"{n}.png", image) for n in "ab")
     assert main(["detect", a, b, "--overlay", str(tmp_path / "o.png")]) == 2
     assert "--overlay draws one image" in _error(capsys.readouterr().err)
     assert main(["response", a, "-o", str(tmp_path / "r.npy"), "--max-corners", "5"]) == 2
@@ -168,10 +157,10 @@ def test_mask_and_border_hold_after_refinement_at_every_level(monkeypatch):
     assert outside(sogdd.detect_corners(img, mask=mask, levels=3, border=7)) > 0  # the scene does test it
 
 
-def test_messages_name_what_they_are_about(tmp_path, image, capsys, monkeypatch):
+def test_messages_name_what_they_are_about(tmp_path, image, capsys, monkeypatch, write_image):
     with pytest.raises(ValueError, match="threshold_rel must be a number in"):
         sogdd.detect_corners(image, threshold_rel="x")
-    f = _write(tmp_path / "a.png", image)
+    f = write_image(tmp_path / "a.png", image)
     monkeypatch.setenv("SOGDD_NUM_THREADS", "abc")
     assert main(["detect", f]) == 2
     line = _error(capsys.readouterr().err)

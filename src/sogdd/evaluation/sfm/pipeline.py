@@ -173,6 +173,17 @@ def _fresh_dir(work_dir: str | Path) -> Path:
     return work
 
 
+def chosen_images(image_dir: Path, image_names: list[str] | None) -> list[str]:
+    """The images of ``image_dir`` to reconstruct: all, or ``image_names`` in folder order (each must exist)."""
+    names = list_image_names(image_dir)
+    if image_names is None:
+        return names
+    missing = sorted(set(image_names) - set(names))
+    if missing:
+        raise ValueError(f"{image_dir}: no image {missing[0]}")
+    return [n for n in names if n in set(image_names)]
+
+
 def run_sfm(
     image_dir: str | Path,
     spec: DetectorSpec,
@@ -226,12 +237,7 @@ def run_sfm(
         raise ValueError(f"matcher must be 'colmap' or 'mnn', got {matcher!r}")
     matcher = matcher_for(spec, matcher)
     image_dir = Path(image_dir)
-    names = list_image_names(image_dir)
-    if image_names is not None:
-        missing = sorted(set(image_names) - set(names))
-        if missing:
-            raise ValueError(f"{image_dir}: no image {missing[0]}")
-        names = [n for n in names if n in set(image_names)]
+    names = chosen_images(image_dir, image_names)
     work = _fresh_dir(work_dir)
     db_path = str(work / "database.db")
     say = progress or (lambda _m: None)

@@ -19,12 +19,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ...formats.colmap import list_image_names, require_pycolmap
+from ...formats.colmap import require_pycolmap
 from ..specs import DetectorSpec
 from .pipeline import (
     _fresh_dir,
     _pose_errors,
     _verified_stats,
+    chosen_images,
     feature_stage,
     import_stage,
     map_stage,
@@ -131,12 +132,7 @@ def run_sfm_seeds(
     if not seeds or len(set(seeds)) != len(seeds):
         raise ValueError(f"seeds must be distinct integers, got {seeds!r}")
     image_dir = Path(image_dir)
-    names = list_image_names(image_dir)
-    if image_names is not None:
-        missing = sorted(set(image_names) - set(names))
-        if missing:
-            raise ValueError(f"{image_dir}: no image {missing[0]}")
-        names = [n for n in names if n in set(image_names)]
+    names = chosen_images(image_dir, image_names)
     work = _fresh_dir(work_dir)
     say = progress or (lambda _m: None)
     t_start = time.perf_counter()
