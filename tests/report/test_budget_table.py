@@ -1,6 +1,9 @@
 """The report's matching at an equal budget beside the defaults, with MMA@1 (issue 21)."""
 
 import json
+from pathlib import Path
+
+import pytest
 
 
 def _run(folder, results, layout="oxford", seqs=("graf",)):
@@ -49,3 +52,21 @@ def test_report_includes_the_budget_table(tmp_path):
     text = "\n".join(downstream_stage(folder, tmp_path))
     assert "Matching at an equal budget beside the defaults" in text
     assert "| `sift` | 0.190 / 0.280 (3086) | 0.210 / 0.300 (2000) |" in text
+
+
+def test_homography_table_holds_the_default_runs_only(tmp_path):
+    """A budget run beside its default run adds no second column group to the homography table."""
+    import shutil
+
+    from sogdd.report.results_page import downstream_stage
+
+    src = Path(__file__).resolve().parents[2] / "docs" / "figures" / "downstream"
+    runs = [src / "matching_oxford", src / "matching_oxford_budget2000"]
+    if not all((r / "matching.json").is_file() for r in runs):
+        pytest.skip("needs the repository's matching runs")
+    for r in runs:
+        shutil.copytree(r, tmp_path / r.name)
+    md = "\n".join(downstream_stage(tmp_path, tmp_path))
+    hom = md.split("### Homography accuracy beside MMA")[1].split("\n\n")[1]
+    assert hom.splitlines()[0].count("oxford") == 1
+    assert "### Matching at an equal budget beside the defaults" in md

@@ -211,7 +211,10 @@ def downstream_stage(folder: Path, page_dir: Path) -> list[str]:
     bud = budget_table(sorted(folder.glob("matching_*/matching.json")))
     if bud:
         md += ["\n### Matching at an equal budget beside the defaults\n", bud]
-    hom = homography_table(sorted(folder.glob("matching_*/matching.json")))
+    # homography accuracy of the detectors at their defaults (the budget runs are in the table above)
+    at_defaults = [p for p in sorted(folder.glob("matching_*/matching.json"))
+                   if not any(s.get("budget") for s in json.loads(p.read_text()).values())]
+    hom = homography_table(at_defaults)
     if hom:
         md += ["\n### Homography accuracy beside MMA\n", hom,
                "HOMOGR's corner errors are large for every detector: its images are up to 1712 px wide with "
