@@ -88,7 +88,7 @@ class Params:
     gray_round: bool = False
     channel_order: str = "rgb"
     # "measure": threshold and response on Upsilon itself; "grey": in grey levels of corner
-    # contrast (sogdd.select.x_junctions), so a threshold means the same on a dim and a bright image
+    # contrast (sogdd.measure.units), so a threshold means the same on a dim and a bright image
     threshold_units: str = "measure"
     # report each X-junction once, on its saddle point (sogdd.select.x_junctions); needs threshold_units="grey"
     x_junctions: bool = False

@@ -85,7 +85,7 @@ class SOGDDHR(_SOGDDEntry):
     permissive_value: ClassVar[Any] = None
     strength_doc: ClassVar[str] = (
         "(grey levels of corner contrast: a right-angle corner of contrast T has strength T, "
-        "an X-junction of contrast T too; see sogdd.select.x_junctions)"
+        "an X-junction of contrast T too; see sogdd.measure.units)"
     )
     source: ClassVar[str] = (
         "this package, 'hr' preset: the configuration chosen by the declared study of docs/hr.md "
