@@ -118,8 +118,12 @@ def test_signal_stops_a_parallel_batch_fast_and_keeps_finished_files(tmp_path, s
     _images(tmp_path / "src", 36, shape=(900, 1200), prefix="b")
     out = tmp_path / "out"
     env = {**os.environ, "SOGDD_NUM_THREADS": "1"}
+    # SIGINT at its default in the child, as for a command run from a terminal: a shell without job
+    # control starts background commands (nohup ... &, some CI runners) with SIGINT ignored, and
+    # the CLI rightly keeps an ignored SIGINT ignored
     proc = subprocess.Popen(_cli("detect", str(tmp_path / "src"), "--out", str(out), "--jobs", "2"),
-                            stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, env=env)
+                            stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, env=env,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     try:
         assert _wait_for(lambda: len(list(out.glob("*.npz"))) >= 2, 60), "no feature file appeared"
         workers = _children(proc.pid)
