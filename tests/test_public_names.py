@@ -112,3 +112,13 @@ def test_no_public_function_shares_its_name_with_a_module():
     modules |= {p.name for p in root.iterdir() if (p / "__init__.py").is_file()}
     assert modules.isdisjoint(set(sogdd.__all__)), modules & set(sogdd.__all__)
     assert np.isfinite(sogdd.corner_response(np.eye(8)).sum())  # the lazy exports load
+
+
+@pytest.mark.skipif(not (REPO / "tests").is_dir(), reason="needs the repository checkout")
+def test_every_repository_file_the_docs_name_exists():
+    """Paths such as tests/gpu/test_gpu.py or benchmarks/bench_speed.py, as the README and docs cite them."""
+    cited = set()
+    for p in TEXTS:
+        cited |= set(re.findall(r"(?<![\w/.])((?:tests|benchmarks|tools|studies)/[\w/.-]+\.py)", p.read_text()))
+    assert len(cited) > 10
+    assert sorted(c for c in cited if not (REPO / c).is_file()) == []
