@@ -133,10 +133,7 @@ def corner_response(
     >>> bool(R.max() > 1e9)  # strong corners pass the paper's T_h
     True
     """
-    params = given(sigma2=sigma2, n_orientations=n_orientations, window=window, window_shape=window_shape,
-                   kernel_radius_rule=kernel_radius_rule, zero_mean=zero_mean, padding=padding,
-                   authors_measure=authors_measure, gray_weights=gray_weights, gray_round=gray_round,
-                   channel_order=channel_order, value_range=value_range)
+    params = given(locals())  # the keywords the caller set; the rest come from the preset
     if (gpu := _gpu(device)) is not None:
         return gpu.corner_response(image, preset=preset, **params)
     p = resolve_params(preset, **params)
@@ -253,13 +250,7 @@ def detect_corners(
     >>> bool(np.median(d) < 0.5)  # sub-pixel: on the rendered vertices
     True
     """
-    params = given(sigma2=sigma2, n_orientations=n_orientations, window=window, window_shape=window_shape,
-                   threshold=threshold, threshold_rel=threshold_rel, quantile=quantile,
-                   threshold_units=threshold_units, nms_radius=nms_radius, max_corners=max_corners,
-                   subpixel=subpixel, border=border, x_junctions=x_junctions, levels=levels,
-                   scale_factor=scale_factor, kernel_radius_rule=kernel_radius_rule, zero_mean=zero_mean,
-                   padding=padding, authors_measure=authors_measure, gray_weights=gray_weights,
-                   gray_round=gray_round, channel_order=channel_order, value_range=value_range)
+    params = given(locals())  # the keywords the caller set; the rest come from the preset
     if (gpu := _gpu(device)) is not None:
         return gpu.detect_corners(image, preset=preset, mask=mask, **params)
     p = resolve_params(preset, **params)

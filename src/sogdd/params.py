@@ -51,15 +51,17 @@ class _FromPreset:
 PRESET = _FromPreset()
 
 
-def given(**params) -> dict:
-    """The keywords a caller set: those whose value is not :data:`PRESET`.
+def given(arguments: dict) -> dict:
+    """The detector parameters a caller set: the :class:`Params` fields of ``arguments`` not at :data:`PRESET`.
+
+    ``arguments``: a function's ``locals()`` on entry (its arguments by name).
 
     Examples
     --------
-    >>> given(sigma2=1.5, window=PRESET)
+    >>> given({"image": None, "sigma2": 1.5, "window": PRESET})
     {'sigma2': 1.5}
     """
-    return {k: v for k, v in params.items() if v is not PRESET}
+    return {k: v for k, v in arguments.items() if k in _NAMES and v is not PRESET}
 
 
 @dataclass(frozen=True)

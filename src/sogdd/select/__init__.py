@@ -23,6 +23,7 @@ module                     what it does
 :mod:`.saddle_steps`       compiled saddle candidates and Newton steps
 :mod:`.assemble`           peaks to corners: refinement, units, X-junctions, merge
 :mod:`.pyramid`            the levels of the image pyramid and their merge
+:mod:`.budget`             ANMS and bucketing under a point budget (the evaluations' specs)
 =========================  ==============================================================
 """
 
