@@ -79,8 +79,8 @@ def _pairs(set_name: str, half: str):
     return out
 
 
-def bench_matching(row: str, half: str, budget: int | None = BUDGET) -> dict:
-    """B2: MMA@1, MMA@3 and H AUC@3 per set and their means, at ``budget`` points per image."""
+def _cached_features(row: str, budget: int | None):
+    """The row's spec at ``budget``, and ``feats(path)``: its features of an image, computed once."""
     spec = with_budget(parse_spec(row), budget)
     det = build_detector(spec)
     cache: dict[Path, object] = {}
@@ -89,6 +89,13 @@ def bench_matching(row: str, half: str, budget: int | None = BUDGET) -> dict:
         if p not in cache:
             cache[p] = extract_features(read_image(p), spec, det)
         return cache[p]
+
+    return spec, feats
+
+
+def bench_matching(row: str, half: str, budget: int | None = BUDGET) -> dict:
+    """B2: MMA@1, MMA@3 and H AUC@3 per set and their means, at ``budget`` points per image."""
+    spec, feats = _cached_features(row, budget)
 
     out: dict = {"label": spec.label}
     for name, _ in SETS:
@@ -119,14 +126,7 @@ def bench_residuals(row: str, half: str, budget: int | None = BUDGET, within: fl
     """
     from sogdd.evaluation.matching.protocol import project
 
-    spec = with_budget(parse_spec(row), budget)
-    det = build_detector(spec)
-    cache: dict[Path, object] = {}
-
-    def feats(p: Path):
-        if p not in cache:
-            cache[p] = extract_features(read_image(p), spec, det)
-        return cache[p]
+    spec, feats = _cached_features(row, budget)
 
     out: dict = {"label": spec.label}
     for name, _ in SETS:
