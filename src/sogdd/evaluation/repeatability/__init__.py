@@ -9,8 +9,10 @@ families and their grids (plus ``blur``, beyond the paper, from :mod:`.blur`),
 from .blur import apply_blur, gaussian_kernel, motion_angle, motion_kernel
 from .data import load_images
 from .protocol import (
+    RUN_FILE,
     RepeatabilityReport,
     evaluate_repeatability,
+    image_digest,
     pair_repeatability,
     repeatability_score,
     top_n_label,
@@ -27,7 +29,8 @@ from .transforms import (
 )
 
 __all__ = [
-    "ALL_FAMILIES", "BEYOND_PAPER", "FAMILIES", "RepeatabilityReport", "Transform", "affine_for", "apply_blur",
-    "apply_transform", "evaluate_repeatability", "family_grid", "gaussian_kernel", "load_images", "map_points",
-    "motion_angle", "motion_kernel", "pair_repeatability", "repeatability_score", "top_n_label",
+    "ALL_FAMILIES", "BEYOND_PAPER", "FAMILIES", "RUN_FILE", "RepeatabilityReport", "Transform", "affine_for",
+    "apply_blur", "apply_transform", "evaluate_repeatability", "family_grid", "gaussian_kernel", "image_digest",
+    "load_images", "map_points", "motion_angle", "motion_kernel", "pair_repeatability", "repeatability_score",
+    "top_n_label",
 ]

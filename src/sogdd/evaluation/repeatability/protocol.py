@@ -37,6 +37,7 @@ task each transformed image is generated once and shared by all detectors.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
@@ -55,8 +56,11 @@ from ..pools import process_pool
 from ..specs import DetectorSpec, build_detector, detect
 from .transforms import ALL_FAMILIES, FAMILIES, apply_transform, family_grid, map_points
 
-__all__ = ["RepeatabilityReport", "evaluate_repeatability", "pair_repeatability", "repeatability_score",
-           "top_n_label"]
+__all__ = ["RUN_FILE", "RepeatabilityReport", "evaluate_repeatability", "image_digest", "pair_repeatability",
+           "repeatability_score", "top_n_label"]
+
+#: the file of :meth:`RepeatabilityReport.write` that holds a whole run (records and protocol), for reuse
+RUN_FILE = "repeatability_run.json"
 
 def repeatability_score(lr: int, lb: int, ld: int) -> float:
     """Eq. 27: ``(L_r / 2) (1/L_b + 1/L_d)``; 0 when nothing matched."""
@@ -84,6 +88,21 @@ def pair_repeatability(ref_xy: np.ndarray, det_xy: np.ndarray, affine: np.ndarra
     m = match_points(map_points(f, affine), d, radius)
     lb, ld, lr = len(f), len(d), len(m)
     return lb, ld, lr, repeatability_score(lr, lb, ld)
+
+
+def image_digest(image: np.ndarray) -> str:
+    """The first 16 hex digits of the SHA-256 of an image's shape, type and pixels (what a run was made on).
+
+    Examples
+    --------
+    >>> a = np.zeros((4, 5), np.uint8)
+    >>> image_digest(a) == image_digest(a.copy()), image_digest(a) == image_digest(a.T)
+    (True, False)
+    """
+    a = np.ascontiguousarray(image)
+    h = hashlib.sha256(f"{a.shape}{a.dtype.str}".encode())
+    h.update(a.view(np.uint8).tobytes())
+    return h.hexdigest()[:16]
 
 
 def top_n_label(label: str, n: int) -> str:
@@ -145,6 +164,53 @@ class RepeatabilityReport:
     top_n: int | None = None
     #: the spec labels (default-mode rows); with ``top_n`` each also has a ``[top-N]`` row
     specs: list[str] = field(default_factory=list)
+    seed: int = 0
+    #: :func:`image_digest` of each image, in the order of ``images``
+    image_digests: list[str] = field(default_factory=list)
+
+    def protocol(self) -> dict:
+        """Everything a record depends on besides the detector: the test a cached run must share to be reused.
+
+        The grid is spelled out (every transform's label per family), so a
+        changed grid, like a changed image, seed or ``top_n``, is a different
+        protocol.
+        """
+        return {"radius": self.radius, "margin": self.margin, "quick": self.quick, "seed": self.seed,
+                "top_n": self.top_n, "families": list(self.families),
+                "grid": {f: [t.label for t in family_grid(f, self.quick)] for f in self.families},
+                "images": [[n, d] for n, d in zip(self.images, self.image_digests)]}
+
+    def merged(self, other: RepeatabilityReport) -> RepeatabilityReport:
+        """This run with ``other``'s detectors added (``ValueError`` if the protocols or a label differ)."""
+        if self.protocol() != other.protocol():
+            raise ValueError("repeatability runs with different protocols cannot be merged")
+        clash = set(self.detectors) & set(other.detectors)
+        if clash:
+            raise ValueError(f"both runs hold {', '.join(sorted(clash))}")
+        order = {(n, f): i for i, (n, f) in enumerate((n, f) for n in self.images for f in self.families)}
+        recs = sorted(self.records + other.records, key=lambda r: order[(r["image"], r["family"])])
+        return RepeatabilityReport(recs, self.detectors + other.detectors, list(self.families),
+                                   list(self.images), self.quick, self.radius, self.margin,
+                                   self.seconds + other.seconds,
+                                   {**self.detector_seconds, **other.detector_seconds},
+                                   self.top_n, self.specs + other.specs, self.seed, list(self.image_digests))
+
+    def to_run_json(self) -> dict:
+        """The whole run (protocol, rows, every record, times): :data:`RUN_FILE`, read back by
+        :meth:`from_run_json`."""
+        return {"format": 1, "protocol": self.protocol(), "specs": self.specs, "detectors": self.detectors,
+                "seconds": self.seconds, "detector_seconds": self.detector_seconds, "records": self.records}
+
+    @classmethod
+    def from_run_json(cls, obj: dict) -> RepeatabilityReport:
+        """The run that :meth:`to_run_json` wrote (``ValueError`` on another format)."""
+        if not isinstance(obj, dict) or obj.get("format") != 1:
+            raise ValueError("not a repeatability run (format 1)")
+        p = obj["protocol"]
+        return cls(list(obj["records"]), list(obj["detectors"]), list(p["families"]),
+                   [n for n, _ in p["images"]], bool(p["quick"]), float(p["radius"]), float(p["margin"]),
+                   float(obj["seconds"]), dict(obj["detector_seconds"]), p["top_n"], list(obj["specs"]),
+                   int(p["seed"]), [d for _, d in p["images"]])
 
     def family_average(self, detector: str, family: str) -> float:
         rs = [r["r"] for r in self.records if r["detector"] == detector and r["family"] == family]
@@ -198,10 +264,12 @@ class RepeatabilityReport:
         }
 
     def write(self, out: str | os.PathLike) -> list[Path]:
-        """``repeatability.json`` (summary), ``repeatability_records.csv``, ``repeatability.csv``."""
+        """``repeatability.json`` (summary), ``repeatability_records.csv``, ``repeatability.csv`` and
+        :data:`RUN_FILE` (the whole run, for ``sogdd report`` to reuse)."""
         o = Path(out)
         o.mkdir(parents=True, exist_ok=True)
         (o / "repeatability.json").write_text(json.dumps(self.to_json(), indent=1))
+        (o / RUN_FILE).write_text(json.dumps(self.to_run_json()))
         lines = ["image,family,param,detector,lb,ld,lr,r"]
         for r in self.records:
             lines.append(f"{r['image']},{r['family']},\"{r['label']}\",{r['detector']},"
@@ -213,7 +281,8 @@ class RepeatabilityReport:
             lines.append(d + "," + ",".join(f"{summ[d][f]:.4f}" for f in self.families)
                          + f",{summ[d]['overall']:.4f}")
         (o / "repeatability.csv").write_text("\n".join(lines) + "\n")
-        return [o / "repeatability.json", o / "repeatability_records.csv", o / "repeatability.csv"]
+        names = ("repeatability.json", "repeatability_records.csv", "repeatability.csv", RUN_FILE)
+        return [o / n for n in names]
 
 
 def evaluate_repeatability(
@@ -269,4 +338,5 @@ def evaluate_repeatability(
     rows = labels + ([top_n_label(x, top_n) for x in labels] if top_n is not None else [])
     return RepeatabilityReport(records, rows, list(families),
                                [n for n, _ in images], quick, radius, margin,
-                               time.perf_counter() - t0, dict(secs), top_n, labels)
+                               time.perf_counter() - t0, dict(secs), top_n, labels, seed,
+                               [image_digest(img) for _, img in images])
