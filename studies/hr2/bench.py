@@ -43,8 +43,12 @@ def _safe(text: str) -> str:
     return "".join(ch if ch.isalnum() or ch in "-_=" else "_" for ch in text)
 
 
-def bench_sfm(row: str, half: str, threads: int = 2) -> dict:
-    """B1: per scene, the seed summary of :func:`run_sfm_seeds` (medians, spread, every run)."""
+def bench_sfm(row: str, half: str, threads: int | None = None) -> dict:
+    """B1: per scene, the seed summary of :func:`run_sfm_seeds` (medians, spread, every run).
+
+    ``threads``: COLMAP's threads, default ``$HR2_THREADS`` or 2 (the rows added in stop 20 ran with 1).
+    """
+    threads = int(os.environ.get("HR2_THREADS", 2)) if threads is None else int(threads)
     spec = parse_spec(row)
     out = {}
     for scene in SCENES:
@@ -64,6 +68,7 @@ def bench_sfm(row: str, half: str, threads: int = 2) -> dict:
         vals = [out[s][key] for s in SCENES]
         out[key] = float(np.mean(vals)) if ok and None not in vals else None
     out["all_registered"] = ok
+    out["threads"] = threads
     return out
 
 
