@@ -4,6 +4,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from sogdd.measure import soddc
 from sogdd.synthetic import pattern_image as _pattern
 
 
@@ -35,3 +36,14 @@ def pattern():
 @pytest.fixture
 def rng():
     return np.random.default_rng(12345)
+
+
+@pytest.fixture(autouse=True)
+def _prune_small_maps(monkeypatch):
+    """Small test images take the pruned path that photos take (``soddc.PRUNE_MIN_PIXELS``).
+
+    Pruning never changes a result, so without this the tests of the bound's exactness on small
+    images would compare the full map with itself. ``tests/measure/test_bound.py`` checks the real
+    pixel rule.
+    """
+    monkeypatch.setattr(soddc, "PRUNE_MIN_PIXELS", 0)

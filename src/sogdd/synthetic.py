@@ -16,6 +16,7 @@ import numpy as np
 __all__ = ["Polygon", "pattern_polygons", "regular_polygon", "render_polygons", "pattern_image"]
 
 _SHIFT = 8  # fixed-point fraction bits for cv2.fillPoly
+_BAND_ROWS = 16  # output rows rendered at a time
 
 
 @dataclass(frozen=True)
@@ -33,17 +34,29 @@ def render_polygons(
     background: float = 0.0,
     supersample: int = 16,
 ) -> np.ndarray:
-    """Render polygons (painted in order) into a float64 image on the 0-255 scale."""
+    """Render polygons (painted in order) into a float64 image on the 0-255 scale.
+
+    The fine grid holds the index of the polygon painted last at each fine pixel
+    (``uint8`` for up to 254 polygons), and is turned into grey levels and averaged
+    :data:`_BAND_ROWS` output rows at a time: a 640 x 480 image at ``supersample=16``
+    needs 79 MB instead of a 630 MB float64 grid, with the same values
+    (``tests/test_synthetic.py``).
+    """
     h, w = shape
     s = int(supersample)
-    fine = np.full((h * s, w * s), float(background), dtype=np.float64)
-    for poly in polygons:
+    levels = np.array([float(background)] + [float(p.level) for p in polygons])
+    label = np.zeros((h * s, w * s), dtype=np.uint8 if len(polygons) < 255 else np.int32)
+    for k, poly in enumerate(polygons, start=1):
         v = np.asarray(poly.vertices, dtype=np.float64)
         # fine pixel centre u corresponds to coarse coordinate (u + 0.5)/s - 0.5
         fv = ((v + 0.5) * s - 0.5) * (1 << _SHIFT)
         pts = np.round(fv).astype(np.int32).reshape(-1, 1, 2)
-        cv2.fillPoly(fine, [pts], float(poly.level), lineType=cv2.LINE_8, shift=_SHIFT)
-    return fine.reshape(h, s, w, s).mean(axis=(1, 3))
+        cv2.fillPoly(label, [pts], k, lineType=cv2.LINE_8, shift=_SHIFT)
+    out = np.empty((h, w))
+    for a in range(0, h, _BAND_ROWS):
+        b = min(h, a + _BAND_ROWS)
+        out[a:b] = levels[label[a * s : b * s]].reshape(b - a, s, w, s).mean(axis=(1, 3))
+    return out
 
 
 def regular_polygon(centre: tuple[float, float], radius: float, n: int, angle: float = 0.0) -> np.ndarray:

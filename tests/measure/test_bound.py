@@ -13,9 +13,13 @@ from scipy import ndimage
 
 import sogdd
 from sogdd import detector
+from sogdd.measure import soddc
 from sogdd.measure.filters import basis_tile, kernel_radius, steerable_basis
 from sogdd.measure.soddc import soddc_measure
 from sogdd.measure.window import reflect_index
+from sogdd.synthetic import pattern_image
+
+REAL_MIN_PIXELS = soddc.PRUNE_MIN_PIXELS  # read at import, before tests/conftest.py's fixture sets it to 0
 
 
 def _check_floor_contract(img, spec, floor, **kw):
@@ -189,7 +193,7 @@ def test_relative_threshold_prunes_and_detects_as_the_full_map(pattern, rng, mon
     assert 0 < lo <= full[b : full.shape[0] - b, b : full.shape[1] - b].max()
     floor = _relative_floor.relative_floor(grey, p, spec, threshold=p.threshold)
     assert floor is not None and floor >= p.threshold_rel * lo * 0.999
-    assert np.isinf(soddc_measure(grey, spec, floor=floor)).any()  # it prunes
+    assert np.isinf(soddc_measure(grey, spec, floor=floor)).any()  # it prunes (PRUNE_MIN_PIXELS = 0 here)
     pruned = sogdd.detect_corners(img, **params)
     monkeypatch.setattr(detector, "relative_floor", lambda *a, **k: None)
     unpruned = sogdd.detect_corners(img, **params)
@@ -243,7 +247,10 @@ def test_masks_cover_neighbours_across_tiles_and_edge_patches():
 
 
 def test_pruning_runs_where_it_pays_only(pattern):
-    """K = 8: the bound runs by default; K = 4 (hr): the full map, which meets the same contract."""
+    """K = 8: the bound runs by default; K = 4 (hr): the full map, which meets the same contract.
+
+    (With the test suite's ``PRUNE_MIN_PIXELS = 0``, ``tests/conftest.py``; the real pixel rule is below.)
+    """
     img = pattern[0].astype(np.float64)
     k8 = sogdd.resolve_params("paper").measure_spec()
     k4 = sogdd.resolve_params("hr").measure_spec()
@@ -251,3 +258,16 @@ def test_pruning_runs_where_it_pays_only(pattern):
     full4 = soddc_measure(img, k4)
     np.testing.assert_array_equal(soddc_measure(img, k4, floor=float(np.quantile(full4, 0.99))), full4)
     assert np.isinf(soddc_measure(img, k4, floor=float(np.quantile(full4, 0.99)), prune=True)).any()
+
+
+def test_small_maps_are_not_pruned_by_default(monkeypatch):
+    """Below ``PRUNE_MIN_PIXELS`` pixels the full map (the bound is not compiled for a first small image);
+    above it the bound runs, and a band of a banded detection counts its own pixels."""
+    monkeypatch.setattr(soddc, "PRUNE_MIN_PIXELS", REAL_MIN_PIXELS)
+    assert REAL_MIN_PIXELS == 1 << 19
+    k8 = sogdd.resolve_params("paper").measure_spec()
+    small = pattern_image((480, 640))[0]  # 307,200 pixels
+    assert not np.isinf(soddc_measure(small, k8, floor=1e9)).any()
+    assert np.isinf(soddc_measure(small, k8, floor=1e9, prune=True)).any()
+    big = pattern_image((512, 1024))[0]  # exactly 2^19
+    assert np.isinf(soddc_measure(big, k8, floor=1e9)).any()

@@ -211,10 +211,30 @@ def _tiled(
 #: kernel was slower and pruning paid at 20 grey levels from K = 6 on.)
 PRUNE_MIN_ORIENTATIONS = 6
 
+#: Below this many pixels in one call (an image, or one band of a banded detection) the bound does
+#: not pay either: on a 640 x 480 crop of a photo at the paper preset the full map took 10.8 ms and
+#: the pruned one 8.2, on the rendered demo pattern 10.7 against 13.1 (2 threads), while the bound's
+#: compiled code costs about 2.5 s to compile on its first use (``benchmarks/bench_compile.py``),
+#: which a first small image would otherwise pay (``sogdd demo``).
+PRUNE_MIN_PIXELS = 1 << 19
 
-def prune_pays(spec: MeasureSpec) -> bool:
-    """Whether pruning below a floor is worth its bound for this spec (:data:`PRUNE_MIN_ORIENTATIONS`)."""
-    return spec.n_orientations >= PRUNE_MIN_ORIENTATIONS
+
+def prune_pays(spec: MeasureSpec, pixels: int | None = None) -> bool:
+    """Whether pruning below a floor is worth its bound for this spec and a map of ``pixels`` pixels.
+
+    :data:`PRUNE_MIN_ORIENTATIONS` orientations and, where ``pixels`` is given,
+    :data:`PRUNE_MIN_PIXELS` pixels. Pruning never changes a result (see
+    :func:`soddc_measure`), only its cost.
+
+    Examples
+    --------
+    >>> import sogdd
+    >>> spec = sogdd.resolve_params("paper").measure_spec()
+    >>> prune_pays(spec), prune_pays(spec, 640 * 480), prune_pays(spec, 3072 * 2048)
+    (True, False, True)
+    """
+    big = pixels is None or pixels >= PRUNE_MIN_PIXELS
+    return spec.n_orientations >= PRUNE_MIN_ORIENTATIONS and big
 
 
 def supports_floor(spec: MeasureSpec) -> bool:
@@ -251,7 +271,8 @@ def soddc_measure(
     their values and their 3 x 3 patches are then those of the full map, at a
     fraction of the cost on photographs (most pixels are proven below ``T_h``
     by six window sums instead of K(K+1)/2 and an elimination). ``prune``:
-    whether to run the bound; by default where it pays (:func:`prune_pays`).
+    whether to run the bound; by default where it pays (:func:`prune_pays`, for this spec and
+    ``H * W`` pixels).
     Without it the full map is returned, which meets the same contract.
     ``on_planes(top, r0, r1, planes)``: called from the tiles' threads with the
     filter responses of each tile of rows ``r0 .. r1 - 1``: ``(3, rows, W + 2M)``
@@ -264,7 +285,7 @@ def soddc_measure(
     >>> img = pattern_image((120, 160))[0].astype(float)
     >>> spec = MeasureSpec(1.2, 8, window_halfwidths("square", 7))
     >>> full = soddc_measure(img, spec)
-    >>> pruned = soddc_measure(img, spec, floor=1e9)  # K = 8: the bound pays
+    >>> pruned = soddc_measure(img, spec, floor=1e9, prune=True)  # small: pruned on request
     >>> bool(np.all((pruned == full) | (pruned == -np.inf)))
     True
     >>> bool(np.all(full[pruned == -np.inf] < 1e9))
@@ -275,7 +296,7 @@ def soddc_measure(
     R = spec.window_radius
     if floor is not None and not (floor > 0 and supports_floor(spec)):
         raise ValueError("floor needs a positive value, a square window and the paper's measure")
-    if min(H, W) < 3 or not (prune_pays(spec) if prune is None else prune):
+    if min(H, W) < 3 or not (prune_pays(spec, H * W) if prune is None else prune):
         floor = None  # the full map meets the floor's contract (and 3 x 3 patches need 3 rows)
     basis = steerable_basis(spec.sigma2, spec.radius, zero_mean=spec.zero_mean)
     # one margin for both kernels, so the filter responses are computed identically

@@ -88,7 +88,8 @@ def relative_floor(
     rel = params.threshold_rel
     if rel is None or params.quantile is not None or not rel > 0:
         return None
-    if not (supports_floor(spec) and prune_pays(spec)):  # no pruning: no floor to compute
+    # no pruning (no band is large enough where the image is not): no floor to compute
+    if not (supports_floor(spec) and prune_pays(spec, grey.shape[0] * grey.shape[1])):
         return None
     levels = [float(threshold)] if threshold is not None else []
     lo = max_lower_bound(grey, spec, params.border, mask)
