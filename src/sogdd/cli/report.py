@@ -7,7 +7,10 @@ data. Adjacent-corner resolution is read from cached full-grid runs
 `sogdd eval resolution --out DIR` and `sogdd eval resolution --mode oracle
 --sweep-sigma2 --out DIR`) where they exist, else run on the quick grid (the
 full grid with --full). The matching and SfM runs already written under
-figures/downstream/ next to the page are included as they are.
+figures/downstream/ next to the page are included as they are, and so are the
+learned detectors' repeatability runs under figures/repeatability_learned/
+(or --learned-runs DIR; made by `python benchmarks/bench_learned.py
+repeatability`) where their protocol is the one run here.
 """
 
 from __future__ import annotations
@@ -30,9 +33,12 @@ def run(args: argparse.Namespace) -> int:
             raise ValueError(f"{data}: has no {sub}/ folder")
     if args.resolution_runs and not Path(args.resolution_runs).is_dir():
         raise ValueError(f"--resolution-runs: {args.resolution_runs} is not a folder")
+    if args.learned_runs and not Path(args.learned_runs).is_dir():
+        raise ValueError(f"--learned-runs: {args.learned_runs} is not a folder")
     out = build_report(args.out, data, full=args.full, jobs=args.jobs, paper_csv=args.paper,
                        progress=not args.quiet, resolution_runs=args.resolution_runs,
-                       chessboard_quick=args.chessboard_quick, readme=args.readme)
+                       chessboard_quick=args.chessboard_quick, readme=args.readme,
+                       learned_runs=args.learned_runs)
     print(out)
     return 0
 
@@ -49,6 +55,9 @@ def configure(p: argparse.ArgumentParser) -> None:
                    help="the paper's full repeatability grid and the full resolution grid (run, not cached)")
     p.add_argument("--resolution-runs", metavar="DIR",
                    help="cached resolution runs [default: figures/resolution_full next to the page]")
+    p.add_argument("--learned-runs", metavar="DIR",
+                   help="cached repeatability runs of the learned detectors "
+                   "[default: figures/repeatability_learned next to the page]")
     p.add_argument("--chessboard-quick", action="store_true", help="the checkerboards' quick grid")
     p.add_argument("--readme", metavar="PATH",
                    help="also rewrite this README's result blocks from the same run "

@@ -3,7 +3,8 @@
 :func:`build_report` runs its stages in order, each adding a section, ranks
 for the summary and figures: :func:`gt_stage` (the GT protocol on
 ``<data>/corners_gt``), :func:`repeatability_stage` (``<data>/repeatability``,
-quick grid by default, the paper's grid with ``full=True``),
+quick grid by default, the paper's grid with ``full=True``; the learned
+detectors' rows read from cached runs, :mod:`.learned_runs`),
 :func:`~.resolution_section.resolution_stage` (the adjacent-corner benchmark;
 cached full-grid runs when there are), :func:`~.chessboard_section.chessboard_stage`
 (dense checkerboards, rendered and real), :func:`~.fig1_section.fig1_stage`
@@ -28,11 +29,12 @@ from pathlib import Path
 from .._version import __version__
 from ..evaluation.gt import evaluate_gt, find_gt_sets
 from ..evaluation.repeatability import evaluate_repeatability, load_images, top_n_label
-from ..evaluation.specs import DetectorSpec, default_fast_specs, default_gt_specs, registry_names
+from ..evaluation.specs import LEARNED, DetectorSpec, default_fast_specs, default_gt_specs, registry_names
 from .chessboard_section import chessboard_stage
 from .fig1_section import fig1_stage
 from .gt import PAPER_ROWS, gt_overlay_montage, paper_vs_ours
 from .learned_rows import learned_labels, learned_note
+from .learned_runs import RUNS_DIR, cached_note, read_cached
 from .matching import budget_table, homography_table
 from .overlays import save_png
 from .plots import repeatability_figure
@@ -136,14 +138,24 @@ def gt_stage(page: Page, data: Path, paper_csv: Path | None) -> None:
                                     "f1": m.f1} for d, m in joint.items()}
 
 
-def repeatability_stage(page: Page, data: Path) -> None:
-    """Section 2: average repeatability (Fig. 9's protocol) on ``data/repeatability``."""
+def repeatability_stage(page: Page, data: Path, learned_runs: str | os.PathLike | None = None) -> None:
+    """Section 2: average repeatability (Fig. 9's protocol) on ``data/repeatability``.
+
+    The learned detectors are not run here: their rows are read from the
+    cached runs in ``learned_runs`` (default: ``figures/repeatability_learned``
+    next to the page) whose protocol is the one just run
+    (:mod:`sogdd.report.learned_runs`).
+    """
     rep_dir = data / "repeatability"
     images = load_images(rep_dir)
-    rspecs = default_fast_specs()
+    rspecs = [s for s in default_fast_specs() if s.name not in LEARNED]
     rspecs[1:1] = [DetectorSpec("sogdd-authors")] + [DetectorSpec(n) for n in hr_names()]
     rr = evaluate_repeatability(images, rspecs, quick=not page.full, jobs=page.jobs, progress=page.progress,
                                 top_n=REPEATABILITY_TOP_N)
+    live_seconds = rr.seconds
+    cached = read_cached(Path(learned_runs) if learned_runs else page.figs.parent / RUNS_DIR, rr)
+    if cached.report is not None:
+        rr = rr.merged(cached.report)
     repeatability_figure(rr, page.figs / "repeatability.png", rr.specs)
     summ = rr.summary()
     r, n = rank_of({d: summ[d]["overall"] for d in rr.specs}, "sogdd")
@@ -164,9 +176,10 @@ def repeatability_stage(page: Page, data: Path) -> None:
         "bilinear resampling on a canvas holding the whole transformed image; corners matched "
         "within 4 px one to one, counting only points whose mapped position lies inside the "
         "other image; R_avg is eq. 27, averaged per family over images and parameters. "
-        f"Run time: {rr.seconds:.0f} s with {page.jobs} processes.\n",
+        f"Run time: {live_seconds:.0f} s with {page.jobs} processes.\n",
         repeatability_table(rr, rr.specs),
         learned_note(rr.specs),
+        cached_note(cached, page.figs.parent.parent, full=page.full),
         f"\nsogdd's rank per family: {fam_ranks}. The `blur` family (Gaussian σ 0.5-5 px, motion blur "
         "3-15 px at a seeded random angle) is beyond the paper, which claims blur robustness in its "
         "abstract but tests none; it is not in the overall mean.\n",
@@ -257,6 +270,7 @@ def build_report(
     resolution_runs: str | os.PathLike | None = None,
     chessboard_quick: bool = False,
     readme: str | os.PathLike | None = None,
+    learned_runs: str | os.PathLike | None = None,
 ) -> Path:
     """Run the stages on ``data`` and write the results page ``out_md`` (see module doc).
 
@@ -265,6 +279,8 @@ def build_report(
     them and ``full`` is false); ``chessboard_quick`` runs the checkerboards'
     quick grid instead of the full one. ``readme``: a README whose result blocks
     (:mod:`sogdd.report.readme_sync`) are rewritten from this run.
+    ``learned_runs``: the folder of the learned detectors' cached repeatability
+    runs (default: ``figures/repeatability_learned`` next to the page).
     """
     out_md = Path(out_md)
     data = Path(data)
@@ -276,7 +292,7 @@ def build_report(
     page = Page(figs, os.path.relpath(figs, out_md.parent), full, jobs, progress)
     t_all = time.perf_counter()
     gt_stage(page, data, Path(paper_csv) if paper_csv else None)
-    repeatability_stage(page, data)
+    repeatability_stage(page, data, learned_runs)
     runs = Path(resolution_runs) if resolution_runs else out_md.parent / "figures" / "resolution_full"
     resolution_stage(page, runs)
     chessboard_stage(page, data, extra=hr_names(), quick=chessboard_quick)
