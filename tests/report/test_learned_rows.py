@@ -52,3 +52,16 @@ def test_downstream_section_marks_learned_rows_of_the_runs(tmp_path, monkeypatch
     text = "\n".join(downstream_stage(tmp_path / "downstream", tmp_path))
     assert "`xfeat:desc=native` needs the `learned` extra" in text
     assert "`sift` needs" not in text
+
+
+def test_sfm_runs_with_two_matchers_say_which_row_had_which(tmp_path):
+    run = tmp_path / "downstream" / "sfm_set_budget2000"
+    run.mkdir(parents=True)
+    (run / "sfm.json").write_text(json.dumps({"sift:top_k=2000": {"matcher": "colmap"},
+                                              "xfeat:top_k=2000:desc=native": {"matcher": "mnn"}}))
+    (run / "sfm.md").write_text("| method | #reg. |\n")
+    text = "\n".join(downstream_stage(tmp_path / "downstream", tmp_path))
+    assert ("COLMAP's exhaustive matcher for `sift:top_k=2000`; sogdd's mutual-NN matcher (`mnn`) for "
+            "`xfeat:top_k=2000:desc=native`") in text
+    (run / "sfm.json").write_text(json.dumps({"sift": {"matcher": "colmap"}}))
+    assert "Matchers differ" not in "\n".join(downstream_stage(tmp_path / "downstream", tmp_path))

@@ -236,10 +236,27 @@ def downstream_stage(folder: Path, page_dir: Path) -> list[str]:
     for f in parts:
         body = [ln for ln in f.read_text().splitlines() if not ln.startswith("# ")]
         md += [f"\n### {f.parent.name.replace('_', ' ')}\n", "\n".join(body) + "\n"]
+        md.append(_matcher_note(f.with_name("sfm.json")))
         png = f.parent / "mma.png"
         if png.is_file():
             md.append(f"\n![{f.parent.name}]({os.path.relpath(png, page_dir)})\n")
     return md
+
+
+def _matcher_note(sfm_json: Path) -> str:
+    """Under an SfM run whose rows were matched differently: which matcher each row had."""
+    if not sfm_json.is_file():
+        return ""
+    by = {}
+    for label, r in json.loads(sfm_json.read_text()).items():
+        by.setdefault(r.get("matcher") or "colmap", []).append(label)
+    if len(by) < 2:
+        return ""
+    names = {"colmap": "COLMAP's exhaustive matcher", "mnn": "sogdd's mutual-NN matcher (`mnn`)"}
+    return ("\nMatchers differ between rows: " + "; ".join(
+        f"{names.get(m, f'`{m}`')} for " + ", ".join(f"`{x}`" for x in labs) for m, labs in by.items())
+        + " (native descriptors go through `mnn`: COLMAP's matcher takes 128-D SIFT-scaled uint8 "
+          "descriptors).\n")
 
 
 def _commit() -> str:
