@@ -86,6 +86,23 @@ def test_other_pixels_top_n_or_images_are_refused(tmp_path, images):
     assert why[tmp_path / "c" / RUN_FILE] == ["images 1 (p2.png), not 2"]
 
 
+def test_a_run_made_before_the_transforms_changed_is_refused(tmp_path, images, monkeypatch):
+    from sogdd.evaluation.repeatability import protocol
+
+    cache(tmp_path / "xfeat", run(images, "shi-tomasi", "xfeat"))
+    real = protocol.apply_transform
+
+    def brighter(image, tr, seed=0):  # the same grid and images, another transform code
+        out, a, valid = real(image, tr, seed=seed)
+        return np.minimum(out, 254) + np.uint8(1), a, valid
+
+    monkeypatch.setattr(protocol, "apply_transform", brighter)
+    found = read_cached(tmp_path, run(images))
+    assert found.report is None
+    (_, why), = found.stale
+    assert len(why) == 1 and why[0].startswith("transforms ")
+
+
 def test_duplicate_and_unreadable_runs_are_left_out(tmp_path, images):
     live = run(images)
     cache(tmp_path / "a", run(images, "shi-tomasi", "xfeat"))

@@ -7,8 +7,9 @@ once, each on its own, by ``python benchmarks/bench_learned.py repeatability``
 the page, and ``sogdd report`` reads them (:func:`read_cached`) instead of
 running them. A cached run is used only when its protocol
 (:meth:`~sogdd.evaluation.repeatability.RepeatabilityReport.protocol`: the
-grid, transform by transform; the images by name and pixel digest; the seed,
-the top-N, the match radius, the margin, the families) is the one the report
+grid, transform by transform; the images by name and pixel digest; a digest
+of what the transform code makes of the first image; the seed, the top-N, the
+match radius, the margin, the families) is the one the report
 has just run for the other detectors; otherwise it is named on the page as
 stale, with what differs, and left out. A run whose rows the report ran
 itself, or that a run read before already gave, is left out as a duplicate.

@@ -16,6 +16,7 @@ from .protocol import (
     pair_repeatability,
     repeatability_score,
     top_n_label,
+    transforms_digest,
 )
 from .transforms import (
     ALL_FAMILIES,
@@ -32,5 +33,5 @@ __all__ = [
     "ALL_FAMILIES", "BEYOND_PAPER", "FAMILIES", "RUN_FILE", "RepeatabilityReport", "Transform", "affine_for",
     "apply_blur", "apply_transform", "evaluate_repeatability", "family_grid", "gaussian_kernel", "image_digest",
     "load_images", "map_points", "motion_angle", "motion_kernel", "pair_repeatability", "repeatability_score",
-    "top_n_label",
+    "top_n_label", "transforms_digest",
 ]

@@ -57,7 +57,7 @@ from ..specs import DetectorSpec, build_detector, detect
 from .transforms import ALL_FAMILIES, FAMILIES, apply_transform, family_grid, map_points
 
 __all__ = ["RUN_FILE", "RepeatabilityReport", "evaluate_repeatability", "image_digest", "pair_repeatability",
-           "repeatability_score", "top_n_label"]
+           "repeatability_score", "top_n_label", "transforms_digest"]
 
 #: the file of :meth:`RepeatabilityReport.write` that holds a whole run (records and protocol), for reuse
 RUN_FILE = "repeatability_run.json"
@@ -102,6 +102,36 @@ def image_digest(image: np.ndarray) -> str:
     a = np.ascontiguousarray(image)
     h = hashlib.sha256(f"{a.shape}{a.dtype.str}".encode())
     h.update(a.view(np.uint8).tobytes())
+    return h.hexdigest()[:16]
+
+
+def transforms_digest(images: list[tuple[str, np.ndarray]], families, quick: bool, seed: int = 0) -> str:
+    """A digest of what the transforms make of the first image: every member of each family's grid.
+
+    Part of :meth:`RepeatabilityReport.protocol`, so that a cached run made
+    before the transform code changed (another resampling, noise, JPEG
+    encoder) no longer passes for the same test. The first image stands for
+    all (the code is the same for every image); it costs one pass over one
+    image's grid.
+
+    Examples
+    --------
+    >>> img = np.arange(64 * 64, dtype=np.uint8).reshape(64, 64)
+    >>> one = [("a", img)]
+    >>> d = transforms_digest(one, ["jpeg", "rotation"], True)
+    >>> d == transforms_digest(one, ["jpeg", "rotation"], True), d == transforms_digest(one, ["jpeg"], True)
+    (True, False)
+    """
+    if not images:
+        return ""
+    h = hashlib.sha256()
+    img = images[0][1]
+    for fam in families:
+        for tr in family_grid(fam, quick):
+            out, a, _ = apply_transform(img, tr, seed=seed * 100003)  # image 0's task seed
+            h.update(fam.encode() + tr.label.encode())
+            h.update(np.ascontiguousarray(out).view(np.uint8).tobytes())
+            h.update(np.asarray(a, np.float64).round(12).tobytes())
     return h.hexdigest()[:16]
 
 
@@ -167,6 +197,8 @@ class RepeatabilityReport:
     seed: int = 0
     #: :func:`image_digest` of each image, in the order of ``images``
     image_digests: list[str] = field(default_factory=list)
+    #: :func:`transforms_digest` of the run
+    transforms: str = ""
 
     def protocol(self) -> dict:
         """Everything a record depends on besides the detector: the test a cached run must share to be reused.
@@ -178,7 +210,8 @@ class RepeatabilityReport:
         return {"radius": self.radius, "margin": self.margin, "quick": self.quick, "seed": self.seed,
                 "top_n": self.top_n, "families": list(self.families),
                 "grid": {f: [t.label for t in family_grid(f, self.quick)] for f in self.families},
-                "images": [[n, d] for n, d in zip(self.images, self.image_digests)]}
+                "images": [[n, d] for n, d in zip(self.images, self.image_digests)],
+                "transforms": self.transforms}
 
     def merged(self, other: RepeatabilityReport) -> RepeatabilityReport:
         """This run with ``other``'s detectors added (``ValueError`` if the protocols or a label differ)."""
@@ -193,7 +226,8 @@ class RepeatabilityReport:
                                    list(self.images), self.quick, self.radius, self.margin,
                                    self.seconds + other.seconds,
                                    {**self.detector_seconds, **other.detector_seconds},
-                                   self.top_n, self.specs + other.specs, self.seed, list(self.image_digests))
+                                   self.top_n, self.specs + other.specs, self.seed, list(self.image_digests),
+                                   self.transforms)
 
     def to_run_json(self) -> dict:
         """The whole run (protocol, rows, every record, times): :data:`RUN_FILE`, read back by
@@ -210,7 +244,7 @@ class RepeatabilityReport:
         return cls(list(obj["records"]), list(obj["detectors"]), list(p["families"]),
                    [n for n, _ in p["images"]], bool(p["quick"]), float(p["radius"]), float(p["margin"]),
                    float(obj["seconds"]), dict(obj["detector_seconds"]), p["top_n"], list(obj["specs"]),
-                   int(p["seed"]), [d for _, d in p["images"]])
+                   int(p["seed"]), [d for _, d in p["images"]], str(p.get("transforms", "")))
 
     def family_average(self, detector: str, family: str) -> float:
         rs = [r["r"] for r in self.records if r["detector"] == detector and r["family"] == family]
@@ -339,4 +373,5 @@ def evaluate_repeatability(
     return RepeatabilityReport(records, rows, list(families),
                                [n for n, _ in images], quick, radius, margin,
                                time.perf_counter() - t0, dict(secs), top_n, labels, seed,
-                               [image_digest(img) for _, img in images])
+                               [image_digest(img) for _, img in images],
+                               transforms_digest(images, families, quick, seed))
