@@ -65,3 +65,14 @@ def test_sfm_runs_with_two_matchers_say_which_row_had_which(tmp_path):
             "`xfeat:top_k=2000:desc=native`") in text
     (run / "sfm.json").write_text(json.dumps({"sift": {"matcher": "colmap"}}))
     assert "Matchers differ" not in "\n".join(downstream_stage(tmp_path / "downstream", tmp_path))
+
+
+@pytest.mark.parametrize("installed", [False, True])
+def test_page_head_says_whether_the_gt_section_has_learned_rows(monkeypatch, installed, tmp_path):
+    from sogdd.report import results_page
+
+    monkeypatch.setattr(results_page.learned_extra, "installed", lambda: installed)
+    head = results_page._learned_head(tmp_path)
+    assert ("so GT accuracy (section 1) runs them" in head) == installed
+    assert ("has no learned rows" in head) == (not installed)
+    assert "figures/repeatability_learned/" in head and learned_extra.INSTALL in head

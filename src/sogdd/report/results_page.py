@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from .._version import __version__
+from ..baselines import learned_extra
 from ..evaluation.gt import evaluate_gt, find_gt_sets
 from ..evaluation.repeatability import evaluate_repeatability, load_images, top_n_label
 from ..evaluation.specs import LEARNED, DetectorSpec, default_fast_specs, default_gt_specs, registry_names
@@ -243,6 +244,18 @@ def downstream_stage(folder: Path, page_dir: Path) -> list[str]:
     return md
 
 
+def _learned_head(page_dir: Path) -> str:
+    """The page head's paragraph on the learned rows: which sections have them and what they need."""
+    made = ("made with the `learned` extra installed, so GT accuracy (section 1) runs them"
+            if learned_extra.installed() else
+            "made without the `learned` extra, so GT accuracy (section 1) has no learned rows")
+    return ("**Learned detectors** (`xfeat`, `aliked`, `disk`; docs/learned.md): every row of theirs needs "
+            f"the `learned` extra to be re-made (`{learned_extra.INSTALL}`); each table says which rows. This "
+            f"page was {made}; their repeatability rows (section 2) are read from cached runs in "
+            f"`figures/{RUNS_DIR}/` and their matching and SfM rows (section 6) from the runs in "
+            "`figures/downstream/`, with or without the extra.\n")
+
+
 def _matcher_note(sfm_json: Path) -> str:
     """Under an SfM run whose rows were matched differently: which matcher each row had."""
     if not sfm_json.is_file():
@@ -331,6 +344,7 @@ def build_report(
         "implementations, see `sogdd.baselines`), the matching data and descriptor; the adjacent-corner, "
         "dense-checkerboard, blur, fixed-count and homography-AUC evaluations are not in the paper. "
         "Each section says what differs.\n",
+        _learned_head(out_md.parent),
         "## Summary\n", "\n".join(f"- {x}" for x in page.ranks) + "\n",
     ]
     out_md.parent.mkdir(parents=True, exist_ok=True)
