@@ -208,13 +208,20 @@ def test_gradient_refinement_refuses_moves_over_max_shift():
     assert np.allclose(refine_gradient(img, start, max_shift=5.0), 29.5, atol=0.25)
 
 
-def test_quadratic_fallback_is_clipped_to_half_a_pixel():
-    """Where the 2-D fit leaves the pixel, each axis takes its own parabola, clipped to +-0.5."""
-    a = np.array([0.0, 1.0, 1.5])  # rising to the right: the parabola's vertex is at +1.5
+def test_quadratic_fallback_is_clipped_to_half_a_pixel_and_blended_in():
+    """Beyond +-2 px each axis takes its own parabola, clipped to +-0.5; between 1 and 2 px a linear blend."""
     b = np.array([0.0, 1.0, 0.0])  # a symmetric peak in y
-    patch = a[None, :] + b[:, None]
-    off = refine_quadratic(np.pad(patch, 1), np.array([2]), np.array([2]), log=False)
-    np.testing.assert_allclose(off, [[0.5, 0.0]])
+
+    def off(right):  # rising to the right: the x vertex at right / (2 (2 - right))
+        patch = np.array([0.0, 1.0, right])[None, :] + b[:, None]
+        return refine_quadratic(np.pad(patch, 1), np.array([2]), np.array([2]), log=False)[0]
+
+    np.testing.assert_allclose(off(1.5), [0.5 * 1.5 + 0.5 * 0.5, 0.0])  # the vertex at 1.5: half-way
+    np.testing.assert_allclose(off(1.75), [0.5, 0.0])  # at 3.5: the clipped 1-D parabola alone
+    np.testing.assert_allclose(off(1.2), [0.6 / 0.8, 0.0])  # at 0.75: inside, the 2-D solution
+    # continuous in the patch: no jump as the vertex crosses 1 and 2 px (0.2.0 jumped from 1 to 0.5)
+    xs = np.array([off(r)[0] for r in np.linspace(1.0, 1.8, 801)])
+    assert np.abs(np.diff(xs)).max() < 0.01
 
 
 def test_tie_breaking_keeps_a_candidate_unless_an_earlier_kept_one_is_within_the_radius():

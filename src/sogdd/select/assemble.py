@@ -84,7 +84,7 @@ def assemble(grey, p: Params, spec: MeasureSpec, rows: np.ndarray, cols: np.ndar
     if p.subpixel == "adaptive" and len(out):  # after the cut: windows see the final neighbours
         c = ~is_x
         xy = out.xy.copy()
-        # the float32 image cornerSubPix reads, built once (band by band from a GreyRows)
+        # the float32 image the refinement reads, built once (band by band from a GreyRows)
         xy[c] = refine_gradient_adaptive(np.asarray(grey, np.float32), xy[c], xy[is_x])
         out = Corners(xy, out.response, out.size, out.level)
         # two peaks of one corner that the refinement brought together are one corner

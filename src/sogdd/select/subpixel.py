@@ -5,9 +5,10 @@ Three refinements, from the cheapest:
 * :func:`refine_quadratic`: a 2-D quadratic fit to ``log Upsilon`` on the 3x3
   patch of a peak (the paper's own peak, to a fraction of a pixel);
 * :func:`refine_gradient`: the least-squares point ``q`` with
-  ``grad I(p) . (p - q) = 0`` over a window (Foerstner 1987,
-  ``cv2.cornerSubPix``), which moves the measure's peak, about 1.5 px inside a
-  corner, onto its vertex;
+  ``grad I(p) . (p - q) = 0`` over a window centred on it (Foerstner 1987, the
+  step of ``cv2.cornerSubPix``, iterated to its fixed point in
+  :mod:`sogdd.select.forstner`), which moves the measure's peak, about 1.5 px
+  inside a corner, onto its vertex;
 * :func:`refine_gradient_adaptive`: the same in a window shrunk to half the
   distance to the nearest other point (``hr``), so that adjacent corners keep
   apart.
@@ -19,11 +20,11 @@ from __future__ import annotations
 
 from concurrent.futures import ThreadPoolExecutor
 
-import cv2
 import numpy as np
 from scipy.spatial import cKDTree
 
 from .._jit import thread_count
+from .forstner import forstner_points
 
 __all__ = [
     "one_per_point", "quadratic_offsets", "refine_gradient", "refine_gradient_adaptive", "refine_quadratic",
@@ -41,8 +42,11 @@ def refine_quadratic(
     With ``log`` the fit is made to ``log(response)``: the measure is a product of
     K eigenvalues, so its peaks are close to Gaussian, whose logarithm is
     exactly quadratic. The offset is the stationary point of the fitted
-    quadratic, ``-H^{-1} g``; where the fit is not a maximum or would leave the
-    pixel, each axis falls back to its own 1-D parabola, clipped to +-0.5.
+    quadratic, ``-H^{-1} g``, where it is a maximum within +-1 px; where the fit is
+    not a maximum, each axis falls back to its own 1-D parabola (clipped to +-0.5),
+    and between +-1 and +-2 px the two are blended linearly, so that the offset is
+    a continuous function of the patch (issue 22, item 8: a switch moved a corner
+    by 0.47 px between a photo and its float32 copy).
     """
     n = len(rows)
     out = np.zeros((n, 2))
@@ -79,11 +83,15 @@ def quadratic_offsets(patch: np.ndarray, *, log: bool = True) -> np.ndarray:
         det = fxx * fyy - fxy * fxy
         ox = -(fyy * gx - fxy * gy) / det
         oy = -(fxx * gy - fxy * gx) / det
-        good = (fxx < 0) & (det > 0) & (np.abs(ox) <= 1) & (np.abs(oy) <= 1)
+        # the weight of the 2-D solution: 1 within the pixel's +-1 box, fading to 0 at +-2, and 0
+        # where the fit has no maximum (det -> 0 sends the solution to infinity, so this is continuous)
+        reach = np.maximum(np.abs(ox), np.abs(oy))
+        w = np.where((fxx < 0) & (det > 0), np.clip(2.0 - np.nan_to_num(reach, nan=2.0), 0.0, 1.0), 0.0)
         ox1 = np.where(fxx < 0, -gx / fxx, 0.0)
         oy1 = np.where(fyy < 0, -gy / fyy, 0.0)
-    out[:, 0] = np.where(good, ox, np.clip(np.nan_to_num(ox1), -0.5, 0.5))
-    out[:, 1] = np.where(good, oy, np.clip(np.nan_to_num(oy1), -0.5, 0.5))
+    for k, (o2, o1) in enumerate(((ox, ox1), (oy, oy1))):
+        one = np.clip(np.nan_to_num(o1), -0.5, 0.5)
+        out[:, k] = np.where(w > 0, w * np.nan_to_num(o2) + (1.0 - w) * one, one)
     return out
 
 
@@ -93,8 +101,8 @@ def refine_gradient(
     *,
     half_window: int = 3,
     max_shift: float = 3.0,
-    iterations: int = 30,
-    eps: float = 1e-3,
+    max_iter: int = 100,
+    tol: float = 1e-5,
 ) -> np.ndarray:
     """Move corners to the point orthogonal to the image gradients around them.
 
@@ -102,33 +110,38 @@ def refine_gradient(
     1.5 px on the wedges of ``sogdd.synthetic.pattern_image`` with sigma^2 = 1.2).
     The vertex of an ideal corner is the one point ``q`` with
     ``grad I(p) . (p - q) = 0`` for every ``p`` on its two edges, so the least
-    squares solution of that system (Foerstner 1987; ``cv2.cornerSubPix``) removes
-    the bias. Points that would move more than ``max_shift`` pixels keep their
-    input position, so a refinement that wanders to another structure is refused.
+    squares solution of that system in a window centred on ``q`` (Foerstner 1987;
+    the step of ``cv2.cornerSubPix``) removes the bias. The solution is iterated
+    to its fixed point (:func:`sogdd.select.forstner.forstner_points`: damped, to
+    ``tol`` px), so it does not depend on where an iteration happened to stop.
+    Points that would move more than ``max_shift`` pixels, or do not converge in
+    ``max_iter`` steps, keep their input position, so a refinement that wanders to
+    another structure is refused.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sogdd.synthetic import Polygon, render_polygons
+    >>> img = render_polygons((40, 40), [Polygon(np.array([[12.3, 11.6], [40, 11.6], [40, 40], [12.3, 40]]))])
+    >>> q = refine_gradient(img, np.array([[13.5, 13.0]]))  # the vertex is at (12.3, 11.6)
+    >>> q.round(3).tolist(), bool(np.abs(q - [12.3, 11.6]).max() < 0.2)
+    ([[12.452, 11.611]], True)
     """
     pts = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
     if len(pts) == 0:
         return pts.copy()
-    h, w = grey.shape
-    win = int(half_window)
-    if h < 2 * win + 5 or w < 2 * win + 5:  # cv2.cornerSubPix's own minimum
-        return pts.copy()
-    start = pts.astype(np.float32).reshape(-1, 1, 2).copy()
-    crit = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_COUNT, int(iterations), float(eps))
     img = np.ascontiguousarray(grey, dtype=np.float32)
-    # each point is refined on its own, and cv2 releases the GIL: chunks in threads, the same result
-    n = max(1, min(thread_count(), len(start) // _REFINE_CHUNK))
+    half = np.full(len(pts), int(half_window), np.int64)
+    shift = np.full(len(pts), float(max_shift))
+    # each point is refined on its own, and the compiled code releases the GIL: chunks in threads
+    n = max(1, min(thread_count(), len(pts) // _REFINE_CHUNK))
     if n == 1:  # few points: no thread pool to start
-        outs = [cv2.cornerSubPix(img, start, (win, win), (-1, -1), crit)]
-    else:
-        with ThreadPoolExecutor(n) as pool:
-            outs = list(pool.map(lambda s: cv2.cornerSubPix(img, s, (win, win), (-1, -1), crit),
-                                 np.array_split(start, n)))
-    out = np.concatenate(outs).reshape(-1, 2).astype(np.float64)
-    moved = np.linalg.norm(out - pts, axis=1)
-    keep = ~np.isfinite(out).all(axis=1) | (moved > max_shift)
-    out[keep] = pts[keep]
-    return out
+        return forstner_points(img, pts, half, shift, max_iter=max_iter, tol=tol)
+    parts = np.array_split(np.arange(len(pts)), n)
+    with ThreadPoolExecutor(n) as pool:
+        outs = list(pool.map(lambda k: forstner_points(img, pts[k], half[k], shift[k], max_iter=max_iter,
+                                                       tol=tol), parts))
+    return np.concatenate(outs)
 
 
 def refine_gradient_adaptive(grey: np.ndarray, xy: np.ndarray, neighbours: np.ndarray | None = None, *,
