@@ -158,12 +158,9 @@ def _gradient_on_device(dev, j: int, rows, cols, xy) -> np.ndarray:
     The patches (edges replicated, as OpenCV reads past the image) are laid out in
     a mosaic on the host; a refinement that stays within ``_PATCH - 5`` px of its
     start reads the same pixels as on the full image (and one that goes further is
-    refused by ``max_shift = 3`` unless it comes back).
+    refused, as it leaves its 7 x 7 window, unless it comes back).
     """
     n = len(rows)
-    H, W = dev.shape[1:]
-    if H < 11 or W < 11:  # refine_gradient's own minimum size (2 * half_window + 5)
-        return xy
     S = 2 * _PATCH + 1
     d_rows = cuda.to_device(rows.astype(np.int64))
     d_cols = cuda.to_device(cols.astype(np.int64))

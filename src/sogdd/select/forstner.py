@@ -15,8 +15,9 @@ number of times or until a step is below a tolerance (1e-3 *squared*, i.e.
 0.03 px, in sogdd before 0.3): in a 3 x 3 window ``F`` often overshoots, the
 iterates oscillate or wander, and where they stop depends on the input's last
 bits (issue 22, item 8). Here the iteration is damped: the step is halved
-whenever ``|F(q) - q|`` does not shrink, which turns an overshoot into convergence,
-and it stops only when ``|F(q) - q|`` is below ``tol`` (1e-5 px), in float64. A point
+whenever it turns back against the previous one (an overshoot), which turns an
+oscillation into convergence while a point on its way to a corner keeps full
+steps, and it stops only when ``|F(q) - q|`` is below ``tol`` (1e-5 px), in float64. A point
 that does not converge in ``max_iter`` steps, or whose window matrix is singular,
 keeps its start.
 """
@@ -89,7 +90,8 @@ def _step(img, qx, qy, hw, patch, mask):  # pragma: no cover - jit
 def _converge(img, x, y, hw, patch, mask, max_iter, tol):  # pragma: no cover - jit
     """(x, y, converged): the damped fixed-point iteration of ``F`` from (x, y)."""
     lam = 1.0
-    prev = math.inf
+    px = 0.0
+    py = 0.0
     for _ in range(max_iter):
         dx, dy = _step(img, x, y, hw, patch, mask)
         n = math.sqrt(dx * dx + dy * dy)
@@ -97,11 +99,12 @@ def _converge(img, x, y, hw, patch, mask, max_iter, tol):  # pragma: no cover - 
             return x, y, False
         if n < tol:  # q = F(q) to within tol: converged (not a step made small by damping)
             return x + dx, y + dy, True
-        if n >= prev:  # not shrinking: an overshoot, damp it
+        if dx * px + dy * py < 0.0:  # the step turned back: an overshoot, damp it
             lam *= 0.5
         x += lam * dx
         y += lam * dy
-        prev = n
+        px = dx
+        py = dy
     return x, y, False
 
 
@@ -123,7 +126,9 @@ def _refine(img, pts, half, max_shift, max_iter, tol, out):  # pragma: no cover 
             last = hw
         x0, y0 = pts[i, 0], pts[i, 1]
         x, y, done = _converge(img, x0, y0, hw, patch, mask, max_iter, tol)
-        if done and math.sqrt((x - x0) ** 2 + (y - y0) ** 2) <= max_shift[i]:
+        # inside the window the start defines (cornerSubPix's own rule), and within max_shift
+        inside = abs(x - x0) <= hw and abs(y - y0) <= hw
+        if done and inside and math.sqrt((x - x0) ** 2 + (y - y0) ** 2) <= max_shift[i]:
             out[i, 0], out[i, 1] = x, y
         else:
             out[i, 0], out[i, 1] = x0, y0
@@ -142,8 +147,10 @@ def forstner_points(
 
     ``grey``: (H, W) image (read as float32); ``xy``: (N, 2) start points;
     ``half_window``, ``max_shift``: (N,) per point. A point that does not converge
-    within ``max_iter`` damped steps of at most ``tol`` px, that would move more
-    than its ``max_shift``, or whose window matrix is singular keeps its start.
+    within ``max_iter`` damped steps of at most ``tol`` px, that would leave the
+    window around its start (``|dx|`` or ``|dy|`` over its half-window, as
+    ``cv2.cornerSubPix`` refuses) or move more than its ``max_shift``, or whose
+    window matrix is singular, keeps its start.
 
     Examples
     --------

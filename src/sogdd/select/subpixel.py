@@ -100,7 +100,7 @@ def refine_gradient(
     xy: np.ndarray,
     *,
     half_window: int = 3,
-    max_shift: float = 3.0,
+    max_shift: float | None = None,
     max_iter: int = 100,
     tol: float = 1e-5,
 ) -> np.ndarray:
@@ -114,9 +114,11 @@ def refine_gradient(
     the step of ``cv2.cornerSubPix``) removes the bias. The solution is iterated
     to its fixed point (:func:`sogdd.select.forstner.forstner_points`: damped, to
     ``tol`` px), so it does not depend on where an iteration happened to stop.
-    Points that would move more than ``max_shift`` pixels, or do not converge in
-    ``max_iter`` steps, keep their input position, so a refinement that wanders to
-    another structure is refused.
+    Points that would leave the window around their start (``|dx|`` or ``|dy|``
+    over ``half_window``, cornerSubPix's own rule) or move more than ``max_shift``
+    pixels (None: no further limit), or do not converge in ``max_iter`` steps, keep
+    their input position, so a refinement that wanders to another structure is
+    refused.
 
     Examples
     --------
@@ -132,7 +134,7 @@ def refine_gradient(
         return pts.copy()
     img = np.ascontiguousarray(grey, dtype=np.float32)
     half = np.full(len(pts), int(half_window), np.int64)
-    shift = np.full(len(pts), float(max_shift))
+    shift = np.full(len(pts), np.inf if max_shift is None else float(max_shift))
     # each point is refined on its own, and the compiled code releases the GIL: chunks in threads
     n = max(1, min(thread_count(), len(pts) // _REFINE_CHUNK))
     if n == 1:  # few points: no thread pool to start
