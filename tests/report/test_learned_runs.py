@@ -68,9 +68,9 @@ def test_a_cached_run_with_a_different_grid_is_refused(tmp_path, images):
     assert found.report is None and found.used == []
     (path, why), = found.stale
     assert path == tmp_path / "xfeat" / RUN_FILE
-    assert "quick False, not True" in why and any(w.startswith("grid of jpeg") for w in why)
+    assert "quick False, not True" in why and "transforms" in " ".join(why)
     note = cached_note(found, tmp_path)
-    assert "Left out as stale: `xfeat/repeatability_run.json`" in note and "grid of jpeg" in note
+    assert "Left out as stale: `xfeat/repeatability_run.json` (quick False, not True" in note
     assert "No cached learned run matches" in note
 
 
@@ -121,6 +121,9 @@ def test_protocol_differences_names_each_change():
     a = {"radius": 4.0, "seed": 0, "grid": {"jpeg": ["q=5"], "noise": ["s=1"]}, "images": [["x", "1"]]}
     assert protocol_differences(a, {**a, "seed": 1, "grid": {"jpeg": ["q=5"]}}) == [
         "seed 1, not 0", "grid of noise (0 transforms, not 1)"]
+    # another quick flag says the grid differs; the families' grids are not listed again
+    full = {**a, "quick": False, "grid": {}}
+    assert protocol_differences({**a, "quick": True}, full) == ["quick False, not True"]
 
 
 def test_the_report_stage_shows_cached_rows_and_names_stale_ones(tmp_path, images, monkeypatch):
