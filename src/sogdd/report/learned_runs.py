@@ -126,8 +126,8 @@ def cached_note(found: CachedRuns, page_dir: str | os.PathLike, *, full: bool = 
         rows = ", ".join(f"`{s}`" for _, specs in found.used for s in specs)
         parts.append(f"The rows {rows} (both modes) are read from the cached runs in `{rel}/` (made by {cmd} "
                      f"in a venv with the `learned` extra; {found.seconds / 60:.0f} min of run time), not "
-                     "re-run by `sogdd report`: their protocol (grid, images and their pixels, seed, top-N) "
-                     "was checked to be the one run here.")
+                     "re-run by `sogdd report`: their protocol (grid, images and their pixels, transform code, "
+                     "seed, top-N) was checked to be the one run here.")
     else:
         parts.append(f"No cached learned run matches this protocol in `{rel}/`: the learned rows are made by "
                      f"{cmd} in a venv with the `learned` extra, and read from there.")
