@@ -47,3 +47,20 @@ def _prune_small_maps(monkeypatch):
     pixel rule.
     """
     monkeypatch.setattr(soddc, "PRUNE_MIN_PIXELS", 0)
+
+
+def pytest_configure(config):
+    config.addinivalue_line("markers", "learned: needs the 'learned' extra; skipped with the reason without it")
+
+
+def pytest_collection_modifyitems(config, items):
+    """Tests marked ``learned`` skip, saying what is missing and how to install it, where the extra is not."""
+    from sogdd.baselines import learned_extra
+
+    if learned_extra.installed():
+        return
+    skip = pytest.mark.skip(reason=f"the 'learned' extra is not installed (missing: "
+                                   f"{', '.join(learned_extra.missing())}); install: {learned_extra.INSTALL}")
+    for item in items:
+        if item.get_closest_marker("learned") is not None:
+            item.add_marker(skip)

@@ -13,10 +13,7 @@ from sogdd.baselines import learned_extra
 from sogdd.synthetic import pattern_image
 
 LEARNED = ["xfeat", "aliked", "disk"]
-NEEDS_EXTRA = pytest.mark.skipif(
-    not learned_extra.installed(),
-    reason=f"the 'learned' extra is not installed (missing: {', '.join(learned_extra.missing())}); "
-           f"install: {learned_extra.INSTALL}")
+NEEDS_EXTRA = pytest.mark.learned  # skipped with the reason without the extra (tests/conftest.py)
 
 
 @pytest.fixture(scope="module")

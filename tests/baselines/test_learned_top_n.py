@@ -10,13 +10,9 @@ tests skip, with the reason, where the ``learned`` extra is not installed.
 import pytest
 
 from sogdd import baselines
-from sogdd.baselines import learned_extra
 from sogdd.synthetic import pattern_image
 
-NEEDS_EXTRA = pytest.mark.skipif(
-    not learned_extra.installed(),
-    reason=f"the 'learned' extra is not installed (missing: {', '.join(learned_extra.missing())}); "
-           f"install: {learned_extra.INSTALL}")
+NEEDS_EXTRA = pytest.mark.learned  # skipped with the reason without the extra (tests/conftest.py)
 
 
 @pytest.fixture(scope="module")
