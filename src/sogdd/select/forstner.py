@@ -146,8 +146,8 @@ def forstner_points(
     """Foerstner's corner point of each start point, iterated to convergence (see the module docstring).
 
     ``grey``: (H, W) image (read as float32); ``xy``: (N, 2) start points;
-    ``half_window``, ``max_shift``: (N,) per point. A point that does not converge
-    within ``max_iter`` damped steps of at most ``tol`` px, that would leave the
+    ``half_window`` (>= 1), ``max_shift``: (N,) per point. A point that does not
+    converge (``|F(q) - q| < tol``) within ``max_iter`` steps, that would leave the
     window around its start (``|dx|`` or ``|dy|`` over its half-window, as
     ``cv2.cornerSubPix`` refuses) or move more than its ``max_shift``, or whose
     window matrix is singular, keeps its start.
@@ -170,7 +170,11 @@ def forstner_points(
     pts = np.ascontiguousarray(xy, dtype=np.float64).reshape(-1, 2)
     out = np.empty_like(pts)
     half = np.ascontiguousarray(half_window, dtype=np.int64).reshape(-1)
+    if len(half) != len(pts) or (half < 1).any():
+        raise ValueError("half_window must hold one integer >= 1 per point")
     shift = np.ascontiguousarray(max_shift, dtype=np.float64).reshape(-1)
+    if len(shift) != len(pts):
+        raise ValueError("max_shift must hold one value per point")
     if len(pts):
         _refine(img, pts, half, shift, int(max_iter), float(tol), out)
     return out
