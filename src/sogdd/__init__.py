@@ -18,9 +18,9 @@ The core is a pipeline of stages, each a folder, called in this order by
 
 Around them: :mod:`sogdd.descriptors` (SIFT descriptors at corners),
 :mod:`sogdd.feature2d` (OpenCV's vocabulary), :mod:`sogdd.formats` (feature
-files, COLMAP) and :mod:`sogdd.collection` (batches). Everything else (theory,
-baselines, evaluation, report, cli) is a client of the core and is never
-imported by it.
+files, COLMAP). Everything else (theory, baselines, evaluation, report, cli,
+:mod:`sogdd.collection` for batches over many images) is a client of the core
+and is never imported by it.
 """
 
 from __future__ import annotations

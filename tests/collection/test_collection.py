@@ -94,3 +94,20 @@ def test_batch_leaves_the_callers_thread_setting_alone(folder, tmp_path, monkeyp
     monkeypatch.delenv("SOGDD_NUM_THREADS", raising=False)
     run_batch([folder / "im0.png"], tmp_path / "t", fmt="npz", jobs=1)
     assert "SOGDD_NUM_THREADS" not in os.environ
+
+
+def test_an_unreachable_scheduler_prints_no_progress_bar_first(folder, tmp_path, capsys):
+    pytest.importorskip("distributed")
+    code = main(["detect", str(folder / "im0.png"), "--out", str(tmp_path / "x"),
+                 "--scheduler", "tcp://127.0.0.1:1"])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert err.startswith("sogdd: error: cannot reach the Dask scheduler"), err
+    assert "0/1" not in err and "it/s" not in err and "img/s" not in err
+
+
+def test_started_is_called_once_before_the_first_image(folder, tmp_path):
+    events = []
+    run_batch([folder / "im0.png", folder / "im1.png"], tmp_path / "s",
+              started=lambda: events.append("started"), progress=lambda item: events.append(item.status))
+    assert events == ["started", "done", "done"]

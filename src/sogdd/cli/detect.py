@@ -179,27 +179,32 @@ def _detect_one(path: Path, name: str, args, params: dict, p, reading: dict, mas
 def _run_folder(args: argparse.Namespace, paths: list[Path], params: dict, fmt: str, reading: dict,
                 mask) -> int:
     """One feature file per image in ``--out``; resumable; processes or Dask."""
-    bar = tqdm(total=len(paths), desc="detect", unit="img", file=sys.stderr)
+    bars: list[tqdm] = []  # opened when the work starts: an error before it (a Dask connection) comes alone
+
+    def started() -> None:
+        bars.append(tqdm(total=len(paths), desc="detect", unit="img", file=sys.stderr))
 
     def progress(item) -> None:
-        bar.update(1)
+        bars[0].update(1)
         if item.status == "failed":
             tqdm.write(f"sogdd: error: {item.message}", file=sys.stderr)
 
     try:
         items = run_batch(
             paths, args.out, fmt=fmt, preset=args.preset, params=params, resume=args.resume,
-            jobs=args.jobs, scheduler=args.scheduler, progress=progress, read_options=reading,
-            device=args.device, mask=mask,
+            jobs=args.jobs, scheduler=args.scheduler, progress=progress, started=started,
+            read_options=reading, device=args.device, mask=mask,
         )
     except BatchInterrupted as exc:
-        bar.close()
+        for bar in bars:
+            bar.close()
         done = sum(i.status == "done" for i in exc.items)
         print(f"sogdd: interrupted ({signal_name(exc.signum)}); {done} finished feature file(s) kept in "
               f"{args.out}; --resume continues", file=sys.stderr)
         raise
     finally:
-        bar.close()
+        for bar in bars:
+            bar.close()
     counts = {s: sum(i.status == s for i in items) for s in ("done", "skipped", "failed")}
     print(
         f"sogdd: {counts['done']} done, {counts['skipped']} skipped (already there), "
