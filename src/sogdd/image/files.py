@@ -1,7 +1,7 @@
 """Reading image files: size limits, corrupt data, EXIF orientation, frames, folders.
 
-:func:`read_image` reads the header first (:mod:`sogdd.image.header`), so a
-decompression bomb is refused before any pixel is decoded; decodes with
+:func:`read_image` reads the header first (:mod:`sogdd.image.header`, with
+Pillow), so a decompression bomb is refused before any pixel is decoded; decodes with
 OpenCV in the frame ``cv2.imread`` returns (EXIF orientation applied);
 captures what the decoders print, so that corrupt or truncated data becomes a
 one-line ``ValueError`` instead of chatter on stderr and a silently damaged
@@ -158,22 +158,32 @@ def _flush_c_stderr() -> None:
         pass
 
 
-def _check_header(p: Path, data: bytes, limit: int, frame: int | None) -> None:
-    head = probe(data)
+def _check_header(p: Path, data: bytes, limit: int, frame: int | None) -> bool:
+    """Refuse what the header declares past the limit, or an unnamed frame of a multi-frame file;
+    ``False`` when no header was read (the decoded size is then checked)."""
+    try:
+        head = probe(data)
+    except ValueError as exc:
+        raise ValueError(f"{p}: {exc}") from None
     if head is None:
-        return
+        return False
     w, h, frames = head
-    if w * h > limit:
-        raise ValueError(
-            f"{p}: {w}x{h} image ({w * h} pixels) exceeds the limit of {limit} pixels "
-            "(max_pixels, --max-pixels, SOGDD_MAX_PIXELS)"
-        )
+    _check_size(p, w, h, limit)
     if frames > 1 and frame is None:
         raise ValueError(
             f"{p}: {frames} frames (multi-page or animated); name one as '{p}[0]' .. '{p}[{frames - 1}]'"
         )
     if frame is not None and frame >= frames:
         raise ValueError(f"{p}: frame {frame} requested, the file has {frames}")
+    return True
+
+
+def _check_size(p: Path, w: int, h: int, limit: int) -> None:
+    if w * h > limit:
+        raise ValueError(
+            f"{p}: {w}x{h} image ({w * h} pixels) exceeds the limit of {limit} pixels "
+            "(max_pixels, --max-pixels, SOGDD_MAX_PIXELS)"
+        )
 
 
 def read_image(
@@ -193,8 +203,10 @@ def read_image(
         its first frame.
     max_pixels : int, optional
         Largest width x height accepted, checked from the file header before
-        any decoding (decompression bombs). Default ``$SOGDD_MAX_PIXELS`` or
-        2**28 (268 Mpx).
+        any decoding (decompression bombs), or after it for the few formats
+        whose header Pillow does not read (HDR, EXR, PAM; OpenCV's own limit
+        of 2**30 pixels then bounds the decoding). Default
+        ``$SOGDD_MAX_PIXELS`` or 2**28 (268 Mpx).
     allow_corrupt : bool
         Accept an image whose decoder reported corrupt or truncated data
         (default: a ``ValueError``). Decoder messages never reach stderr.
@@ -227,7 +239,7 @@ def read_image(
     data = _read_bytes(p)
     if not data:
         raise ValueError(f"{p}: empty file")
-    _check_header(p, data, limit, frame)
+    checked = _check_header(p, data, limit, frame)
     flags = cv2.IMREAD_ANYCOLOR | cv2.IMREAD_ANYDEPTH
     if ignore_orientation:
         flags |= cv2.IMREAD_IGNORE_ORIENTATION
@@ -239,6 +251,8 @@ def read_image(
     if img is None:
         why = f": {first}" if first else " (corrupt or unsupported format)"
         raise ValueError(f"{p}: not a readable image{why}")
+    if not checked:  # a format whose header Pillow does not read: OpenCV's own limit bounded the decoding
+        _check_size(p, img.shape[1], img.shape[0], limit)
     if _CORRUPT_RE.search(log) and not allow_corrupt:
         raise ValueError(f"{p}: corrupt or truncated image data ({first}); --allow-corrupt to use it anyway")
     if img.ndim == 3 and img.shape[2] == 3:
