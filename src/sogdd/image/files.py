@@ -11,7 +11,6 @@ image; and refuses to pick the first frame of a multi-frame file silently
 
 from __future__ import annotations
 
-import ctypes
 import errno
 import os
 import re
@@ -126,7 +125,21 @@ def _read_bytes(p: Path) -> bytes:
 
 
 def _decode(data: bytes, flags: int, frame: int | None) -> tuple[np.ndarray | None, str]:
-    """Decode with the decoders' stderr chatter captured (fd 2), so it can be judged, not printed."""
+    """Decode with the decoders' stderr chatter captured (fd 2), so it can be judged, not printed.
+
+    Why file descriptor 2: a JPEG with damaged entropy-coded data still decodes;
+    libjpeg only warns ("Corrupt JPEG data: 15 extraneous bytes before marker
+    0xd9"), and it, libpng ("libpng error: ...") and OpenCV's loaders print to
+    the process's stderr themselves. Neither decoder reports it another way:
+    ``cv2.imdecode`` returns the image with no status, OpenCV's Python logging
+    API only sets a level (no handler to receive messages), and Pillow's
+    ``load()`` and ``verify()`` both accept that JPEG without a warning (Pillow
+    discards libjpeg's warnings); the corrupt-data tests in ``tests/image``
+    fail without the capture. C's ``stderr`` is unbuffered, so every line is
+    in the file when fd 2 is restored (no ``fflush`` needed). The lock keeps
+    two decodes from swapping fd 2 under each other; anything else the
+    process writes to stderr meanwhile goes to the same capture.
+    """
     buf = np.frombuffer(data, np.uint8)
     with _STDERR_LOCK, tempfile.TemporaryFile() as log:
         sys.stderr.flush()
@@ -143,19 +156,11 @@ def _decode(data: bytes, flags: int, frame: int | None) -> tuple[np.ndarray | No
         else:
             err = ""
         finally:
-            _flush_c_stderr()
             os.dup2(saved, 2)
             os.close(saved)
         log.seek(0)
         text = log.read().decode("utf-8", "replace")
     return img, "\n".join(x for x in (text.strip(), err) if x)
-
-
-def _flush_c_stderr() -> None:
-    try:
-        ctypes.CDLL(None).fflush(None)
-    except (OSError, AttributeError):  # pragma: no cover - not a POSIX libc
-        pass
 
 
 def _check_header(p: Path, data: bytes, limit: int, frame: int | None) -> bool:
