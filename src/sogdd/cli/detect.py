@@ -30,13 +30,14 @@ from ..formats.features import (
     check_name,
     encode_features,
     make_record,
+    sidecar_path,
     source_stamp,
     write_features,
 )
 from ..image.files import opencv_message, read_image
 from ..image.validate import intensity_hint
 from ..params import resolve_params
-from ._common import write_stdout
+from ._common import check_input_files, check_not_inputs, output_folder, write_stdout
 from .overlay import check_overlay_path, save_overlay
 from .params import (
     add_detector_arguments,
@@ -84,6 +85,13 @@ def _check_options(args: argparse.Namespace, n_images: int) -> str:
     return fmt
 
 
+def _outputs(args: argparse.Namespace, fmt: str) -> list[tuple[str, str | None]]:
+    """The files one run writes (besides ``--out DIR``'s), with their flags."""
+    single = None if args.out or args.output == "-" else args.output
+    side = str(sidecar_path(single)) if single and fmt == "csv" else None
+    return [("--output", single), ("--output (its sidecar)", side), ("--overlay", args.overlay)]
+
+
 def _check_writable(path: Path) -> None:
     if path.is_dir():
         raise ValueError(f"--output {path}: is a folder; give a file name (--out DIR: a file per image)")
@@ -116,11 +124,14 @@ def run(args: argparse.Namespace) -> int:
     p = resolve_params(args.preset, **params)  # bad parameters fail before any work
     thread_count()  # and a bad SOGDD_NUM_THREADS
     reading = read_options(args)
+    check_input_files([args.mask] if args.mask else [])
     mask = read_mask(args.mask, reading)
     paths = expand_inputs(args.images, recursive=args.recursive)
     if not paths:
         raise ValueError("no input images")
+    check_input_files(paths)  # a device or a FIFO would be read (and hashed) for ever
     fmt = _check_options(args, len(paths))
+    check_not_inputs(_outputs(args, fmt), [*paths, args.mask])
     names = relative_names(paths)  # collisions fail before any work
     if args.out:
         return _run_folder(args, paths, params, fmt, reading, mask)
@@ -233,8 +244,8 @@ def configure(p: argparse.ArgumentParser) -> None:
     p.add_argument("--overlay", metavar="PNG", help="write an overlay image (single image only)")
     g = p.add_argument_group("image collections")
     g.add_argument("--recursive", "-r", action="store_true", help="folders: include their sub-folders")
-    g.add_argument("--out", metavar="DIR", help="write one feature file per image into DIR, named by its "
-                   "path relative to the inputs' common folder")
+    g.add_argument("--out", metavar="DIR", type=output_folder, help="write one feature file per image "
+                   "into DIR, named by its path relative to the inputs' common folder")
     g.add_argument("--resume", action="store_true", help="skip images whose feature file is complete and "
                    "was made from the same image file with the same parameters and sogdd version")
     g.add_argument("--jobs", type=int, default=1, help="local worker processes")
