@@ -264,21 +264,34 @@ def write_features(db, image_id: int, xy: np.ndarray, size: np.ndarray | None = 
 
 
 # ----------------------------------------------------------------- export
+#: the feature files export reads: every format ``sogdd detect --out`` writes
+FEATURE_SUFFIXES = (".npz", ".csv", ".json")
+
+
 def _feature_files(folder: Path) -> dict[str, Path]:
-    """``{image name: file}``: the name is the file's path under ``folder`` without ``.npz``
-    (``sogdd detect --out`` mirrors the inputs' sub-folders)."""
+    """``{image name: file}``: the name is the file's path under ``folder`` without its suffix
+    (``sogdd detect --out`` mirrors the inputs' sub-folders); npz, CSV or JSON (not a CSV's
+    sidecar ``<file>.csv.json``). One image with files in two formats is refused, naming both."""
     if not folder.is_dir():
         raise ValueError(f"{folder}: not a folder")
-    files = {p.relative_to(folder).as_posix()[: -len(".npz")]: p for p in sorted(folder.rglob("*.npz"))}
+    files: dict[str, Path] = {}
+    for p in sorted(folder.rglob("*")):
+        suffix = p.suffix.lower()
+        if suffix not in FEATURE_SUFFIXES or p.name.lower().endswith(".csv.json") or not p.is_file():
+            continue  # a FIFO or a device named *.npz is not read (it could block for ever)
+        name = p.relative_to(folder).as_posix()[: -len(suffix)]
+        if name in files:
+            raise ValueError(f"{files[name]} and {p.name}: two feature files of one image; keep one")
+        files[name] = p
     if not files:
-        raise ValueError(f"{folder}: no .npz feature files")
+        raise ValueError(f"{folder}: no feature files (.npz, .csv or .json, as sogdd detect --out writes)")
     return files
 
 
 def _read_feature_file(path: Path) -> tuple[Corners, tuple[int, int], np.ndarray | None]:
-    """A ``sogdd detect --format npz`` file (:mod:`sogdd.formats.features`): corners, the image shape
-    (height, width; ``(0, 0)`` if unknown) and the optional descriptors. A bad file is a one-line
-    ``ValueError`` naming it."""
+    """A ``sogdd detect`` feature file, npz, CSV or JSON (:mod:`sogdd.formats.features`): corners, the
+    image shape (height, width; ``(0, 0)`` if unknown) and the optional descriptors (npz only). A bad
+    file is a one-line ``ValueError`` naming it."""
     recs = read_features(path)
     if len(recs) != 1:
         raise ValueError(f"{path}: holds {len(recs)} images; export takes one feature file per image")
@@ -292,8 +305,9 @@ def export_features(feature_dir: str | Path, database: str | Path, images: str |
     Parameters
     ----------
     feature_dir : path
-        ``<image name>.npz`` files (``xy``, ``response``, ``size``, optional ``level``
-        and ``descriptors``), as ``sogdd detect DIR --out FEATDIR --format npz`` writes them.
+        One feature file per image, ``<image name>.npz``, ``.csv`` or ``.json``, as
+        ``sogdd detect DIR --out FEATDIR [--format csv|json]`` writes them
+        (:mod:`sogdd.formats.features`); only npz files can also hold ``descriptors``.
     database : path
         COLMAP database (created if missing). Images already in it are matched by name.
         Anything else (a text file, an SQLite file without COLMAP's tables) is refused.

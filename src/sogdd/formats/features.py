@@ -201,7 +201,17 @@ def remove_stale_temporaries(folder: str | os.PathLike) -> int:
     return n
 
 
+def _check_npz(p: Path) -> None:
+    """An npz file is a zip archive: anything else (a text file named ``.npz``) is said to be so, not
+    left to numpy's message about pickled data."""
+    with open(p, "rb") as f:  # a missing file raises FileNotFoundError: "no such file"
+        head = f.read(4)
+    if head not in (b"PK\x03\x04", b"PK\x05\x06"):  # a zip archive's first bytes (a truncated one: numpy's)
+        raise ValueError(f"{p}: not an npz file (not a zip archive); sogdd detect --format npz writes them")
+
+
 def _read_npz(p: Path) -> list[FeatureRecord]:
+    _check_npz(p)
     with np.load(p, allow_pickle=False) as z:
         keys = set(z.files)
         names = [str(n) for n in z["images"]] if "images" in keys else [None]
@@ -255,6 +265,10 @@ def read_features(path: str | os.PathLike) -> list[FeatureRecord]:
         return recs
     except FileNotFoundError:
         raise ValueError(f"{p}: no such file") from None
+    except ValueError as exc:
+        if str(exc).startswith(f"{p}: "):  # already one line naming the file
+            raise
+        raise ValueError(f"{p}: not a valid {fmt} feature file (ValueError: {exc})") from None
     except Exception as exc:  # noqa: BLE001 - any decoding failure is a bad file
         raise ValueError(f"{p}: not a valid {fmt} feature file ({type(exc).__name__}: {exc})") from None
 
@@ -285,6 +299,7 @@ def read_descriptors(path: str | os.PathLike, image: str | None = None) -> np.nd
         return None
     pre = "" if image is None else f"{image}/"
     try:
+        _check_npz(p)
         with np.load(p, allow_pickle=False) as z:
             if f"{pre}descriptors" not in z.files:
                 return None
@@ -292,6 +307,8 @@ def read_descriptors(path: str | os.PathLike, image: str | None = None) -> np.nd
     except FileNotFoundError:
         raise ValueError(f"{p}: no such file") from None
     except Exception as exc:  # noqa: BLE001 - any decoding failure is a bad file
+        if isinstance(exc, ValueError) and str(exc).startswith(f"{p}: "):
+            raise
         raise ValueError(f"{p}: not a valid npz feature file ({type(exc).__name__}: {exc})") from None
     if desc.ndim != 2 or len(desc) != n:
         raise ValueError(f"{p}: descriptors of shape {desc.shape} for {n} corners")
