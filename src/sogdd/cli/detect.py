@@ -48,8 +48,10 @@ from .params import (
     read_options,
 )
 
-# fewer corners than this from an absolute threshold on a structured image earns a hint
+# fewer corners than this from a threshold on a structured image earns a hint; with a relative threshold,
+# also fewer than one per this many pixels (18 corners on a 6 Mpx photo: one outlier set the bar)
 _FEW = 5
+_PIXELS_PER_CORNER = 100_000
 
 
 def write_results(records: list[FeatureRecord], fmt: str, output: str) -> None:
@@ -102,17 +104,41 @@ def _check_writable(path: Path) -> None:
         raise ValueError(f"{path}: folder {folder} is not writable")
 
 
-def _hint_few(img: np.ndarray, n: int, params) -> str | None:
-    """A one-time hint when the paper's absolute threshold leaves (almost) nothing on a structured image."""
-    if n >= _FEW or params.threshold is None or params.threshold_rel is not None or params.quantile is not None:
+def _hint_few(img: np.ndarray, corners, params) -> str | None:
+    """A one-time hint when a threshold leaves (almost) nothing on a structured image: the paper's
+    absolute one, or a relative one that a single very strong corner sets."""
+    n = len(corners)
+    if params.quantile is not None:
+        return None
+    if params.threshold_rel is not None:
+        if n >= max(_FEW, img.shape[0] * img.shape[1] / _PIXELS_PER_CORNER) or _flat(img):
+            return None
+        return _hint_relative(img, corners, params.threshold_rel)
+    if n >= _FEW or params.threshold is None:
         return None
     hint = intensity_hint(img)
     if hint:
         return hint
-    if float(np.std(img[:: max(1, img.shape[0] // 256), :: max(1, img.shape[1] // 256)])) < 1e-3 * _scale(img):
-        return None  # a flat image: nothing to find
+    if _flat(img):
+        return None  # nothing to find
     return (f"the absolute threshold {params.threshold:g} left {n} corner(s); for a relative selection try "
             "--threshold none --max-corners N")
+
+
+def _hint_relative(img: np.ndarray, corners, rel: float) -> str:
+    r = np.sort(np.asarray(corners.response, dtype=np.float64))[::-1]
+    why = ""
+    if len(r) >= 2 and r[1] > 0:
+        why = f"; the strongest response is {r[0] / r[1]:.3g}x the next, so it sets the bar"
+    return (f"--threshold-rel {rel:g} keeps responses above {rel:g} x the strongest: {len(r)} corner(s) on "
+            f"{img.shape[1]}x{img.shape[0]} px{why}; for a number of corners use --max-corners N (with "
+            "--threshold none), or a smaller --threshold-rel")
+
+
+def _flat(img: np.ndarray) -> bool:
+    """An image without structure (its subsampled grey levels hardly vary): no corners is right."""
+    sub = img[:: max(1, img.shape[0] // 256), :: max(1, img.shape[1] // 256)]
+    return float(np.std(sub)) < 1e-3 * _scale(img)
 
 
 def _scale(img: np.ndarray) -> float:
@@ -184,7 +210,7 @@ def _detect_one(path: Path, name: str, args, params: dict, p, reading: dict, mas
     if args.overlay:
         save_overlay(img, c, args.overlay, label=f"preset {args.preset}")
     rec = make_record(path, c, img.shape, args.preset, p, source, mask=mask)
-    return dataclasses.replace(rec, image=name), _hint_few(img, len(c), p)
+    return dataclasses.replace(rec, image=name), _hint_few(img, c, p)
 
 
 def _run_folder(args: argparse.Namespace, paths: list[Path], params: dict, fmt: str, reading: dict,
