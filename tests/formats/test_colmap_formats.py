@@ -84,3 +84,17 @@ def test_colmap_help_does_not_repeat_the_export_text(capsys):
         main(["colmap", "--help"])
     out = capsys.readouterr().out
     assert "export" in out and "FEATDIR holds" not in out
+
+
+def test_a_database_that_is_an_input_is_refused(images, tmp_path, capfd):
+    import os
+
+    feat = tmp_path / "feat"
+    assert main(["detect", str(images / "im0.png"), "--out", str(feat), "--format", "csv"]) == 0
+    os.symlink(images / "im0.png", tmp_path / "link.db")
+    capfd.readouterr()
+    for db in (feat / "im0.png.csv", tmp_path / "link.db"):
+        before = db.read_bytes()
+        assert main(["colmap", "export", str(feat), "--database", str(db), "--images", str(images),
+                     "--quiet"]) == 2
+        assert "that is the input" in _one_error(capfd) and db.read_bytes() == before

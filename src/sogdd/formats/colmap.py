@@ -337,6 +337,7 @@ def export_features(feature_dir: str | Path, database: str | Path, images: str |
     pycolmap = require_pycolmap()
     files = _feature_files(Path(feature_dir))
     db_path = Path(database)
+    _not_an_input(db_path, files, images)
     exists = check_database(db_path)
     real = Path(os.path.realpath(db_path))  # a symbolic link keeps pointing at the database
     # all or nothing: the work happens on a copy that replaces the database only when everything is written
@@ -365,6 +366,15 @@ def export_features(feature_dir: str | Path, database: str | Path, images: str |
         for leftover in (work, Path(f"{work}-wal"), Path(f"{work}-shm"), Path(f"{work}-journal")):
             leftover.unlink(missing_ok=True)
     return result
+
+
+def _not_an_input(db_path: Path, files: dict[str, Path], images) -> None:
+    """Refuse a database path that is one of the feature files or images (also through a link)."""
+    real = os.path.realpath(db_path)
+    inputs = list(files.values()) + ([Path(images) / n for n in files] if images is not None else [])
+    for p in inputs:
+        if os.path.realpath(p) == real or (db_path.exists() and p.exists() and os.path.samefile(p, db_path)):
+            raise ValueError(f"--database {db_path}: that is the input {p}; choose another file name")
 
 
 def _known_images(pycolmap, files: dict[str, Path], db_path: Path, work: Path, images) -> dict[str, int]:
