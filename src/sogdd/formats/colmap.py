@@ -39,7 +39,7 @@ from ..descriptors import describe
 from ..image.files import list_images, read_image
 from ..image.header import probe
 from .colmap_database import check_database, copy_database, forget_features, quiet_colmap
-from .features import read_descriptors, read_features
+from .features import feature_files, read_descriptors, read_features
 
 __all__ = [
     "CameraPrior",
@@ -264,30 +264,6 @@ def write_features(db, image_id: int, xy: np.ndarray, size: np.ndarray | None = 
 
 
 # ----------------------------------------------------------------- export
-#: the feature files export reads: every format ``sogdd detect --out`` writes
-FEATURE_SUFFIXES = (".npz", ".csv", ".json")
-
-
-def _feature_files(folder: Path) -> dict[str, Path]:
-    """``{image name: file}``: the name is the file's path under ``folder`` without its suffix
-    (``sogdd detect --out`` mirrors the inputs' sub-folders); npz, CSV or JSON (not a CSV's
-    sidecar ``<file>.csv.json``). One image with files in two formats is refused, naming both."""
-    if not folder.is_dir():
-        raise ValueError(f"{folder}: not a folder")
-    files: dict[str, Path] = {}
-    for p in sorted(folder.rglob("*")):
-        suffix = p.suffix.lower()
-        if suffix not in FEATURE_SUFFIXES or p.name.lower().endswith(".csv.json") or not p.is_file():
-            continue  # a FIFO or a device named *.npz is not read (it could block for ever)
-        name = p.relative_to(folder).as_posix()[: -len(suffix)]
-        if name in files:
-            raise ValueError(f"{files[name]} and {p.name}: two feature files of one image; keep one")
-        files[name] = p
-    if not files:
-        raise ValueError(f"{folder}: no feature files (.npz, .csv or .json, as sogdd detect --out writes)")
-    return files
-
-
 def _read_feature_file(path: Path) -> tuple[Corners, tuple[int, int], np.ndarray | None]:
     """A ``sogdd detect`` feature file, npz, CSV or JSON (:mod:`sogdd.formats.features`): corners, the
     image shape (height, width; ``(0, 0)`` if unknown) and the optional descriptors (npz only). A bad
@@ -335,7 +311,7 @@ def export_features(feature_dir: str | Path, database: str | Path, images: str |
     the whole export has succeeded.
     """
     pycolmap = require_pycolmap()
-    files = _feature_files(Path(feature_dir))
+    files = feature_files(Path(feature_dir))
     db_path = Path(database)
     _not_an_input(db_path, files, images)
     exists = check_database(db_path)

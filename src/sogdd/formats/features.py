@@ -68,6 +68,7 @@ __all__ = [
     "FeatureRecord",
     "check_name",
     "encode_features",
+    "feature_files",
     "load_features",
     "make_record",
     "params_dict",
@@ -315,6 +316,35 @@ def read_descriptors(path: str | os.PathLike, image: str | None = None) -> np.nd
     if desc.dtype.kind not in "iuf" or not np.isfinite(desc).all():
         raise ValueError(f"{p}: descriptors must be finite numbers (dtype {desc.dtype})")
     return desc
+
+
+#: the suffixes of feature files in a folder: every format ``sogdd detect --out`` writes
+FEATURE_SUFFIXES = (".npz", ".csv", ".json")
+
+
+def feature_files(folder: str | os.PathLike) -> dict[str, Path]:
+    """``{image name: file}`` of a feature folder, as ``sogdd colmap export`` reads it.
+
+    The name is the file's path under ``folder`` without its suffix (``sogdd
+    detect --out`` mirrors the inputs' sub-folders); npz, CSV or JSON files, not
+    a CSV's sidecar ``<file>.csv.json`` nor anything that is not a regular file.
+    One image with files in two formats is refused (``ValueError``), naming both.
+    """
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise ValueError(f"{folder}: not a folder")
+    files: dict[str, Path] = {}
+    for p in sorted(folder.rglob("*")):
+        suffix = p.suffix.lower()
+        if suffix not in FEATURE_SUFFIXES or p.name.lower().endswith(".csv.json") or not p.is_file():
+            continue  # a FIFO or a device named *.npz is not read (it could block for ever)
+        name = p.relative_to(folder).as_posix()[: -len(suffix)]
+        if name in files:
+            raise ValueError(f"{files[name]} and {p.name}: two feature files of one image; keep one")
+        files[name] = p
+    if not files:
+        raise ValueError(f"{folder}: no feature files (.npz, .csv or .json, as sogdd detect --out writes)")
+    return files
 
 
 def load_features(path: str | os.PathLike, image: str | None = None) -> Corners:
