@@ -67,7 +67,7 @@ class BaselineDetector:
         unknown = sorted(set(params) - set(self.defaults) - {"channel_order"})
         if unknown:
             raise ValueError(
-                f"{self.name}: unknown parameter(s) {', '.join(unknown)}; "
+                f"{self.name}: unknown parameter(s) {', '.join(k if k.strip() else repr(k) for k in unknown)}; "
                 f"accepted: {', '.join(sorted(self.defaults))}, channel_order"
             )
         self.params: dict[str, Any] = {**self.defaults, **params}

@@ -7,6 +7,8 @@ import errno
 import json
 import math
 import os
+import re
+import stat
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -15,9 +17,12 @@ __all__ = [
     "HelpFormatter",
     "add_detectors_argument",
     "add_output_arguments",
+    "check_input_files",
+    "check_not_inputs",
     "data_path",
     "data_root",
     "jsonable",
+    "output_folder",
     "print_json",
     "reference_file",
     "reporter",
@@ -135,6 +140,112 @@ def write_stdout(data: bytes) -> None:
         raise OSError(exc.errno, f"cannot write to stdout: {exc.strerror or exc}") from None
 
 
+_FRAME = re.compile(r"^(.*)\[(\d+)\]$")  # "photo.tif[2]": frame 2 of photo.tif (sogdd.read_image)
+
+
+def _existing(path: str | os.PathLike) -> Path | None:
+    """The file ``path`` names: itself, or the file of a frame (``photo.tif[2]``); ``None`` if none."""
+    text = os.fsdecode(path)
+    if os.path.lexists(text):
+        return Path(text)
+    m = _FRAME.match(text)
+    return Path(m.group(1)) if m and os.path.lexists(m.group(1)) else None
+
+
+def _kind(mode: int) -> str | None:
+    """What a file that is neither a regular file nor a folder is, or ``None`` for those two."""
+    if stat.S_ISREG(mode) or stat.S_ISDIR(mode):
+        return None
+    if stat.S_ISFIFO(mode):
+        return "a FIFO (named pipe)"
+    if stat.S_ISSOCK(mode):
+        return "a socket"
+    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
+        return "a device"
+    return "not a regular file"
+
+
+def check_input_files(paths, what: str = "an image file") -> None:
+    """Refuse inputs that are devices, FIFOs or sockets (``ValueError``, one line), before any work.
+
+    Reading ``/dev/zero`` or a FIFO never ends (or waits for a writer for ever),
+    so such an input is named and refused at the door. Missing files are left
+    to the reader, which names them.
+
+    Examples
+    --------
+    >>> check_input_files(["/dev/zero"])
+    Traceback (most recent call last):
+    ...
+    ValueError: /dev/zero: a device, not a file; give an image file
+    """
+    for path in paths:
+        p = _existing(path)
+        try:
+            kind = _kind(os.stat(p).st_mode) if p is not None else None
+        except OSError:  # a broken link, no permission: the reader says so
+            kind = None
+        if kind:
+            raise ValueError(f"{p}: {kind}, not a file; give {what}")
+
+
+def _identity(path: Path) -> tuple:
+    """What makes two paths one file: the resolved path, and (device, inode) where it exists
+    (a hard link has another path but the same inode)."""
+    real = os.path.realpath(path)
+    try:
+        st = os.stat(path)
+    except OSError:
+        return (real,)
+    return real, (st.st_dev, st.st_ino)
+
+
+def check_not_inputs(outputs, inputs) -> None:
+    """Refuse an output that is one of the inputs, before any work (``ValueError``, one line).
+
+    ``outputs``: ``(flag, path)`` pairs of the files a command writes (``None``
+    paths are skipped); ``inputs``: the files it reads. A path is the input
+    also through a symbolic link, a hard link, ``..`` or a relative path;
+    writing it would replace the input with the output.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> d = Path(tempfile.mkdtemp()); _ = (d / "photo.png").write_bytes(b"x")
+    >>> check_not_inputs([("--overlay", d / "sub" / ".." / "photo.png")], [d / "photo.png"])
+    Traceback (most recent call last):
+    ...
+    ValueError: --overlay .../sub/../photo.png: that is the input .../photo.png; choose another file name
+    """
+    known: dict = {}
+    for path in inputs:
+        p = _existing(path) if path is not None else None
+        if p is not None:
+            for key in _identity(p):
+                known.setdefault(key, p)
+    for flag, path in outputs:
+        if path is None or str(path) == "-":
+            continue
+        for key in _identity(Path(path)):
+            if key in known:
+                raise ValueError(f"{flag} {path}: that is the input {known[key]}; choose another file name")
+
+
+def output_folder(text: str) -> str:
+    """An argparse ``type`` for ``--out DIR``: refuse an existing file (the folder is made later).
+
+    Examples
+    --------
+    >>> output_folder("/dev/null")
+    Traceback (most recent call last):
+    ...
+    argparse.ArgumentTypeError: /dev/null is a file, not a folder; give a folder (made if missing)
+    """
+    if os.path.lexists(text) and not os.path.isdir(text):
+        raise argparse.ArgumentTypeError(f"{text} is a file, not a folder; give a folder (made if missing)")
+    return text
+
+
 def add_detectors_argument(p: argparse.ArgumentParser, default: str) -> None:
     """``--detectors SPEC [SPEC ...]``, space- or comma-separated; ``default`` describes the default."""
     p.add_argument("--detectors", nargs="+", metavar="SPEC",
@@ -144,7 +255,7 @@ def add_detectors_argument(p: argparse.ArgumentParser, default: str) -> None:
 
 def add_output_arguments(p: argparse.ArgumentParser, files: str) -> None:
     """``--out DIR`` (writing ``files``), ``--json`` and ``--quiet``/``--no-progress``."""
-    p.add_argument("--out", metavar="DIR", help=f"write {files} here")
+    p.add_argument("--out", metavar="DIR", type=output_folder, help=f"write {files} here")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.add_argument("--quiet", "--no-progress", dest="quiet", action="store_true",
                    help="no progress on stderr")

@@ -1,9 +1,11 @@
 """sogdd colmap export FEATDIR --database DB: a feature folder into a COLMAP database.
 
-FEATDIR holds one file per image as "sogdd detect DIR --out FEATDIR --format npz"
-writes it: <image name>.npz with xy (N, 2; x = column, y = row, pixel centres
-at integers), response, size and optionally descriptors (N, 128). Keypoints are
-written with +0.5 (COLMAP's pixel centres) as [x, y, size / 2, 0].
+FEATDIR holds one feature file per image as "sogdd detect DIR --out FEATDIR"
+writes it, in any of its formats: <image name>.npz (xy (N, 2), response, size,
+and optionally descriptors (N, 128), which only npz files can hold), .csv (x, y,
+response, size rows) or .json (x, y, n, response, size); x = column, y = row,
+pixel centres at integers. Keypoints are written with +0.5 (COLMAP's pixel
+centres) as [x, y, size / 2, 0].
 
 Images already in the database are matched by name. Others are imported from
 --images DIR with one shared camera per image size (intrinsics from K.txt or a
@@ -46,11 +48,12 @@ def run_export(args: argparse.Namespace) -> int:
 
 def configure(p: argparse.ArgumentParser) -> None:
     """The ``colmap`` command (sub-command ``export``)."""
-    p.description = __doc__
+    p.description = "COLMAP interoperability (needs pycolmap); sogdd colmap export --help: the details"
     sub = p.add_subparsers(dest="colmap_command", metavar="SUBCOMMAND")
     e = sub.add_parser("export", help="write a feature folder into a COLMAP database", description=__doc__,
                        formatter_class=HelpFormatter)
-    e.add_argument("features", metavar="DIR", help="feature folder (sogdd detect --out DIR --format npz)")
+    e.add_argument("features", metavar="DIR", help="feature folder (sogdd detect --out DIR): .npz, .csv or "
+                   ".json files")
     e.add_argument("--database", required=True, metavar="DB", help="COLMAP database (created if missing)")
     e.add_argument("--images", metavar="DIR", help="the images: to add those the database lacks, and for "
                    "descriptors")

@@ -30,13 +30,14 @@ from ..formats.features import (
     check_name,
     encode_features,
     make_record,
+    sidecar_path,
     source_stamp,
     write_features,
 )
 from ..image.files import opencv_message, read_image
 from ..image.validate import intensity_hint
 from ..params import resolve_params
-from ._common import write_stdout
+from ._common import check_input_files, check_not_inputs, output_folder, write_stdout
 from .overlay import check_overlay_path, save_overlay
 from .params import (
     add_detector_arguments,
@@ -47,8 +48,10 @@ from .params import (
     read_options,
 )
 
-# fewer corners than this from an absolute threshold on a structured image earns a hint
+# fewer corners than this from a threshold on a structured image earns a hint; with a relative threshold,
+# also fewer than one per this many pixels (18 corners on a 6 Mpx photo: one outlier set the bar)
 _FEW = 5
+_PIXELS_PER_CORNER = 100_000
 
 
 def write_results(records: list[FeatureRecord], fmt: str, output: str) -> None:
@@ -84,6 +87,13 @@ def _check_options(args: argparse.Namespace, n_images: int) -> str:
     return fmt
 
 
+def _outputs(args: argparse.Namespace, fmt: str) -> list[tuple[str, str | None]]:
+    """The files one run writes (besides ``--out DIR``'s), with their flags."""
+    single = None if args.out or args.output == "-" else args.output
+    side = str(sidecar_path(single)) if single and fmt == "csv" else None
+    return [("--output", single), ("--output (its sidecar)", side), ("--overlay", args.overlay)]
+
+
 def _check_writable(path: Path) -> None:
     if path.is_dir():
         raise ValueError(f"--output {path}: is a folder; give a file name (--out DIR: a file per image)")
@@ -94,17 +104,41 @@ def _check_writable(path: Path) -> None:
         raise ValueError(f"{path}: folder {folder} is not writable")
 
 
-def _hint_few(img: np.ndarray, n: int, params) -> str | None:
-    """A one-time hint when the paper's absolute threshold leaves (almost) nothing on a structured image."""
-    if n >= _FEW or params.threshold is None or params.threshold_rel is not None or params.quantile is not None:
+def _hint_few(img: np.ndarray, corners, params) -> str | None:
+    """A one-time hint when a threshold leaves (almost) nothing on a structured image: the paper's
+    absolute one, or a relative one that a single very strong corner sets."""
+    n = len(corners)
+    if params.quantile is not None:
+        return None
+    if params.threshold_rel is not None:
+        if n >= max(_FEW, img.shape[0] * img.shape[1] / _PIXELS_PER_CORNER) or _flat(img):
+            return None
+        return _hint_relative(img, corners, params.threshold_rel)
+    if n >= _FEW or params.threshold is None:
         return None
     hint = intensity_hint(img)
     if hint:
         return hint
-    if float(np.std(img[:: max(1, img.shape[0] // 256), :: max(1, img.shape[1] // 256)])) < 1e-3 * _scale(img):
-        return None  # a flat image: nothing to find
+    if _flat(img):
+        return None  # nothing to find
     return (f"the absolute threshold {params.threshold:g} left {n} corner(s); for a relative selection try "
             "--threshold none --max-corners N")
+
+
+def _hint_relative(img: np.ndarray, corners, rel: float) -> str:
+    r = np.sort(np.asarray(corners.response, dtype=np.float64))[::-1]
+    why = ""
+    if len(r) >= 2 and r[1] > 0:
+        why = f"; the strongest response is {r[0] / r[1]:.3g}x the next, so it sets the bar"
+    return (f"--threshold-rel {rel:g} keeps responses above {rel:g} x the strongest: {len(r)} corner(s) on "
+            f"{img.shape[1]}x{img.shape[0]} px{why}; for a number of corners use --max-corners N (with "
+            "--threshold none), or a smaller --threshold-rel")
+
+
+def _flat(img: np.ndarray) -> bool:
+    """An image without structure (its subsampled grey levels hardly vary): no corners is right."""
+    sub = img[:: max(1, img.shape[0] // 256), :: max(1, img.shape[1] // 256)]
+    return float(np.std(sub)) < 1e-3 * _scale(img)
 
 
 def _scale(img: np.ndarray) -> float:
@@ -116,11 +150,14 @@ def run(args: argparse.Namespace) -> int:
     p = resolve_params(args.preset, **params)  # bad parameters fail before any work
     thread_count()  # and a bad SOGDD_NUM_THREADS
     reading = read_options(args)
+    check_input_files([args.mask] if args.mask else [])
     mask = read_mask(args.mask, reading)
     paths = expand_inputs(args.images, recursive=args.recursive)
     if not paths:
         raise ValueError("no input images")
+    check_input_files(paths)  # a device or a FIFO would be read (and hashed) for ever
     fmt = _check_options(args, len(paths))
+    check_not_inputs(_outputs(args, fmt), [*paths, args.mask])
     names = relative_names(paths)  # collisions fail before any work
     if args.out:
         return _run_folder(args, paths, params, fmt, reading, mask)
@@ -173,7 +210,7 @@ def _detect_one(path: Path, name: str, args, params: dict, p, reading: dict, mas
     if args.overlay:
         save_overlay(img, c, args.overlay, label=f"preset {args.preset}")
     rec = make_record(path, c, img.shape, args.preset, p, source, mask=mask)
-    return dataclasses.replace(rec, image=name), _hint_few(img, len(c), p)
+    return dataclasses.replace(rec, image=name), _hint_few(img, c, p)
 
 
 def _run_folder(args: argparse.Namespace, paths: list[Path], params: dict, fmt: str, reading: dict,
@@ -238,8 +275,8 @@ def configure(p: argparse.ArgumentParser) -> None:
     p.add_argument("--overlay", metavar="PNG", help="write an overlay image (single image only)")
     g = p.add_argument_group("image collections")
     g.add_argument("--recursive", "-r", action="store_true", help="folders: include their sub-folders")
-    g.add_argument("--out", metavar="DIR", help="write one feature file per image into DIR, named by its "
-                   "path relative to the inputs' common folder")
+    g.add_argument("--out", metavar="DIR", type=output_folder, help="write one feature file per image "
+                   "into DIR, named by its path relative to the inputs' common folder")
     g.add_argument("--resume", action="store_true", help="skip images whose feature file is complete and "
                    "was made from the same image file with the same parameters and sogdd version")
     g.add_argument("--jobs", type=int, default=1, help="local worker processes")

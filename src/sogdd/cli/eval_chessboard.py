@@ -19,6 +19,8 @@ import json
 import sys
 from pathlib import Path
 
+from ._common import output_folder
+
 __all__ = ["register_chessboard", "run_chessboard"]
 
 
@@ -96,7 +98,8 @@ def register_chessboard(eval_subparsers) -> None:
     c.add_argument("--data", metavar="DIR", help="calibration photos [$SOGDD_DATA/calibration]")
     c.add_argument("--no-real", action="store_true", help="skip the real calibration photos")
     c.add_argument("--seed", type=int, default=0, help="phases and noise seed [0]")
-    c.add_argument("--out", metavar="DIR", help="write chessboard.json/.md/.png (and chessboard_real.json)")
+    c.add_argument("--out", metavar="DIR", type=output_folder,
+                   help="write chessboard.json/.md/.png (and chessboard_real.json)")
     c.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     c.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     c.set_defaults(func=run_chessboard)

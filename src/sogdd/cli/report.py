@@ -19,7 +19,7 @@ import argparse
 import os
 from pathlib import Path
 
-from ._common import data_path
+from ._common import check_input_files, check_not_inputs, data_path
 
 __all__ = ["configure"]
 
@@ -27,6 +27,8 @@ __all__ = ["configure"]
 def run(args: argparse.Namespace) -> int:
     from ..report.results_page import build_report
 
+    check_input_files([f for f in (args.paper, args.readme) if f], "a text file")
+    check_not_inputs([("--out", args.out)], [args.paper, args.readme])
     data = data_path(args.data, what="benchmark data", flag="--data DIR")
     for sub in ("corners_gt", "repeatability"):
         if not (data / sub).is_dir():

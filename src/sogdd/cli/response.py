@@ -9,6 +9,7 @@ import numpy as np
 
 from ..detector import corner_response
 from ..image.files import read_image
+from ._common import check_input_files, check_not_inputs
 from .params import SELECTION, add_detector_arguments, add_read_arguments, detector_overrides, read_options
 
 
@@ -20,6 +21,8 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(f"--output {out}: is a folder; give a file name")
     if not (out.parent if str(out.parent) else Path(".")).is_dir():
         raise ValueError(f"--output {out}: folder {out.parent} does not exist")
+    check_input_files([args.image])
+    check_not_inputs([("--output", out)], [args.image])
     params = detector_overrides(args)
     unused = [name for name in params if name in SELECTION]
     if unused:  # they choose points; the map does not depend on them

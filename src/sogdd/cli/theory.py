@@ -9,7 +9,7 @@ import os
 import sys
 from pathlib import Path
 
-from ._common import HelpFormatter
+from ._common import HelpFormatter, output_folder
 
 
 def _fig1_data(args: argparse.Namespace) -> Path | None:
@@ -86,7 +86,8 @@ def configure(p: argparse.ArgumentParser) -> None:
     p.set_defaults(func=lambda args: (p.print_help(), 2)[1])
 
     f = tsub.add_parser("figures", help="write the theory figures (PNG)", formatter_class=HelpFormatter)
-    f.add_argument("--out", required=True, metavar="DIR", help="output folder (created if needed)")
+    f.add_argument("--out", required=True, metavar="DIR", type=output_folder,
+                   help="output folder (created if needed)")
     f.add_argument("--no-lattice", action="store_true", help="skip the (slower) lattice figure")
     f.add_argument("--data", metavar="DIR", help="benchmark data root for Fig. 1 (reads corners_gt/geometric) "
                    "[$SOGDD_DATA or ../shared/data; Fig. 1 is skipped, with a note, where there is none]")

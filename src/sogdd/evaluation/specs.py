@@ -216,11 +216,17 @@ class DetectorSpec:
 def parse_spec(text: str) -> DetectorSpec:
     """Parse ``NAME[:key=value...]`` (``ValueError`` on malformed text).
 
+    A key given twice, or an option without a name (``sogdd:=3``), is an error.
+
     Examples
     --------
     >>> s = parse_spec("sogdd:levels=5:remove_border=75")
     >>> s.name, s.params, s.remove_border, s.label
     ('sogdd', {'levels': 5}, 75, 'sogdd:levels=5:remove_border=75')
+    >>> parse_spec("sogdd:sigma2=1.2:sigma2=2")
+    Traceback (most recent call last):
+    ...
+    ValueError: sigma2 is given twice in 'sogdd:sigma2=1.2:sigma2=2'; give it once
     """
     parts = text.strip().split(":")
     name = parts[0].strip()
@@ -231,6 +237,10 @@ def parse_spec(text: str) -> DetectorSpec:
         if "=" not in p:
             raise ValueError(f"detector option {p!r} in {text!r} is not key=value")
         k, v = (s.strip() for s in p.split("=", 1))
+        if not k:
+            raise ValueError(f"detector option {p!r} in {text!r} has no name (key=value)")
+        if k in det or k in pipe:  # the last value would silently win
+            raise ValueError(f"{k} is given twice in {text!r}; give it once")
         (pipe if k in PIPELINE_KEYS else det)[k] = _spec_value(k, v)
     if "desc" in pipe:
         pipe["desc"] = str(pipe["desc"])
@@ -310,12 +320,16 @@ def default_sfm() -> list[str]:
 def parse_specs(items: str | Sequence[str] | None, default: Sequence[DetectorSpec | str]) -> list[DetectorSpec]:
     """Specs from command-line items, each comma-separated; ``all`` adds every registry name.
 
-    ``None`` or nothing gives ``default``. Every spec is built once, so an unknown
+    ``None`` gives ``default``; items that name no detector (``""``, ``",,"``)
+    are an error, not the default. Every spec is built once, so an unknown
     name or a bad parameter fails here, before any work.
     """
     if isinstance(items, str):
         items = [items]
     texts = [t.strip() for item in items or [] for t in item.split(",") if t.strip()]
+    if items is not None and not texts:
+        raise ValueError(f"--detectors {' '.join(items)!r} names no detector; give NAME[:key=value...] "
+                         "(comma-separated) or 'all'")
     if not texts:
         texts = list(default)
     specs: list[DetectorSpec] = []

@@ -39,7 +39,7 @@ from ..descriptors import describe
 from ..image.files import list_images, read_image
 from ..image.header import probe
 from .colmap_database import check_database, copy_database, forget_features, quiet_colmap
-from .features import read_descriptors, read_features
+from .features import feature_files, read_descriptors, read_features
 
 __all__ = [
     "CameraPrior",
@@ -264,21 +264,10 @@ def write_features(db, image_id: int, xy: np.ndarray, size: np.ndarray | None = 
 
 
 # ----------------------------------------------------------------- export
-def _feature_files(folder: Path) -> dict[str, Path]:
-    """``{image name: file}``: the name is the file's path under ``folder`` without ``.npz``
-    (``sogdd detect --out`` mirrors the inputs' sub-folders)."""
-    if not folder.is_dir():
-        raise ValueError(f"{folder}: not a folder")
-    files = {p.relative_to(folder).as_posix()[: -len(".npz")]: p for p in sorted(folder.rglob("*.npz"))}
-    if not files:
-        raise ValueError(f"{folder}: no .npz feature files")
-    return files
-
-
 def _read_feature_file(path: Path) -> tuple[Corners, tuple[int, int], np.ndarray | None]:
-    """A ``sogdd detect --format npz`` file (:mod:`sogdd.formats.features`): corners, the image shape
-    (height, width; ``(0, 0)`` if unknown) and the optional descriptors. A bad file is a one-line
-    ``ValueError`` naming it."""
+    """A ``sogdd detect`` feature file, npz, CSV or JSON (:mod:`sogdd.formats.features`): corners, the
+    image shape (height, width; ``(0, 0)`` if unknown) and the optional descriptors (npz only). A bad
+    file is a one-line ``ValueError`` naming it."""
     recs = read_features(path)
     if len(recs) != 1:
         raise ValueError(f"{path}: holds {len(recs)} images; export takes one feature file per image")
@@ -292,8 +281,9 @@ def export_features(feature_dir: str | Path, database: str | Path, images: str |
     Parameters
     ----------
     feature_dir : path
-        ``<image name>.npz`` files (``xy``, ``response``, ``size``, optional ``level``
-        and ``descriptors``), as ``sogdd detect DIR --out FEATDIR --format npz`` writes them.
+        One feature file per image, ``<image name>.npz``, ``.csv`` or ``.json``, as
+        ``sogdd detect DIR --out FEATDIR [--format csv|json]`` writes them
+        (:mod:`sogdd.formats.features`); only npz files can also hold ``descriptors``.
     database : path
         COLMAP database (created if missing). Images already in it are matched by name.
         Anything else (a text file, an SQLite file without COLMAP's tables) is refused.
@@ -321,8 +311,9 @@ def export_features(feature_dir: str | Path, database: str | Path, images: str |
     the whole export has succeeded.
     """
     pycolmap = require_pycolmap()
-    files = _feature_files(Path(feature_dir))
+    files = feature_files(Path(feature_dir))
     db_path = Path(database)
+    _not_an_input(db_path, files, images)
     exists = check_database(db_path)
     real = Path(os.path.realpath(db_path))  # a symbolic link keeps pointing at the database
     # all or nothing: the work happens on a copy that replaces the database only when everything is written
@@ -351,6 +342,15 @@ def export_features(feature_dir: str | Path, database: str | Path, images: str |
         for leftover in (work, Path(f"{work}-wal"), Path(f"{work}-shm"), Path(f"{work}-journal")):
             leftover.unlink(missing_ok=True)
     return result
+
+
+def _not_an_input(db_path: Path, files: dict[str, Path], images) -> None:
+    """Refuse a database path that is one of the feature files or images (also through a link)."""
+    real = os.path.realpath(db_path)
+    inputs = list(files.values()) + ([Path(images) / n for n in files] if images is not None else [])
+    for p in inputs:
+        if os.path.realpath(p) == real or (db_path.exists() and p.exists() and os.path.samefile(p, db_path)):
+            raise ValueError(f"--database {db_path}: that is the input {p}; choose another file name")
 
 
 def _known_images(pycolmap, files: dict[str, Path], db_path: Path, work: Path, images) -> dict[str, int]:

@@ -68,6 +68,7 @@ __all__ = [
     "FeatureRecord",
     "check_name",
     "encode_features",
+    "feature_files",
     "load_features",
     "make_record",
     "params_dict",
@@ -201,7 +202,17 @@ def remove_stale_temporaries(folder: str | os.PathLike) -> int:
     return n
 
 
+def _check_npz(p: Path) -> None:
+    """An npz file is a zip archive: anything else (a text file named ``.npz``) is said to be so, not
+    left to numpy's message about pickled data."""
+    with open(p, "rb") as f:  # a missing file raises FileNotFoundError: "no such file"
+        head = f.read(4)
+    if head not in (b"PK\x03\x04", b"PK\x05\x06"):  # a zip archive's first bytes (a truncated one: numpy's)
+        raise ValueError(f"{p}: not an npz file (not a zip archive); sogdd detect --format npz writes them")
+
+
 def _read_npz(p: Path) -> list[FeatureRecord]:
+    _check_npz(p)
     with np.load(p, allow_pickle=False) as z:
         keys = set(z.files)
         names = [str(n) for n in z["images"]] if "images" in keys else [None]
@@ -255,6 +266,10 @@ def read_features(path: str | os.PathLike) -> list[FeatureRecord]:
         return recs
     except FileNotFoundError:
         raise ValueError(f"{p}: no such file") from None
+    except ValueError as exc:
+        if str(exc).startswith(f"{p}: "):  # already one line naming the file
+            raise
+        raise ValueError(f"{p}: not a valid {fmt} feature file (ValueError: {exc})") from None
     except Exception as exc:  # noqa: BLE001 - any decoding failure is a bad file
         raise ValueError(f"{p}: not a valid {fmt} feature file ({type(exc).__name__}: {exc})") from None
 
@@ -285,6 +300,7 @@ def read_descriptors(path: str | os.PathLike, image: str | None = None) -> np.nd
         return None
     pre = "" if image is None else f"{image}/"
     try:
+        _check_npz(p)
         with np.load(p, allow_pickle=False) as z:
             if f"{pre}descriptors" not in z.files:
                 return None
@@ -292,12 +308,43 @@ def read_descriptors(path: str | os.PathLike, image: str | None = None) -> np.nd
     except FileNotFoundError:
         raise ValueError(f"{p}: no such file") from None
     except Exception as exc:  # noqa: BLE001 - any decoding failure is a bad file
+        if isinstance(exc, ValueError) and str(exc).startswith(f"{p}: "):
+            raise
         raise ValueError(f"{p}: not a valid npz feature file ({type(exc).__name__}: {exc})") from None
     if desc.ndim != 2 or len(desc) != n:
         raise ValueError(f"{p}: descriptors of shape {desc.shape} for {n} corners")
     if desc.dtype.kind not in "iuf" or not np.isfinite(desc).all():
         raise ValueError(f"{p}: descriptors must be finite numbers (dtype {desc.dtype})")
     return desc
+
+
+#: the suffixes of feature files in a folder: every format ``sogdd detect --out`` writes
+FEATURE_SUFFIXES = (".npz", ".csv", ".json")
+
+
+def feature_files(folder: str | os.PathLike) -> dict[str, Path]:
+    """``{image name: file}`` of a feature folder, as ``sogdd colmap export`` reads it.
+
+    The name is the file's path under ``folder`` without its suffix (``sogdd
+    detect --out`` mirrors the inputs' sub-folders); npz, CSV or JSON files, not
+    a CSV's sidecar ``<file>.csv.json`` nor anything that is not a regular file.
+    One image with files in two formats is refused (``ValueError``), naming both.
+    """
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise ValueError(f"{folder}: not a folder")
+    files: dict[str, Path] = {}
+    for p in sorted(folder.rglob("*")):
+        suffix = p.suffix.lower()
+        if suffix not in FEATURE_SUFFIXES or p.name.lower().endswith(".csv.json") or not p.is_file():
+            continue  # a FIFO or a device named *.npz is not read (it could block for ever)
+        name = p.relative_to(folder).as_posix()[: -len(suffix)]
+        if name in files:
+            raise ValueError(f"{files[name]} and {p.name}: two feature files of one image; keep one")
+        files[name] = p
+    if not files:
+        raise ValueError(f"{folder}: no feature files (.npz, .csv or .json, as sogdd detect --out writes)")
+    return files
 
 
 def load_features(path: str | os.PathLike, image: str | None = None) -> Corners:

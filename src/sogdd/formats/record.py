@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import os
+import stat
 from dataclasses import dataclass
 
 import numpy as np
@@ -98,7 +99,8 @@ def source_stamp(image: str | os.PathLike) -> tuple[int | None, int | None, str 
     """``(size, mtime_ns, sha256)`` of the file ``image``, or ``(None, None, None)`` if it is not one.
 
     Taken before the image is read, so a file edited during detection never gets
-    the stamp of its new content.
+    the stamp of its new content. Only a regular file has one (a device or a
+    FIFO could be read for ever), and at most the size ``stat`` reports is read.
 
     Examples
     --------
@@ -112,12 +114,32 @@ def source_stamp(image: str | os.PathLike) -> tuple[int | None, int | None, str 
     (None, None, None)
     """
     try:
-        with open(image, "rb") as f:
+        if not stat.S_ISREG(os.stat(image).st_mode):  # a FIFO's open() would wait for a writer
+            return None, None, None
+        # non-blocking: a file swapped for a FIFO since the stat is not waited on
+        fd = os.open(image, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+        with os.fdopen(fd, "rb") as f:
             st = os.fstat(f.fileno())
-            digest = hashlib.file_digest(f, "sha256").hexdigest()
-    except (OSError, ValueError):
+            if not stat.S_ISREG(st.st_mode):
+                return None, None, None
+            digest = _sha256_of(f, st.st_size)
+    except (OSError, ValueError, TypeError):
         return None, None, None
     return int(st.st_size), int(st.st_mtime_ns), digest
+
+
+def _sha256_of(f, size: int) -> str:
+    """SHA-256 of the first ``size`` bytes of ``f``: never more than the size stat reported, so a
+    file that grows while it is read (or a device that never ends) cannot keep the reader for ever."""
+    h = hashlib.sha256()
+    left = int(size)
+    while left > 0:
+        chunk = f.read(min(left, 1 << 20))
+        if not chunk:
+            break
+        h.update(chunk)
+        left -= len(chunk)
+    return h.hexdigest()
 
 
 def make_record(image: str | os.PathLike, corners: Corners, shape: tuple[int, ...], preset: str,

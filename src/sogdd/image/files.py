@@ -100,7 +100,7 @@ def max_pixels_limit(max_pixels: int | None = None) -> int:
 
 def _split_frame(path: str | os.PathLike) -> tuple[Path, int | None]:
     """``photo.tif[2]`` -> (``photo.tif``, 2), unless a file of that exact name exists."""
-    text = os.fspath(path)
+    text = os.fsdecode(path)  # a bytes path too, as open() takes
     m = _FRAME_RE.match(text)
     if m and not os.path.lexists(text):
         return Path(m.group(1)), int(m.group(2))

@@ -146,30 +146,49 @@ def draw_markers(canvas: np.ndarray, xy: np.ndarray, kind: str, colour: tuple[in
 
 
 def draw_legend(canvas: np.ndarray, entries: list[tuple[str, tuple[int, int, int], str]],
-                style: MarkerStyle) -> np.ndarray:
-    """A legend in the top-left corner: one line per ``(marker kind, colour, text)``, in place.
+                style: MarkerStyle, avoid: np.ndarray | None = None) -> tuple[int, int, int, int]:
+    """A legend in a corner of ``canvas``: one line per ``(marker kind, colour, text)``, in place.
 
-    White text on a dark box, each line led by its marker, sized by ``style``.
+    White text on a darkened box, each line led by its marker, sized by ``style``.
+    The box goes into the corner (top-left, top-right, bottom-left, bottom-right,
+    in that order of preference) that covers the fewest of the canvas points
+    ``avoid`` (N, 2; x, y). Returns the box, ``(x0, y0, x1, y1)`` (empty without entries).
     """
     if not entries:
-        return canvas
+        return 0, 0, 0, 0
     font = cv2.FONT_HERSHEY_SIMPLEX
     fs, ft = style.font_scale, style.font_thickness
     sizes = [cv2.getTextSize(text, font, fs, ft) for _, _, text in entries]
     line = max(h + b for (_, h), b in sizes) + 2 * style.thickness + 4
     pad = max(4, line // 3)
     mark = max(line // 2, 2 * style.radius + 2)
-    width = pad * 3 + mark + max(w for (w, _), _ in sizes)
-    height = pad * 2 + line * len(entries)
-    x1, y1 = min(width, canvas.shape[1]), min(height, canvas.shape[0])
-    box = canvas[:y1, :x1]
+    width = min(pad * 3 + mark + max(w for (w, _), _ in sizes), canvas.shape[1])
+    height = min(pad * 2 + line * len(entries), canvas.shape[0])
+    x0, y0 = _legend_corner(canvas.shape, width, height, avoid)
+    box = canvas[y0:y0 + height, x0:x0 + width]
     box[:] = (box.astype(np.float32) * 0.25).astype(np.uint8)  # darkened, the picture still shows through
     for i, ((kind, colour, text), ((_, h), _)) in enumerate(zip(entries, sizes)):
-        cy = pad + i * line + line // 2
+        cy = y0 + pad + i * line + line // 2
         ms = MarkerStyle(min(style.radius, line // 2 - 1), style.thickness, 0, fs, ft)
-        draw_markers(canvas, np.array([[pad + mark / 2, cy]]), kind, colour, ms)
-        cv2.putText(canvas, text, (2 * pad + mark, cy + h // 2), font, fs, (255, 255, 255), ft, cv2.LINE_AA)
-    return canvas
+        draw_markers(canvas, np.array([[x0 + pad + mark / 2, cy]]), kind, colour, ms)
+        cv2.putText(canvas, text, (x0 + 2 * pad + mark, cy + h // 2), font, fs, (255, 255, 255), ft,
+                    cv2.LINE_AA)
+    return x0, y0, x0 + width, y0 + height
+
+
+def _legend_corner(shape, width: int, height: int, avoid: np.ndarray | None) -> tuple[int, int]:
+    """The top-left pixel of the corner box of ``width`` x ``height`` covering the fewest ``avoid`` points."""
+    h, w = shape[:2]
+    corners = [(0, 0), (w - width, 0), (0, h - height), (w - width, h - height)]
+    if avoid is None or len(avoid) == 0:
+        return corners[0]
+    p = np.asarray(avoid, dtype=np.float64).reshape(-1, 2)
+
+    def covered(c):
+        x0, y0 = c
+        return int(np.sum((p[:, 0] >= x0) & (p[:, 0] < x0 + width) & (p[:, 1] >= y0) & (p[:, 1] < y0 + height)))
+
+    return min(corners, key=covered)  # the first of equals: top-left where nothing is covered
 
 
 def detections_overlay(image: np.ndarray, xy: np.ndarray, gt: np.ndarray | None = None, *,
@@ -201,7 +220,16 @@ def detections_overlay(image: np.ndarray, xy: np.ndarray, gt: np.ndarray | None 
         draw_markers(canvas, gt, "circle", TRUTH, replace(style, radius=2 * style.radius), scale)
         entries.append(("circle", TRUTH, f"true corners: {len(gt)}"))
     draw_markers(canvas, xy, "cross", DETECTION, style, scale)
-    return draw_legend(canvas, entries, style)
+    points = [xy] if gt is None else [xy, gt]
+    x0, y0, x1, y1 = draw_legend(canvas, entries, style, avoid=_centres(np.concatenate(points), scale))
+    # points the legend still covers (every corner is full) are drawn again, over it: none is hidden
+    for pts, kind, colour, st in ([(gt, "circle", TRUTH, replace(style, radius=2 * style.radius))]
+                                  if gt is not None else []) + [(xy, "cross", DETECTION, style)]:
+        c = _centres(pts, scale)
+        under = (c[:, 0] >= x0) & (c[:, 0] < x1) & (c[:, 1] >= y0) & (c[:, 1] < y1)
+        if under.any():
+            draw_markers(canvas, pts[under], kind, colour, st, scale)
+    return canvas
 
 
 def overlay_gt(image: np.ndarray, gt: np.ndarray, det: np.ndarray, delta: float = 2.0,

@@ -34,7 +34,7 @@ from .pipeline import (
     model_stats,
 )
 
-__all__ = ["SUMMARISED", "run_sfm_seeds", "seed_summary"]
+__all__ = ["SUMMARISED", "run_sfm_seeds", "seed_summary", "seed_values"]
 
 #: Numbers summarised over seeds (top-level keys of a run, and the pose errors' medians).
 SUMMARISED = ("registered", "points", "track_length", "reproj_error", "rotation_deg_median", "position_median")
@@ -66,6 +66,28 @@ def seed_summary(runs: Sequence[dict]) -> dict:
         vals = [float(v) for v in (_value(r, key) for r in runs) if v is not None]
         out[key] = None if not vals else {"median": float(np.median(vals)), "min": min(vals),
                                           "max": max(vals), "values": vals}
+    return out
+
+
+def seed_values(runs: Sequence[dict]) -> dict:
+    """The numbers a result over seeds reports in place of a single run's.
+
+    ``registered`` is the smallest over the runs (so that "every image
+    registered" holds for each seed); every other key of :data:`SUMMARISED` is
+    the median over the runs that have it (``None`` if none has): one unlucky
+    seed moves a mean, not a median.
+
+    Examples
+    --------
+    >>> v = seed_values([{"registered": 5, "points": 10}, {"registered": 4, "points": 90},
+    ...                  {"registered": 5, "points": 14}])
+    >>> v["registered"], v["points"], v["reproj_error"]
+    (4, 14.0, None)
+    """
+    spread = seed_summary(runs)
+    out: dict = {"registered": min(r["registered"] for r in runs)}
+    for key in SUMMARISED[1:]:
+        out[key] = None if spread[key] is None else spread[key]["median"]
     return out
 
 
@@ -152,25 +174,18 @@ def run_sfm_seeds(
             + (f", rotation {pe['rotation_deg_median']:.3f} deg" if pe.get("aligned") else ""))
         runs.append(r)
     spread = seed_summary(runs)
-
-    def med(key):
-        return None if spread[key] is None else spread[key]["median"]
-
     result: dict = {
         "detector": spec.label, "spec": spec.to_json(), "images": len(names),
         "camera_prior": None if prior is None else {"model": prior.model, "source": prior.source},
         "matcher": matcher, "seeds": seeds,
         "features": float(np.mean(list(counts.values()))) if counts else 0.0,
         "features_total": int(sum(counts.values())),
-        "registered": min(r["registered"] for r in runs),
-        "points": med("points"), "track_length": med("track_length"), "reproj_error": med("reproj_error"),
-        "rotation_deg_median": med("rotation_deg_median"), "position_median": med("position_median"),
-        "dense_points": "not run", "runs": runs, "spread": spread,
+        **seed_values(runs), "dense_points": "not run", "runs": runs, "spread": spread,
     }
     if gt_cameras is not None:
         result["pose_errors"] = {"aligned": spread["rotation_deg_median"] is not None,
-                                 "rotation_deg_median": med("rotation_deg_median"),
-                                 "position_median": med("position_median"),
+                                 "rotation_deg_median": result["rotation_deg_median"],
+                                 "position_median": result["position_median"],
                                  "note": "medians over seeds of each run's median"}
     result["seconds"] = round(time.perf_counter() - t_start, 2)
     result["timing"] = {"features": round(t_feat, 2),
