@@ -1,0 +1,8 @@
+"""Camera calibration on sogdd's corners: boards, refinement, calibration and its diagnostics.
+
+A client of the core (:mod:`sogdd.detector` and its stages); the core never imports it.
+"""
+
+from .board import Board
+
+__all__ = ["Board"]
