@@ -4,5 +4,13 @@ A client of the core (:mod:`sogdd.detector` and its stages); the core never impo
 """
 
 from .board import Board
+from .calibrate import Calibration, CrossValidation, ProjectionDifference, calibrate, projection_difference
 
-__all__ = ["Board"]
+__all__ = [
+    "Board",
+    "Calibration",
+    "CrossValidation",
+    "ProjectionDifference",
+    "calibrate",
+    "projection_difference",
+]

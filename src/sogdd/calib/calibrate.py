@@ -1,0 +1,803 @@
+"""Camera calibration from labelled boards, through OpenCV, with robust rejection and diagnostics.
+
+:func:`calibrate` fits a camera model to the boards of several views
+(``cv2.calibrateCameraExtended`` for the pinhole and rational models,
+``cv2.fisheye.calibrate`` for the fisheye one), rejects corners and views whose
+residuals lie far beyond the rest (each with its reason), and measures how far
+two calibrations from the two halves of the views disagree over the image
+(:func:`projection_difference`): a model that fits, with enough views, gives
+a small difference; a wrong model or too few views a large one.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from .board import Board
+
+__all__ = [
+    "MODELS",
+    "Calibration",
+    "CrossValidation",
+    "ProjectionDifference",
+    "calibrate",
+    "distort",
+    "project",
+    "projection_difference",
+    "undistort",
+]
+
+#: model name -> names of its distortion coefficients, in OpenCV's order
+MODELS: dict[str, tuple[str, ...]] = {
+    "pinhole": ("k1", "k2", "p1", "p2", "k3"),
+    "rational": ("k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6"),
+    "fisheye": ("k1", "k2", "k3", "k4"),
+}
+
+# a robust standard deviation from the median absolute deviation (exact for a normal distribution)
+_MAD_SCALE = 1.4826
+
+
+# --------------------------------------------------------------------------------------------------
+# camera models: distortion, projection, unprojection (numpy, OpenCV's equations)
+
+
+def distort(xy: np.ndarray, dist: np.ndarray, model: str = "pinhole") -> np.ndarray:
+    """Distort normalised image coordinates by OpenCV's model, (N, 2) -> (N, 2).
+
+    Pinhole and rational (``k1, k2, p1, p2, k3[, k4, k5, k6]``), with
+    :math:`r^2 = x^2 + y^2`:
+
+    .. math::
+        x_d = x\\,\\frac{1 + k_1 r^2 + k_2 r^4 + k_3 r^6}{1 + k_4 r^2 + k_5 r^4 + k_6 r^6}
+              + 2 p_1 x y + p_2 (r^2 + 2 x^2)
+
+    and :math:`y_d` alike (:math:`p_1 (r^2 + 2 y^2) + 2 p_2 x y`). Fisheye
+    (``k1..k4``): :math:`\\theta = \\arctan r`,
+    :math:`\\theta_d = \\theta (1 + k_1 \\theta^2 + k_2 \\theta^4 + k_3 \\theta^6 + k_4 \\theta^8)`,
+    :math:`(x_d, y_d) = (\\theta_d / r) (x, y)`.
+
+    Examples
+    --------
+    >>> distort(np.array([[0.5, 0.0]]), np.array([-0.2, 0, 0, 0, 0])).round(6).tolist()
+    [[0.475, 0.0]]
+    """
+    xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    d = np.zeros(8)
+    dist = np.asarray(dist, dtype=np.float64).ravel()
+    d[: min(8, len(dist))] = dist[:8]
+    x, y = xy[:, 0], xy[:, 1]
+    r2 = x * x + y * y
+    if model == "fisheye":
+        r = np.sqrt(r2)
+        th = np.arctan(r)
+        t2 = th * th
+        thd = th * (1 + t2 * (d[0] + t2 * (d[1] + t2 * (d[2] + t2 * d[3]))))
+        scale = np.where(r > 1e-12, thd / np.where(r > 1e-12, r, 1.0), 1.0)
+        return xy * scale[:, None]
+    k1, k2, p1, p2, k3, k4, k5, k6 = d
+    radial = (1 + r2 * (k1 + r2 * (k2 + r2 * k3))) / (1 + r2 * (k4 + r2 * (k5 + r2 * k6)))
+    xd = x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x)
+    yd = y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y
+    return np.stack([xd, yd], axis=1)
+
+
+def project(points3d: np.ndarray, K: np.ndarray, dist: np.ndarray, model: str = "pinhole",
+            rvec: np.ndarray | None = None, tvec: np.ndarray | None = None) -> np.ndarray:
+    """Project 3-D points to pixels (OpenCV's convention: pixel centres at integers), (N, 3) -> (N, 2).
+
+    :math:`X_c = R(\\mathrm{rvec}) X + \\mathrm{tvec}`, :math:`(x, y) = (X_c/Z_c, Y_c/Z_c)`,
+    :math:`(x_d, y_d) =` :func:`distort` :math:`(x, y)`, :math:`u = f_x x_d + s\\,y_d + c_x`,
+    :math:`v = f_y y_d + c_y` (``s = K[0, 1]``, the skew). Matches ``cv2.projectPoints``
+    and ``cv2.fisheye.projectPoints``.
+
+    Examples
+    --------
+    >>> K = np.array([[500.0, 0, 320], [0, 500, 240], [0, 0, 1]])
+    >>> project(np.array([[0.1, -0.2, 1.0]]), K, np.zeros(5)).tolist()
+    [[370.0, 140.0]]
+    """
+    p = np.asarray(points3d, dtype=np.float64).reshape(-1, 3)
+    if rvec is not None:
+        R, _ = cv2.Rodrigues(np.asarray(rvec, dtype=np.float64).reshape(3, 1))
+        p = p @ R.T
+    if tvec is not None:
+        p = p + np.asarray(tvec, dtype=np.float64).reshape(1, 3)
+    xy = p[:, :2] / p[:, 2:3]
+    return _to_pixels(distort(xy, dist, model), K)
+
+
+def _to_pixels(xyd: np.ndarray, K: np.ndarray) -> np.ndarray:
+    K = np.asarray(K, dtype=np.float64)
+    u = K[0, 0] * xyd[:, 0] + K[0, 1] * xyd[:, 1] + K[0, 2]
+    v = K[1, 1] * xyd[:, 1] + K[1, 2]
+    return np.stack([u, v], axis=1)
+
+
+def undistort(pixels: np.ndarray, K: np.ndarray, dist: np.ndarray, model: str = "pinhole", *,
+              iterations: int = 50, tol: float = 1e-6) -> tuple[np.ndarray, np.ndarray]:
+    """The rays of pixels: normalised undistorted coordinates on the plane ``z = 1``, and which are valid.
+
+    Inverts :func:`distort` by Newton's method on :math:`d(x) = x_d` (a
+    numerical 2x2 Jacobian, ``iterations`` steps from :math:`x = x_d`). A pixel
+    whose ray, projected back, lands more than ``tol`` px from it (a model that
+    folds over near the image corners, or rays behind the camera) is invalid.
+
+    Returns
+    -------
+    xy : (N, 2) float64
+        ``(X/Z, Y/Z)`` of each pixel's ray (NaN where invalid).
+    valid : (N,) bool
+
+    Examples
+    --------
+    >>> K = np.array([[500.0, 0, 320], [0, 500, 240], [0, 0, 1]])
+    >>> xy, ok = undistort(np.array([[570.0, 240.0]]), K, np.array([-0.2, 0.05, 0, 0, 0]))
+    >>> bool(ok[0]), project(np.c_[xy, 1.0], K, np.array([-0.2, 0.05, 0, 0, 0])).round(6).tolist()
+    (True, [[570.0, 240.0]])
+    """
+    px = np.asarray(pixels, dtype=np.float64).reshape(-1, 2)
+    K = np.asarray(K, dtype=np.float64)
+    yd = (px[:, 1] - K[1, 2]) / K[1, 1]
+    xd = (px[:, 0] - K[0, 2] - K[0, 1] * yd) / K[0, 0]
+    target = np.stack([xd, yd], axis=1)
+    x = target.copy()
+    h = 1e-7
+    for _ in range(iterations):
+        f = distort(x, dist, model) - target
+        jx = (distort(x + [h, 0], dist, model) - distort(x - [h, 0], dist, model)) / (2 * h)
+        jy = (distort(x + [0, h], dist, model) - distort(x - [0, h], dist, model)) / (2 * h)
+        det = jx[:, 0] * jy[:, 1] - jy[:, 0] * jx[:, 1]
+        det = np.where(np.abs(det) > 1e-12, det, np.nan)
+        dx = (jy[:, 1] * f[:, 0] - jy[:, 0] * f[:, 1]) / det
+        dy = (-jx[:, 1] * f[:, 0] + jx[:, 0] * f[:, 1]) / det
+        x = x - np.stack([dx, dy], axis=1)
+        if np.all(~np.isfinite(dx) | (np.abs(dx) + np.abs(dy) < 1e-15)):
+            break
+    back = _to_pixels(distort(x, dist, model), K)
+    with np.errstate(invalid="ignore"):
+        valid = np.all(np.isfinite(x), axis=1) & (np.hypot(*(back - px).T) <= tol)
+    if model == "fisheye":  # the fisheye model is monotone only up to its ray angle of 90 degrees
+        valid &= np.isfinite(x[:, 0])
+    x[~valid] = np.nan
+    return x, valid
+
+
+# --------------------------------------------------------------------------------------------------
+# projection difference between two cameras
+
+
+@dataclass(frozen=True)
+class ProjectionDifference:
+    """Where two cameras put the same rays, compared over a grid of pixels.
+
+    Attributes
+    ----------
+    mean, max : float
+        Mean and largest distance in px over the valid grid points.
+    xs, ys : 1-D float64
+        The grid's columns and rows (pixel coordinates).
+    distance : (len(ys), len(xs)) float64
+        The distance at each grid point; NaN where camera A's ray is invalid.
+    valid_fraction : float
+        Share of grid points where both cameras' rays are defined.
+    """
+
+    mean: float
+    max: float
+    xs: np.ndarray
+    ys: np.ndarray
+    distance: np.ndarray
+    valid_fraction: float
+
+
+def _camera_parts(cam) -> tuple[np.ndarray, np.ndarray, str]:
+    """``(K, dist, model)`` of a :class:`Calibration`, any object with ``K`` and ``dist`` (and
+    optionally ``model``), or a tuple ``(K, dist[, model])``."""
+    if isinstance(cam, (tuple, list)):
+        if len(cam) not in (2, 3):
+            raise ValueError(f"a camera as a tuple is (K, dist[, model]); got {len(cam)} items")
+        K, dist, model = cam[0], cam[1], cam[2] if len(cam) == 3 else "pinhole"
+    elif hasattr(cam, "K") and hasattr(cam, "dist"):
+        K, dist, model = cam.K, cam.dist, getattr(cam, "model", "pinhole")
+    else:
+        raise ValueError(f"not a camera: {type(cam).__name__} (give a Calibration, an object with K and "
+                         "dist, or a tuple (K, dist[, model]))")
+    K = np.asarray(K, dtype=np.float64)
+    if K.shape != (3, 3) or not np.all(np.isfinite(K)) or K[0, 0] <= 0 or K[1, 1] <= 0:
+        raise ValueError(f"camera matrix K must be a finite 3x3 matrix with positive focal lengths; got {K!r}")
+    _check_model(model)
+    dist = np.asarray(dist, dtype=np.float64).ravel()
+    if not np.all(np.isfinite(dist)):
+        raise ValueError("distortion coefficients must be finite")
+    return K, dist, model
+
+
+def projection_difference(cam_a, cam_b, image_size: tuple[int, int], *, grid: int = 64,
+                          margin: float = 0.0, fit_rotation: bool = False) -> ProjectionDifference:
+    """The distance between where two cameras project the same rays, over the image.
+
+    Each point ``p`` of a ``grid`` x ``grid * h / w`` grid of pixels is
+    unprojected through camera A to its ray ``(x, y, 1)`` on the unit-depth
+    plane (:func:`undistort`) and projected through camera B; the difference is
+    :math:`\\lVert \\pi_B(R\\,\\pi_A^{-1}(p)) - p \\rVert` in px. By default
+    :math:`R = I`: both cameras are taken in their own frame. With
+    ``fit_rotation`` the rotation :math:`R` minimising the sum of squared
+    differences is fitted first (as mrcal does): two calibrations whose
+    principal points differ, each with its views' poses rotated to match, see
+    the same rays, and only what no rotation explains is left.
+
+    Parameters
+    ----------
+    cam_a, cam_b : Calibration, object with ``K`` and ``dist`` (and ``model``), or tuple
+        ``(K, dist[, model])``; ``model`` is "pinhole" when not given.
+    image_size : (width, height)
+    grid : int
+        Grid points along the width (>= 2).
+    margin : float
+        Keep the grid this many px inside the image border.
+    fit_rotation : bool
+        Fit the rotation between the two camera frames (see above).
+
+    Examples
+    --------
+    >>> K = np.array([[500.0, 0, 320], [0, 500, 240], [0, 0, 1]])
+    >>> K2 = K.copy(); K2[0, 2] += 1.0
+    >>> d = projection_difference((K, np.zeros(5)), (K2, np.zeros(5)), (640, 480))
+    >>> round(d.mean, 9), round(d.max, 9), d.distance.shape
+    (1.0, 1.0, (48, 64))
+    """
+    Ka, da, ma = _camera_parts(cam_a)
+    Kb, db, mb = _camera_parts(cam_b)
+    w, h = _check_size(image_size)
+    if int(grid) < 2:
+        raise ValueError(f"grid must be >= 2, got {grid}")
+    xs = np.linspace(margin, w - 1 - margin, int(grid))
+    ys = np.linspace(margin, h - 1 - margin, max(2, int(round(grid * h / w))))
+    gx, gy = np.meshgrid(xs, ys)
+    px = np.stack([gx.ravel(), gy.ravel()], axis=1)
+    rays, ok = undistort(px, Ka, da, ma)
+    d = np.full(len(px), np.nan)
+    if ok.any():
+        pts = np.c_[rays[ok], np.ones(ok.sum())]
+        rvec = _best_rotation(pts, px[ok], Kb, db, mb) if fit_rotation else None
+        pb = project(pts, Kb, db, mb, rvec)
+        d[ok] = np.hypot(*(pb - px[ok]).T)
+    good = np.isfinite(d)
+    mean = float(d[good].mean()) if good.any() else float("nan")
+    mx = float(d[good].max()) if good.any() else float("nan")
+    return ProjectionDifference(mean, mx, xs, ys, d.reshape(gx.shape), float(good.mean()))
+
+
+def _best_rotation(rays: np.ndarray, px: np.ndarray, K, dist, model) -> np.ndarray:
+    """The rotation vector minimising the squared distances of ``project(R rays)`` from ``px``."""
+    from scipy.optimize import least_squares
+
+    def f(rv):
+        return (project(rays, K, dist, model, rv) - px).ravel()
+
+    return least_squares(f, np.zeros(3), x_scale=1e-3, xtol=1e-12, ftol=1e-12).x
+
+
+# --------------------------------------------------------------------------------------------------
+# the calibration result
+
+
+@dataclass(frozen=True)
+class CrossValidation:
+    """Two calibrations from the two interleaved halves of the used views, and how far they disagree.
+
+    Attributes
+    ----------
+    difference : ProjectionDifference
+        Camera A against camera B over the image (:func:`projection_difference`
+        with ``fit_rotation=True``: the halves' camera frames are free to differ by a rotation).
+    views_a, views_b : tuple of int
+        Indices of the views in each half.
+    K_a, dist_a, K_b, dist_b : ndarray
+        The two halves' cameras.
+    rms_a, rms_b : float
+        Their RMS reprojection errors (px).
+    """
+
+    difference: ProjectionDifference
+    views_a: tuple[int, ...]
+    views_b: tuple[int, ...]
+    K_a: np.ndarray
+    dist_a: np.ndarray
+    K_b: np.ndarray
+    dist_b: np.ndarray
+    rms_a: float
+    rms_b: float
+
+    @property
+    def mean(self) -> float:
+        """Mean projection difference between the halves (px)."""
+        return self.difference.mean
+
+    @property
+    def max(self) -> float:
+        """Largest projection difference between the halves (px)."""
+        return self.difference.max
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """A calibrated camera with its diagnostics (the result of :func:`calibrate`).
+
+    Attributes
+    ----------
+    model : str
+        "pinhole", "rational" or "fisheye".
+    image_size : (width, height)
+    K : (3, 3) float64
+        Camera matrix ``[[fx, s, cx], [0, fy, cy], [0, 0, 1]]``.
+    dist : 1-D float64
+        Distortion coefficients, named by ``MODELS[model]``.
+    rms : float
+        RMS reprojection error over the used corners (px):
+        :math:`\\sqrt{\\sum \\lVert r \\rVert^2 / n}`.
+    std : dict of str to float
+        Standard deviations of the intrinsics (``fx, fy, cx, cy`` and the
+        distortion coefficients), OpenCV's estimate from the Jacobian scaled by
+        the residuals; NaN for the fisheye model (OpenCV gives none).
+    names : tuple of str
+        A name per view.
+    boards : tuple of Board or None
+        The input boards (None where a view had none).
+    residuals : tuple of (N_v, 2) float64 or None
+        Per corner, observed minus projected position (px); for a rejected view
+        from its pose re-estimated with the final intrinsics (``solvePnP``);
+        None for a view without a board or a pose.
+    corner_used : tuple of (N_v,) bool or None
+        Whether the final calibration used each corner.
+    view_used : (V,) bool
+    view_rms : (V,) float64
+        RMS of each view's used corners (of all its corners for a rejected
+        view; NaN without a pose).
+    reasons : tuple of str
+        Why each view was rejected ("" for a used view).
+    corner_reasons : tuple of dict
+        Per view, ``{corner index: why it was rejected}``.
+    rvecs, tvecs : (V, 3) float64
+        Board poses (NaN without one).
+    cross_validation : CrossValidation or None
+        None with fewer than ``2 * min_views`` used views (see ``notes``).
+    thresholds : dict of str to float
+        The rejection thresholds of the last iteration (px).
+    notes : tuple of str
+        What the calibration could not do (e.g. why there is no cross-validation).
+    square : float
+        Board square size (units of ``tvecs``).
+    """
+
+    model: str
+    image_size: tuple[int, int]
+    K: np.ndarray
+    dist: np.ndarray
+    rms: float
+    std: dict
+    names: tuple[str, ...]
+    boards: tuple
+    residuals: tuple
+    corner_used: tuple
+    view_used: np.ndarray
+    view_rms: np.ndarray
+    reasons: tuple[str, ...]
+    corner_reasons: tuple
+    rvecs: np.ndarray
+    tvecs: np.ndarray
+    cross_validation: CrossValidation | None
+    thresholds: dict = field(default_factory=dict)
+    notes: tuple[str, ...] = ()
+    square: float = 1.0
+
+    @property
+    def n_used(self) -> int:
+        """Number of views the calibration used."""
+        return int(np.sum(self.view_used))
+
+    @property
+    def n_corners_used(self) -> int:
+        """Number of corners the calibration used."""
+        return int(sum(int(u.sum()) for u in self.corner_used if u is not None))
+
+    def coefficients(self) -> dict:
+        """The distortion coefficients by name."""
+        return dict(zip(MODELS[self.model], (float(v) for v in self.dist)))
+
+
+# --------------------------------------------------------------------------------------------------
+# validation at the door
+
+
+def _check_model(model: str) -> None:
+    if model not in MODELS:
+        raise ValueError(f"unknown camera model {model!r}; choose one of {', '.join(MODELS)}")
+
+
+def _check_size(image_size) -> tuple[int, int]:
+    try:
+        w, h = (int(v) for v in image_size)
+    except (TypeError, ValueError):
+        raise ValueError(f"image_size must be (width, height); got {image_size!r}") from None
+    if w < 2 or h < 2:
+        raise ValueError(f"image_size must be (width, height) of at least 2 px each; got {image_size!r}")
+    return w, h
+
+
+def _check_boards(boards, names, image_size) -> tuple[list, list[str]]:
+    boards = list(boards)
+    names = [f"view {i}" for i in range(len(boards))] if names is None else [str(n) for n in names]
+    if len(names) != len(boards):
+        raise ValueError(f"{len(boards)} boards but {len(names)} view names")
+    w, h = image_size
+    for b, n in zip(boards, names):
+        if b is None:
+            continue
+        if not isinstance(b, Board):
+            raise ValueError(f"{n}: expected a Board or None, got {type(b).__name__}")
+        p = b.image_points
+        if not np.all(np.isfinite(p)):
+            raise ValueError(f"{n}: corner positions must be finite")
+        out = (p[:, 0] < -0.5) | (p[:, 0] > w - 0.5) | (p[:, 1] < -0.5) | (p[:, 1] > h - 0.5)
+        if out.any():
+            x, y = p[np.argmax(out)]
+            raise ValueError(f"{n}: corner at ({x:.1f}, {y:.1f}) lies outside the {w}x{h} image; "
+                             "image_size is (width, height) and must be the size of every view")
+        if len(np.unique(b.labels, axis=0)) != len(b):
+            raise ValueError(f"{n}: two corners share a board label")
+    if not any(b is not None and len(b) for b in boards):
+        raise ValueError("no corners: no view has a board")
+    return boards, names
+
+
+def _usable(board: Board | None, min_corners: int) -> str:
+    """Why a view cannot enter the calibration ("" if it can)."""
+    if board is None or len(board) == 0:
+        return "no board"
+    if len(board) < min_corners:
+        return f"too few corners ({len(board)} < {min_corners})"
+    lab = board.labels
+    if len(np.unique(lab[:, 0])) < 2 or len(np.unique(lab[:, 1])) < 2:
+        return "corners on one line of the board"
+    return ""
+
+
+# --------------------------------------------------------------------------------------------------
+# the OpenCV calls
+
+
+def _fit(obj: list[np.ndarray], img: list[np.ndarray], size: tuple[int, int], model: str, flags: int):
+    """One OpenCV calibration: ``(K, dist, rvecs (V, 3), tvecs (V, 3), std (array or None))``."""
+    crit = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 100, 1e-12)
+    if model == "fisheye":
+        f = flags | cv2.fisheye.CALIB_RECOMPUTE_EXTRINSIC | cv2.fisheye.CALIB_FIX_SKEW
+        o = [p.reshape(1, -1, 3) for p in obj]
+        i = [p.reshape(1, -1, 2) for p in img]
+        _, K, D, rv, tv = cv2.fisheye.calibrate(o, i, size, np.eye(3), np.zeros(4), flags=f, criteria=crit)
+        std = None
+    else:
+        f = flags | (cv2.CALIB_RATIONAL_MODEL if model == "rational" else 0)
+        nd = len(MODELS[model])
+        o = [p.astype(np.float64).reshape(-1, 1, 3) for p in obj]
+        i = [p.astype(np.float64).reshape(-1, 1, 2) for p in img]
+        _, K, D, rv, tv, std, _, _ = cv2.calibrateCameraExtended(
+            o, i, size, np.eye(3), np.zeros(nd), flags=f, criteria=crit)
+        D = D.ravel()[:nd]
+        std = std.ravel()
+    rv = np.array([np.asarray(r, dtype=np.float64).ravel() for r in rv])
+    tv = np.array([np.asarray(t, dtype=np.float64).ravel() for t in tv])
+    return K, np.asarray(D, dtype=np.float64).ravel(), rv, tv, std
+
+
+def _fit_checked(obj, img, size, model, flags, what: str):
+    try:
+        return _fit(obj, img, size, model, flags)
+    except cv2.error as exc:
+        msg = " ".join(str(exc).split())
+        raise ValueError(f"OpenCV could not calibrate {what} ({model} model): {msg[-160:]}") from None
+
+
+def _pose(board: Board, square: float, K, dist, model):
+    """A view's pose given the intrinsics (solvePnP), or None."""
+    obj = board.object_points(square)
+    img = board.image_points
+    try:
+        if model == "fisheye":
+            ok, rv, tv = cv2.fisheye.solvePnP(obj.reshape(-1, 1, 3), img.reshape(-1, 1, 2), K, dist)
+        else:
+            ok, rv, tv = cv2.solvePnP(obj, img, K, dist, flags=cv2.SOLVEPNP_ITERATIVE)
+    except cv2.error:
+        return None
+    return (rv.ravel(), tv.ravel()) if ok else None
+
+
+def _std_dict(std, model: str) -> dict:
+    names = ("fx", "fy", "cx", "cy") + MODELS[model]
+    if std is None:
+        return {n: float("nan") for n in names}
+    order = ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6")
+    return {n: float(std[order.index(n)]) for n in names}
+
+
+def _robust_limit(values: np.ndarray, k: float, floor: float) -> float:
+    """``max(median + k * 1.4826 * MAD, floor)``."""
+    med = float(np.median(values))
+    mad = float(np.median(np.abs(values - med)))
+    return max(med + k * _MAD_SCALE * mad, floor)
+
+
+# --------------------------------------------------------------------------------------------------
+# calibration with rejection
+
+
+@dataclass
+class _State:
+    boards: list
+    names: list[str]
+    square: float
+    size: tuple[int, int]
+    model: str
+    flags: int
+    view_ok: np.ndarray
+    reasons: list[str]
+    corner_ok: list
+    corner_reasons: list
+
+
+def _solve(st: _State):
+    idx = np.flatnonzero(st.view_ok)
+    obj = [st.boards[v].object_points(st.square)[st.corner_ok[v]] for v in idx]
+    img = [st.boards[v].image_points[st.corner_ok[v]] for v in idx]
+    return idx, _fit_checked(obj, img, st.size, st.model, st.flags, f"{len(idx)} views")
+
+
+def _all_residuals(st: _State, idx, fit) -> list:
+    """Observed minus projected position of every corner of every view with a pose."""
+    K, D, rv, tv, _ = fit
+    out: list = [None] * len(st.boards)
+    poses = {v: (rv[n], tv[n]) for n, v in enumerate(idx)}
+    for v, b in enumerate(st.boards):
+        if b is None or len(b) == 0:
+            continue
+        pose = poses.get(v) or (_pose(b, st.square, K, D, st.model) if len(b) >= 4 else None)
+        if pose is None:
+            continue
+        proj = project(b.object_points(st.square), K, D, st.model, pose[0], pose[1])
+        out[v] = b.image_points - proj
+    return out
+
+
+def _reject_view(st: _State, res, limit_c: float, k: float, floor: float, min_views: int,
+                 min_corners: int) -> float:
+    """Reject the worst view beyond the view rule (one per iteration); return the view threshold."""
+    idx = np.flatnonzero(st.view_ok)
+    rms = np.full(len(st.boards), np.nan)
+    why: dict[int, str] = {}
+    for v in idx:
+        r = np.hypot(*res[v].T)
+        bad = r > limit_c
+        keep = st.corner_ok[v] & ~bad
+        rms[v] = float(np.sqrt(np.mean(r[keep] ** 2))) if keep.any() else np.inf
+        if bad.mean() > 0.5:
+            why[v] = f"most corners far off ({int(bad.sum())} of {len(r)} beyond {limit_c:.3g} px)"
+        elif keep.sum() < min_corners:
+            why[v] = f"too few corners left after rejection ({int(keep.sum())} < {min_corners})"
+    vals = rms[idx][np.isfinite(rms[idx])]
+    limit_v = max(_robust_limit(vals, k, floor), 3.0 * float(np.median(vals))) if len(vals) else floor
+    for v in idx:
+        if v not in why and rms[v] > limit_v:
+            why[v] = f"RMS {rms[v]:.3g} px far above the other views' (limit {limit_v:.3g} px)"
+    if why and len(idx) > min_views:
+        worst = max(why, key=lambda v: (rms[v] if np.isfinite(rms[v]) else np.inf, -v))
+        st.view_ok[worst] = False
+        st.reasons[worst] = why[worst]
+    return limit_v
+
+
+def _reject_corners(st: _State, res, limit_c: float) -> int:
+    """Mark the used views' corners beyond ``limit_c`` rejected and re-admit those back within it
+    (a gross outlier drags its view's pose, and with it its neighbours, until it is gone);
+    return how many changed."""
+    n = 0
+    for v in np.flatnonzero(st.view_ok):
+        r = np.hypot(*res[v].T)
+        ok = r <= limit_c
+        n += int(np.sum(ok != st.corner_ok[v]))
+        st.corner_ok[v] = ok
+        st.corner_reasons[v] = {int(c): f"residual {r[c]:.3g} px beyond the limit {limit_c:.3g} px"
+                                for c in np.flatnonzero(~ok)}
+    return n
+
+
+def _iterate(st: _State, k: float, floor: float, min_views: int, min_corners: int, reject: bool,
+             max_iterations: int):
+    thresholds: dict = {}
+    for _ in range(max_iterations):
+        idx, fit = _solve(st)
+        res = _all_residuals(st, idx, fit)
+        if not reject:
+            return idx, fit, res, thresholds
+        used = np.concatenate([np.hypot(*res[v].T)[st.corner_ok[v]] for v in idx])
+        limit_c = _robust_limit(used, k, floor)
+        n_views = int(st.view_ok.sum())
+        limit_v = _reject_view(st, res, limit_c, k, floor, min_views, min_corners)
+        thresholds = {"corner": limit_c, "view_rms": limit_v}
+        if st.view_ok.sum() < n_views:
+            continue
+        if _reject_corners(st, res, limit_c) == 0:
+            return idx, fit, res, thresholds
+    idx, fit = _solve(st)
+    return idx, fit, _all_residuals(st, idx, fit), thresholds
+
+
+def _cross_validate(st: _State, idx: np.ndarray, min_views: int):
+    """Calibrate the even- and odd-ranked used views separately and compare the two cameras."""
+    if len(idx) < 2 * min_views:
+        return None, f"no cross-validation: {len(idx)} used views, it needs {2 * min_views} (two halves)"
+    halves = (idx[0::2], idx[1::2])
+    fits = []
+    for half in halves:
+        obj = [st.boards[v].object_points(st.square)[st.corner_ok[v]] for v in half]
+        img = [st.boards[v].image_points[st.corner_ok[v]] for v in half]
+        try:
+            K, D, rv, tv, _ = _fit(obj, img, st.size, st.model, st.flags)
+        except cv2.error:
+            return None, "no cross-validation: OpenCV could not calibrate one of the halves"
+        r = np.concatenate([i - project(o, K, D, st.model, rv[n], tv[n])
+                            for n, (o, i) in enumerate(zip(obj, img))])
+        fits.append((K, D, float(np.sqrt(np.mean(np.sum(r * r, axis=1))))))
+    (Ka, Da, ra), (Kb, Db, rb) = fits
+    diff = projection_difference((Ka, Da, st.model), (Kb, Db, st.model), st.size, fit_rotation=True)
+    cv = CrossValidation(diff, tuple(int(v) for v in halves[0]), tuple(int(v) for v in halves[1]),
+                         Ka, Da, Kb, Db, ra, rb)
+    return cv, ""
+
+
+def calibrate(
+    boards: Sequence[Board | None],
+    image_size: tuple[int, int],
+    *,
+    square: float = 1.0,
+    model: str = "pinhole",
+    names: Sequence[str] | None = None,
+    reject: bool = True,
+    k: float = 5.0,
+    floor: float = 0.1,
+    min_corners: int = 6,
+    min_views: int = 3,
+    cross_validate: bool = True,
+    flags: int = 0,
+    max_iterations: int = 30,
+) -> Calibration:
+    """Calibrate a camera from boards seen in several views, rejecting corners and views far off.
+
+    The model (``cv2.calibrateCameraExtended``; fisheye: ``cv2.fisheye.calibrate``)
+    minimises :math:`\\sum_{v,c} \\lVert x_{vc} - \\pi(K, d, R_v X_c + t_v) \\rVert^2`
+    over the intrinsics ``K``, distortion ``d`` and each view's pose, with
+    :math:`X_c = (i s, j s, 0)` the board point of corner label ``(i, j)``
+    (``s = square``). Rejection repeats until nothing changes: with ``r`` the
+    residual lengths of the used corners,
+
+    - a view goes, the worst first and one per round, when more than half its
+      corners lie beyond the corner limit, when fewer than ``min_corners`` of
+      its corners remain, or when its RMS exceeds
+      ``max(median + k * 1.4826 * MAD, 3 * median, floor)`` over the views' RMS;
+    - otherwise every corner with :math:`r > \\max(\\mathrm{median}(r) + k \\cdot 1.4826
+      \\cdot \\mathrm{MAD}(r), \\mathrm{floor})` goes (for normal noise, ``k = 5`` rejects
+      about 4e-5 of good corners).
+
+    Views are never rejected below ``min_views``. The cross-validation
+    calibrates the even- and odd-ranked used views separately and measures
+    :func:`projection_difference` between the two cameras.
+
+    Parameters
+    ----------
+    boards : sequence of Board or None
+        One per view (None: no board found there).
+    image_size : (width, height)
+        Of every view.
+    square : float
+        Board square size (any unit; the poses are in it).
+    model : {"pinhole", "rational", "fisheye"}
+        ``k1, k2, p1, p2, k3``; OpenCV's rational model (``CALIB_RATIONAL_MODEL``,
+        ``k1..k6, p1, p2``); or OpenCV's fisheye model (``k1..k4``).
+    names : sequence of str, optional
+        A name per view (e.g. the image files), used in reasons and errors.
+    reject : bool
+        Reject outlying corners and views.
+    k, floor : float
+        The rejection rule's multiple of the robust standard deviation, and its
+        lower limit in px.
+    min_corners, min_views : int
+        Fewest corners for a view, fewest usable views (>= 1).
+    cross_validate : bool
+        Compute the two halves' cross-validation.
+    flags : int
+        Extra OpenCV calibration flags (e.g. ``cv2.CALIB_FIX_K3``).
+    max_iterations : int
+        Most rejection rounds.
+
+    Returns
+    -------
+    Calibration
+
+    Raises
+    ------
+    ValueError
+        No corners at all, fewer than ``min_views`` usable views (saying how
+        many more are needed), an unknown model, points outside ``image_size``,
+        names not matching the boards, or OpenCV failing to calibrate.
+
+    Examples
+    --------
+    >>> K = np.array([[600.0, 0, 320], [0, 600, 240], [0, 0, 1]])
+    >>> obj = np.array([(i, j, 0.0) for j in range(6) for i in range(9)])
+    >>> labels = obj[:, :2].astype(int)
+    >>> poses = [((0.3 * np.sin(a), 0.3 * np.cos(a), 0.1), (-4.0, -2.5, 12.0)) for a in range(8)]
+    >>> boards = [Board(project(obj, K, np.zeros(5), "pinhole", r, t), labels) for r, t in poses]
+    >>> cal = calibrate(boards, (640, 480))
+    >>> round(float(cal.K[0, 0]), 3), cal.rms < 1e-6, cal.n_used
+    (600.0, True, 8)
+    """
+    _check_model(model)
+    size = _check_size(image_size)
+    if not np.isfinite(square) or square <= 0:
+        raise ValueError(f"square must be a positive size, got {square}")
+    if min_views < 1 or min_corners < 4:
+        raise ValueError("min_views must be >= 1 and min_corners >= 4")
+    boards, names = _check_boards(boards, names, size)
+    reasons = [_usable(b, min_corners) for b in boards]
+    usable = np.array([r == "" for r in reasons])
+    if usable.sum() < min_views:
+        _too_few(int(usable.sum()), min_views, reasons, names)
+    st = _State(boards, names, float(square), size, model, int(flags), usable.copy(), reasons,
+                [np.ones(len(b), bool) if b is not None else None for b in boards],
+                [{} for _ in boards])
+    idx, fit, res, thresholds = _iterate(st, k, floor, min_views, min_corners, reject, max_iterations)
+    return _result(st, idx, fit, res, thresholds, min_views, cross_validate)
+
+
+def _too_few(n: int, need: int, reasons: list[str], names: list[str]) -> None:
+    seen = {}
+    for r, nm in zip(reasons, names):
+        if r:
+            seen.setdefault(r.split(" (")[0], []).append(nm)
+    why = "; ".join(f"{r}: {len(v)}" for r, v in seen.items())
+    raise ValueError(f"too few views: {n} usable view(s), calibration needs {need} ({need - n} more)"
+                     + (f"; rejected: {why}" if why else ""))
+
+
+def _result(st: _State, idx, fit, res, thresholds, min_views: int, cross_validate: bool) -> Calibration:
+    K, D, rv, tv, std = fit
+    V = len(st.boards)
+    rvecs = np.full((V, 3), np.nan)
+    tvecs = np.full((V, 3), np.nan)
+    rvecs[idx], tvecs[idx] = rv, tv
+    view_rms = np.full(V, np.nan)
+    for v in range(V):
+        if res[v] is None:
+            continue
+        r2 = np.sum(res[v] ** 2, axis=1)
+        sel = st.corner_ok[v] if st.view_ok[v] else np.ones(len(r2), bool)
+        view_rms[v] = float(np.sqrt(r2[sel].mean())) if sel.any() else np.nan
+    used_r2 = np.concatenate([np.sum(res[v][st.corner_ok[v]] ** 2, axis=1) for v in idx])
+    notes = []
+    cv = None
+    if cross_validate:
+        cv, note = _cross_validate(st, idx, min_views)
+        if note:
+            notes.append(note)
+    corner_used = tuple(
+        None if b is None else (st.corner_ok[v] & bool(st.view_ok[v])) for v, b in enumerate(st.boards))
+    return Calibration(
+        model=st.model, image_size=st.size, K=K, dist=D, rms=float(np.sqrt(used_r2.mean())),
+        std=_std_dict(std, st.model), names=tuple(st.names), boards=tuple(st.boards),
+        residuals=tuple(res), corner_used=corner_used, view_used=st.view_ok.copy(), view_rms=view_rms,
+        reasons=tuple(st.reasons), corner_reasons=tuple(st.corner_reasons), rvecs=rvecs, tvecs=tvecs,
+        cross_validation=cv, thresholds=thresholds, notes=tuple(notes), square=st.square)
