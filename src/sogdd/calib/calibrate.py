@@ -12,6 +12,7 @@ few views a large one.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -422,3 +423,17 @@ def _result(st: _State, idx, fit, res, thresholds, min_views: int, cross_validat
         residuals=tuple(res), corner_used=corner_used, view_used=st.view_ok.copy(), view_rms=view_rms,
         reasons=tuple(st.reasons), corner_reasons=tuple(st.corner_reasons), rvecs=rvecs, tvecs=tvecs,
         cross_validation=cv, thresholds=thresholds, notes=tuple(notes), square=st.square)
+
+
+@functools.lru_cache(maxsize=1)
+def _demo_calibration() -> Calibration:
+    """A small calibration from boards projected through a known camera (for the doctests)."""
+    K = np.array([[600.0, 0, 320], [0, 600, 240], [0, 0, 1]])
+    obj = np.array([(i, j, 0.0) for j in range(6) for i in range(9)])
+    rng = np.random.default_rng(0)
+    boards: list[Board | None] = []
+    for a in range(8):
+        rv, tv = (0.4 * np.sin(a), 0.4 * np.cos(a), 0.1), (-4.0 + 0.5 * np.cos(2 * a), -2.5, 12.0 + a % 3)
+        pts = project(obj, K, np.array([-0.2, 0.05, 0, 0, 0]), "pinhole", rv, tv)
+        boards.append(Board(pts + rng.normal(0, 0.03, pts.shape), obj[:, :2].astype(int)))
+    return calibrate(boards + [None], (640, 480), names=[f"view{v}.png" for v in range(9)])
