@@ -1,0 +1,338 @@
+"""The chessboard lattice: X-corners linked into a grid and labelled ``(i, j)``.
+
+Three tests make two X-corners lattice neighbours (:func:`ray_neighbours`): the
+second lies along one of the first's edge lines (within :data:`CONE`), one of its
+own edge lines points back along that line (:data:`EDGE_TOL`), and its light axis
+is turned by about 90 degrees (the wedges' colours swap across an edge line,
+:data:`POLARITY_TOL`).
+
+A board grows from a **seed**, an X-corner whose four rays all reach mutual
+neighbours at similar distances (a cross of five corners), labelled
+``(0, 0), (1, 0), (0, 1), (-1, 0), (0, -1)`` along the seed's edge lines
+``theta1 = light - spread`` (``+i``) and ``theta2 = light + spread`` (``+j``):
+``sin(theta2 - theta1) = sin(2 spread) > 0``, so ``(a_i, a_j)`` is right-handed in
+image coordinates (``x`` right, ``y`` down; ``i`` left to right and ``j`` top to
+bottom on an upright board). Growth (:func:`grow`) then works by prediction: for
+each free label next to the labelled ones, a homography fitted to the labelled
+corners within two labels (a local homography follows perspective and lens
+distortion) predicts its position; the nearest free X-corner within
+:data:`SEARCH` cells of it is taken if its edge lines follow the local lattice
+directions, its light axis has the label's parity, and its strength is that of
+its neighbours within a factor :data:`CONTRAST_RATIO`. A label whose search
+fails stays free. :func:`check` is the last guard: each corner must be predicted
+by a homography of its neighbours (leaving it out) within a fraction of a cell.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .xcorners import XCorners
+
+__all__ = ["Lattice", "check", "grow", "homography", "ray_neighbours", "seeds"]
+
+#: a neighbour lies within this angle (rad) of the ray along an edge line
+CONE = np.radians(12.0)
+#: one of the neighbour's edge lines is parallel to the ray within this angle (rad)
+EDGE_TOL = np.radians(15.0)
+#: the neighbour's light axis is perpendicular to the corner's within this angle (rad)
+POLARITY_TOL = np.radians(25.0)
+#: a predicted corner is searched within this fraction of the local cell
+SEARCH = 0.3
+#: neighbours' strengths differ by at most this factor
+CONTRAST_RATIO = 4.0
+#: opposite rays of a seed differ in length by at most this factor
+SEED_RATIO = 1.6
+#: neighbours examined per corner
+KNN = 12
+
+_OFFS = np.array([(1, 0), (0, 1), (-1, 0), (0, -1)])
+
+
+@dataclass
+class Lattice:
+    """One grown grid: ``index`` into the X-corners and their labels ``(i, j)``."""
+
+    index: np.ndarray
+    labels: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.index)
+
+
+def _wrap_pi(a: np.ndarray) -> np.ndarray:
+    """Angle differences of lines (mod pi) to ``[-pi/2, pi/2)``."""
+    return np.mod(a + np.pi / 2, np.pi) - np.pi / 2
+
+
+def _wrap(a: np.ndarray) -> np.ndarray:
+    """Angle differences of rays (mod 2 pi) to ``[-pi, pi)``."""
+    return np.mod(a + np.pi, 2 * np.pi) - np.pi
+
+
+def ray_neighbours(xc: XCorners, tree: cKDTree | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The nearest lattice neighbour along each of the four rays of every corner.
+
+    The rays point along ``theta1, theta2, theta1 + pi, theta2 + pi`` (the edge
+    lines, :attr:`XCorners.edges`). Returns ``(nb (N, 4) int, -1 for none; dist (N, 4))``.
+    """
+    n = len(xc)
+    nb = np.full((n, 4), -1, dtype=np.int64)
+    dist = np.full((n, 4), np.inf)
+    if n < 2:
+        return nb, dist
+    tree = cKDTree(xc.xy) if tree is None else tree
+    k = min(KNN, n)
+    d, idx = tree.query(xc.xy, k=k)
+    d, idx = d[:, 1:], idx[:, 1:]  # the first is the corner itself
+    v = xc.xy[idx] - xc.xy[:, None, :]
+    ang = np.arctan2(v[..., 1], v[..., 0])
+    e = np.stack([xc.light - xc.spread, xc.light + xc.spread], axis=1)  # rays: unwrapped, right-handed
+    other = xc.edges[idx]  # (N, k-1, 2)
+    flip = np.abs(np.abs(_wrap_pi(xc.light[idx] - xc.light[:, None])) - np.pi / 2) < POLARITY_TOL
+    for r in range(4):
+        ray = e[:, r % 2] + (np.pi if r >= 2 else 0.0)
+        ok = np.abs(_wrap(ang - ray[:, None])) < CONE
+        ok &= np.min(np.abs(_wrap_pi(other - ray[:, None, None])), axis=2) < EDGE_TOL
+        ok &= flip & (d > 0)
+        dd = np.where(ok, d, np.inf)
+        best = np.argmin(dd, axis=1)
+        has = np.isfinite(dd[np.arange(n), best])
+        nb[has, r] = idx[has, best[has]]
+        dist[has, r] = dd[has, best[has]]
+    return nb, dist
+
+
+def seeds(xc: XCorners, nb: np.ndarray, dist: np.ndarray) -> np.ndarray:
+    """Corners whose four rays reach mutual neighbours at similar distances, best first.
+
+    A neighbour is mutual when one of its rays leads back to the corner. The order:
+    the weakest of the five corners' strengths, descending.
+    """
+    n = len(xc)
+    if n == 0:
+        return np.zeros(0, dtype=np.int64)
+    full = (nb >= 0).all(axis=1)
+    mutual = np.ones(n, dtype=bool)
+    for r in range(4):
+        j = np.where(nb[:, r] >= 0, nb[:, r], 0)
+        mutual &= (nb[j] == np.arange(n)[:, None]).any(axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.maximum(dist[:, 0] / dist[:, 2], dist[:, 2] / dist[:, 0])
+        ratio = np.maximum(ratio, np.maximum(dist[:, 1] / dist[:, 3], dist[:, 3] / dist[:, 1]))
+    ok = full & mutual & (ratio <= SEED_RATIO)
+    cand = np.flatnonzero(ok)
+    weakest = np.min(np.c_[xc.strength[cand], xc.strength[nb[cand]]], axis=1)
+    return cand[np.argsort(-weakest, kind="stable")]
+
+
+def homography(src: np.ndarray, dst: np.ndarray) -> np.ndarray | None:
+    """The least-squares (normalised DLT) homography mapping ``src`` (N, 2) to ``dst``; None if degenerate.
+
+    Examples
+    --------
+    >>> src = np.array([[0, 0], [1, 0], [0, 1], [1, 1], [2, 1]], float)
+    >>> H = homography(src, 3 * src + 5)
+    >>> np.round(H / H[2, 2], 6).tolist()
+    [[3.0, 0.0, 5.0], [0.0, 3.0, 5.0], [0.0, 0.0, 1.0]]
+    """
+    if len(src) < 4:
+        return None
+
+    def norm(p: np.ndarray) -> np.ndarray:
+        c = p.mean(axis=0)
+        s = np.sqrt(2) / max(np.sqrt(((p - c) ** 2).sum(axis=1)).mean(), 1e-12)
+        return np.array([[s, 0, -s * c[0]], [0, s, -s * c[1]], [0, 0, 1]])
+
+    ts, td = norm(src), norm(dst)
+    a = src @ ts[:2, :2].T + ts[:2, 2]
+    b = dst @ td[:2, :2].T + td[:2, 2]
+    n = len(a)
+    M = np.zeros((2 * n, 9))
+    M[0::2, 0:2], M[0::2, 2] = a, 1
+    M[0::2, 6:8], M[0::2, 8] = -b[:, :1] * a, -b[:, 0]
+    M[1::2, 3:5], M[1::2, 5] = a, 1
+    M[1::2, 6:8], M[1::2, 8] = -b[:, 1:] * a, -b[:, 1]
+    _, sv, vt = np.linalg.svd(M)
+    if sv[-2] < 1e-9 * sv[0]:  # rank below 8: the points do not fix a homography
+        return None
+    H = np.linalg.inv(td) @ vt[-1].reshape(3, 3) @ ts
+    return H
+
+
+def apply(H: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """``H`` applied to points (N, 2)."""
+    q = np.c_[p, np.ones(len(p))] @ H.T
+    return q[:, :2] / q[:, 2:]
+
+
+class _Grower:
+    """The state of one board's growth: labels, positions, the free X-corners."""
+
+    def __init__(self, xc: XCorners, tree: cKDTree, free: np.ndarray, limit: int | None) -> None:
+        self.xc, self.tree, self.free, self.limit = xc, tree, free, limit
+        self.at: dict[tuple[int, int], int] = {}
+        self.tried: dict[tuple[int, int], int] = {}
+
+    def add(self, lab: tuple[int, int], k: int) -> None:
+        self.at[lab] = k
+        self.free[k] = False
+
+    def support(self, lab: tuple[int, int], reach: int = 2) -> tuple[np.ndarray, np.ndarray]:
+        i, j = lab
+        keys = [(a, b) for a in range(i - reach, i + reach + 1) for b in range(j - reach, j + reach + 1)
+                if (a, b) in self.at and (a, b) != lab]
+        idx = np.array([self.at[q] for q in keys], dtype=np.int64)
+        return np.array(keys, dtype=np.float64).reshape(-1, 2), idx
+
+    def predict(self, lab: tuple[int, int]) -> tuple[np.ndarray, np.ndarray] | None:
+        """Predicted position and the local lattice vectors ``(a_i, a_j)`` at ``lab``."""
+        src, idx = self.support(lab)
+        if len(src) < 4 or np.linalg.matrix_rank(src - src[0]) < 2:
+            return None
+        H = homography(src, self.xc.xy[idx])
+        if H is None:
+            return None
+        q = np.array(lab, dtype=np.float64)
+        pts = apply(H, np.array([q, q + (0.5, 0), q - (0.5, 0), q + (0, 0.5), q - (0, 0.5)]))
+        if not np.isfinite(pts).all():
+            return None
+        return pts[0], np.array([pts[1] - pts[2], pts[3] - pts[4]])
+
+    def within_limit(self, lab: tuple[int, int]) -> bool:
+        if self.limit is None:
+            return True
+        labs = np.array(list(self.at) + [lab])
+        ext = labs.max(axis=0) - labs.min(axis=0) + 1
+        return bool(ext.max() <= self.limit)
+
+    def accept(self, lab: tuple[int, int], k: int, axes: np.ndarray) -> bool:
+        """The checks of a candidate ``k`` for ``lab`` (module doc)."""
+        xc = self.xc
+        ang = np.arctan2(axes[:, 1], axes[:, 0])
+        e = xc.edges[k]
+        d = np.abs(_wrap_pi(e[:, None] - ang[None, :]))  # (edge, axis)
+        if not ((d[0, 0] < EDGE_TOL and d[1, 1] < EDGE_TOL) or (d[0, 1] < EDGE_TOL and d[1, 0] < EDGE_TOL)):
+            return False
+        _, idx = self.support(lab, 1)
+        if len(idx) == 0:
+            return False
+        s = np.median(xc.strength[idx])
+        if not (s / CONTRAST_RATIO <= xc.strength[k] <= s * CONTRAST_RATIO):
+            return False
+        # parity: the light axis of a neighbour across an edge is perpendicular, of a diagonal one parallel
+        i, j = lab
+        for q, m in self.at.items():
+            if max(abs(q[0] - i), abs(q[1] - j)) == 1:
+                turn = (q[0] - i + q[1] - j) % 2 == 1
+                dl = abs(_wrap_pi(xc.light[k] - xc.light[m]))
+                if (abs(dl - np.pi / 2) if turn else dl) >= POLARITY_TOL:
+                    return False
+        return True
+
+    def frontier(self) -> list[tuple[int, int]]:
+        out = set()
+        for i, j in self.at:
+            for di, dj in _OFFS:
+                q = (i + di, j + dj)
+                if q not in self.at:
+                    out.add(q)
+        return sorted(out)
+
+    def round(self) -> int:
+        """One round over the free labels next to the board; the number of corners added."""
+        claims: dict[int, list[tuple[float, tuple[int, int]]]] = {}
+        for lab in self.frontier():
+            n_sup = len(self.support(lab)[1])
+            if self.tried.get(lab, -1) >= n_sup or not self.within_limit(lab):
+                continue
+            self.tried[lab] = n_sup
+            pred = self.predict(lab)
+            if pred is None:
+                continue
+            p, axes = pred
+            cell = float(min(np.hypot(*axes[0]), np.hypot(*axes[1])))
+            near = self.tree.query_ball_point(p, SEARCH * cell)
+            near = sorted((float(np.hypot(*(self.xc.xy[k] - p))), k) for k in near if self.free[k])
+            for dd, k in near:
+                if self.accept(lab, k, axes):
+                    claims.setdefault(k, []).append((dd, lab))
+                    break
+        added = 0
+        for k, cl in claims.items():
+            if len(cl) == 1:  # a corner two labels claim is left for a later round
+                self.add(cl[0][1], k)
+                added += 1
+        return added
+
+
+def grow(xc: XCorners, seed: int, nb: np.ndarray, free: np.ndarray, tree: cKDTree, *,
+         limit: int | None = None) -> Lattice:
+    """Grow one board from ``seed`` (module doc); ``free`` (bool, N) marks unused corners and is updated."""
+    g = _Grower(xc, tree, free, limit)
+    g.add((0, 0), int(seed))
+    for r, (di, dj) in enumerate(_OFFS):
+        k = int(nb[seed, r])
+        if k >= 0 and free[k]:
+            g.add((int(di), int(dj)), k)
+    while g.round():
+        pass
+    labs = np.array(list(g.at), dtype=np.int64).reshape(-1, 2)
+    idx = np.array([g.at[tuple(q)] for q in labs.tolist()], dtype=np.int64)
+    return Lattice(idx, labs)
+
+
+def check(xy: np.ndarray, labels: np.ndarray, *, tol: float = 0.1, reach: int = 2) -> np.ndarray:
+    """Mask of the corners that their neighbours predict: leave-one-out homography error <= ``tol`` cells.
+
+    For each corner, the homography fitted to the other corners within ``reach``
+    labels predicts it; the error is divided by the local cell (the distance the
+    same homography puts between labels ``+-0.5`` along each axis, the smaller
+    one). A corner with fewer than 5 such neighbours (or all on one line) fails.
+
+    Examples
+    --------
+    >>> lab = np.array([(i, j) for j in range(4) for i in range(4)])
+    >>> xy = 20.0 * lab + 3.0
+    >>> xy[5] += 4.0  # 0.2 cell off
+    >>> check(xy, lab).tolist().count(False), bool(check(xy, lab)[5])
+    (1, False)
+    """
+    xy = np.asarray(xy, dtype=np.float64)
+    labels = np.asarray(labels, dtype=np.int64)
+    ok = np.zeros(len(xy), dtype=bool)
+    pos = {tuple(q): k for k, q in enumerate(labels.tolist())}
+    for k, (i, j) in enumerate(labels.tolist()):
+        idx = [pos[(a, b)] for a in range(i - reach, i + reach + 1) for b in range(j - reach, j + reach + 1)
+               if (a, b) in pos and (a, b) != (i, j)]
+        if len(idx) < 5:
+            continue
+        src = labels[idx].astype(np.float64)
+        if np.linalg.matrix_rank(src - src[0]) < 2:
+            continue
+        # robust: the worst neighbour may itself be off; fit again without it when that helps
+        err = _loo_error(src, xy[idx], np.array([i, j], float), xy[k])
+        ok[k] = err <= tol
+    return ok
+
+
+def _loo_error(src: np.ndarray, dst: np.ndarray, q: np.ndarray, p: np.ndarray) -> float:
+    best = np.inf
+    fits = [np.ones(len(src), bool)]
+    H = homography(src, dst)
+    if H is not None and len(src) >= 6:
+        res = np.hypot(*(apply(H, src) - dst).T)
+        m = np.ones(len(src), bool)
+        m[np.argmax(res)] = False
+        fits.append(m)
+    for m in fits:
+        H = homography(src[m], dst[m])
+        if H is None:
+            continue
+        pts = apply(H, np.array([q, q + (0.5, 0), q - (0.5, 0), q + (0, 0.5), q - (0, 0.5)]))
+        cell = min(np.hypot(*(pts[1] - pts[2])), np.hypot(*(pts[3] - pts[4])))
+        best = min(best, float(np.hypot(*(pts[0] - p)) / max(cell, 1e-9)))
+    return best
