@@ -136,7 +136,7 @@ def homography(src: np.ndarray, dst: np.ndarray) -> np.ndarray | None:
     --------
     >>> src = np.array([[0, 0], [1, 0], [0, 1], [1, 1], [2, 1]], float)
     >>> H = homography(src, 3 * src + 5)
-    >>> np.round(H / H[2, 2], 6).tolist()
+    >>> (np.round(H / H[2, 2], 6) + 0.0).tolist()
     [[3.0, 0.0, 5.0], [0.0, 3.0, 5.0], [0.0, 0.0, 1.0]]
     """
     if len(src) < 4:
