@@ -61,8 +61,8 @@ from numba import njit, prange
 
 from ..._jit import JIT
 
-__all__ = ["Camera", "ChessboardTarget", "RenderedView", "render_view", "render_charuco",
-           "random_sequence", "pose_matrix"]
+__all__ = ["Camera", "ChessboardTarget", "RenderedView", "render_view", "render_scene", "add_noise",
+           "render_charuco", "random_sequence", "pose_matrix"]
 
 _LEVELS = (35.0, 215.0, 110.0)  # dark square, light paper, background
 
@@ -315,23 +315,61 @@ def render_view(camera: Camera, target: ChessboardTarget, rvec: np.ndarray, tvec
     >>> v.image.shape, v.corners[0].round(6).tolist(), bool(v.inside.all())
     ((120, 160), [59.5, 49.5], True)
     """
+    for name, val in (("noise", noise), ("border", border)):
+        if not (val >= 0 and math.isfinite(val)):
+            raise ValueError(f"{name} must be a finite value >= 0, got {val}")
+    clean = render_scene(camera, target, rvec, tvec, supersample=supersample, blur=blur, falloff=falloff,
+                         levels=levels)
+    img = add_noise(clean, noise, rng)
+    corners = camera.project(target.object_points(), rvec, tvec)
+    return RenderedView(img, corners, target.labels(), _inside(corners, camera.size, border),
+                        np.asarray(rvec, dtype=np.float64).reshape(3).copy(),
+                        np.asarray(tvec, dtype=np.float64).reshape(3).copy())
+
+
+def render_scene(camera: Camera, target: ChessboardTarget, rvec: np.ndarray, tvec: np.ndarray, *,
+                 supersample: int = 4, blur: float = 0.0, falloff: float = 0.0,
+                 levels: tuple[float, float, float] = _LEVELS) -> np.ndarray:
+    """The noise-free image of :func:`render_view` before rounding, (H, W) float64.
+
+    Several noise draws of one view share it (:func:`add_noise`).
+
+    Examples
+    --------
+    >>> cam = Camera(np.array([[400.0, 0, 79.5], [0, 400.0, 59.5], [0, 0, 1]]), (0.0, 0, 0, 0), (160, 120))
+    >>> img = render_scene(cam, ChessboardTarget(3, 2, 0.05), np.zeros(3), np.array([-0.05, -0.025, 1.0]))
+    >>> img.dtype, float(img[0, 0])
+    (dtype('float64'), 110.0)
+    """
     s = int(supersample)
     if s < 4:
         raise ValueError(f"supersample must be >= 4, got {supersample}")
-    for name, val in (("blur", blur), ("noise", noise), ("border", border)):
-        if not (val >= 0 and math.isfinite(val)):
-            raise ValueError(f"{name} must be a finite value >= 0, got {val}")
+    if not (blur >= 0 and math.isfinite(blur)):
+        raise ValueError(f"blur must be a finite value >= 0, got {blur}")
     if not 0 <= falloff < 1:
         raise ValueError(f"falloff must be in [0, 1), got {falloff}")
     R, t = pose_matrix(rvec, tvec)
     dark, light, bg = (float(v) for v in levels)
     board = np.array([target.square, target.cols, target.rows, target.margin, dark, light, bg])
-    img = _render(camera, R, t, s, board)
-    img = _finish(img, blur, falloff, noise, rng)
-    corners = camera.project(target.object_points(), rvec, tvec)
-    return RenderedView(img, corners, target.labels(), _inside(corners, camera.size, border),
-                        np.asarray(rvec, dtype=np.float64).reshape(3).copy(),
-                        np.asarray(tvec, dtype=np.float64).reshape(3).copy())
+    return _finish(_render(camera, R, t, s, board), blur, falloff)
+
+
+def add_noise(image: np.ndarray, noise: float = 0.0,
+              rng: np.random.Generator | int | None = None) -> np.ndarray:
+    """Gaussian noise of ``noise`` grey levels added to a float image, rounded and clipped to uint8.
+
+    Examples
+    --------
+    >>> add_noise(np.full((2, 2), 100.4)).tolist()
+    [[100, 100], [100, 100]]
+    """
+    if not (noise >= 0 and math.isfinite(noise)):
+        raise ValueError(f"noise must be a finite value >= 0, got {noise}")
+    img = np.asarray(image, dtype=np.float64)
+    if noise > 0:
+        gen = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+        img = img + gen.normal(0.0, noise, img.shape)
+    return np.clip(np.rint(img), 0, 255).astype(np.uint8)
 
 
 def render_charuco(camera: Camera, board: cv2.aruco.CharucoBoard, rvec: np.ndarray, tvec: np.ndarray, *,
@@ -379,7 +417,7 @@ def render_charuco(camera: Camera, board: cv2.aruco.CharucoBoard, rvec: np.ndarr
     samples = np.where(outside & paper, _LEVELS[1], samples)
     samples = np.where(np.isfinite(u), samples, _LEVELS[2])
     img = samples.reshape(h, s, w, s).mean(axis=(1, 3))
-    img = _finish(img, blur, falloff, noise, rng)
+    img = add_noise(_finish(img, blur, falloff), noise, rng)
     obj = np.asarray(board.getChessboardCorners(), dtype=np.float64).reshape(-1, 3)
     ids = np.arange(len(obj))
     labels = np.stack([ids % (nx - 1), ids // (nx - 1)], axis=1).astype(np.int64)
@@ -477,7 +515,7 @@ def _inside(corners: np.ndarray, size: tuple[int, int], border: float) -> np.nda
 # the image
 
 
-def _finish(img: np.ndarray, blur: float, falloff: float, noise: float, rng) -> np.ndarray:
+def _finish(img: np.ndarray, blur: float, falloff: float) -> np.ndarray:
     img = np.asarray(img, dtype=np.float64)
     if blur > 0:
         k = 2 * int(math.ceil(4 * blur)) + 1
@@ -487,10 +525,7 @@ def _finish(img: np.ndarray, blur: float, falloff: float, noise: float, rng) -> 
         yy, xx = np.mgrid[0:h, 0:w]
         r2 = ((xx - (w - 1) / 2) ** 2 + (yy - (h - 1) / 2) ** 2) / (((w - 1) / 2) ** 2 + ((h - 1) / 2) ** 2)
         img = img * (1.0 - falloff * r2)
-    if noise > 0:
-        gen = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
-        img = img + gen.normal(0.0, noise, img.shape)
-    return np.clip(np.rint(img), 0, 255).astype(np.uint8)
+    return img
 
 
 def _cam_args(camera: Camera, R: np.ndarray, t: np.ndarray) -> np.ndarray:
