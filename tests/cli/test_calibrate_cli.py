@@ -88,9 +88,10 @@ def test_end_to_end_writes_every_output(frames, tmp_path, capsys, stand_in):
     assert len(list((out / "report").glob("view_*.png"))) == 8
 
 
-def test_json_summary(frames, tmp_path, capsys, stand_in):
+def test_json_summary_with_two_processes(frames, tmp_path, capsys, stand_in):
+    # the workers are forked, so they inherit the stand-in detector
     code, text, _ = _run(capsys, frames, "--board", "chessboard:9x6", "--out", tmp_path / "o", "--json",
-                         "--no-report")
+                         "--no-report", "--jobs", 2)
     d = json.loads(text)
     assert code == 0 and d["views_used"] == 8 and abs(d["fx"] - 560.0) < 6 and d["verdict"]
     assert not (tmp_path / "o" / "report.html").exists()
