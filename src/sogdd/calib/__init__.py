@@ -5,6 +5,7 @@ A client of the core (:mod:`sogdd.detector` and its stages); the core never impo
 
 from .board import Board
 from .calibrate import Calibration, CrossValidation, ProjectionDifference, calibrate, projection_difference
+from .refine import refine_corners
 
 __all__ = [
     "Board",
@@ -13,4 +14,5 @@ __all__ = [
     "ProjectionDifference",
     "calibrate",
     "projection_difference",
+    "refine_corners",
 ]
