@@ -135,7 +135,7 @@ def test_random_sequence_full_and_partial_views():
     poses = random_sequence(cam, target, 10, seed=2, partial=0.3, cell_px=(30, 45), tilt_max=40)
     assert len(poses) == 10
     for k, (rvec, tvec) in enumerate(poses):
-        inside = R._inside(cam.project(target.object_points(), rvec, tvec), cam.size, 4.0)
+        inside = R.in_frame(cam.project(target.object_points(), rvec, tvec), cam.size, 4.0)
         if k < 7:
             assert inside.all()
         else:

@@ -62,7 +62,7 @@ from numba import njit, prange
 from ..._jit import JIT
 
 __all__ = ["Camera", "ChessboardTarget", "RenderedView", "render_view", "render_scene", "add_noise",
-           "render_charuco", "random_sequence", "pose_matrix"]
+           "render_charuco", "random_sequence", "pose_matrix", "in_frame"]
 
 _LEVELS = (35.0, 215.0, 110.0)  # dark square, light paper, background
 
@@ -322,7 +322,7 @@ def render_view(camera: Camera, target: ChessboardTarget, rvec: np.ndarray, tvec
                          levels=levels)
     img = add_noise(clean, noise, rng)
     corners = camera.project(target.object_points(), rvec, tvec)
-    return RenderedView(img, corners, target.labels(), _inside(corners, camera.size, border),
+    return RenderedView(img, corners, target.labels(), in_frame(corners, camera.size, border),
                         np.asarray(rvec, dtype=np.float64).reshape(3).copy(),
                         np.asarray(tvec, dtype=np.float64).reshape(3).copy())
 
@@ -422,7 +422,7 @@ def render_charuco(camera: Camera, board: cv2.aruco.CharucoBoard, rvec: np.ndarr
     ids = np.arange(len(obj))
     labels = np.stack([ids % (nx - 1), ids // (nx - 1)], axis=1).astype(np.int64)
     corners = camera.project(obj, rvec, tvec)
-    return RenderedView(img, corners, labels, _inside(corners, camera.size, border),
+    return RenderedView(img, corners, labels, in_frame(corners, camera.size, border),
                         np.asarray(rvec, dtype=np.float64).reshape(3).copy(), t.copy(), ids)
 
 
@@ -495,7 +495,7 @@ def _draw_pose(camera, target, rng, tilt_max, roll_max, cell_px, keep, cut):
         if not np.all(np.isfinite(edge)):
             continue
         if cut:
-            inner = _inside(camera.project(obj, rvec, t), camera.size, keep)
+            inner = in_frame(camera.project(obj, rvec, t), camera.size, keep)
             if 0.3 <= inner.mean() <= 0.75:
                 return rvec, t
         elif np.all((edge >= keep) & (edge <= np.array([w - 1, h - 1]) - keep)):
@@ -504,7 +504,8 @@ def _draw_pose(camera, target, rng, tilt_max, roll_max, cell_px, keep, cut):
                      f"(cells {cell_px} px): the board is too large for the frame")
 
 
-def _inside(corners: np.ndarray, size: tuple[int, int], border: float) -> np.ndarray:
+def in_frame(corners: np.ndarray, size: tuple[int, int], border: float) -> np.ndarray:
+    """Whether each point (N, 2) is finite and at least ``border`` px inside a frame of ``size`` (w, h)."""
     w, h = size
     with np.errstate(invalid="ignore"):
         return (np.all(np.isfinite(corners), axis=1) & (corners[:, 0] >= border) & (corners[:, 1] >= border)
