@@ -168,3 +168,37 @@ def test_sogdds_own_detector_end_to_end(frames, tmp_path, capsys):
     code, text, err = _run(capsys, frames, "--board", "chessboard:auto", "--out", tmp_path / "auto")
     assert code == 0, err
     assert abs(read_camera(tmp_path / "auto" / "camera.yaml")["camera_matrix"][0, 0] - 560.0) < 560 * 0.01
+
+
+def _opencv_charuco(img, board):
+    corners, ids, _, _ = cv2.aruco.CharucoDetector(board).detectBoard(img)
+    if ids is None or len(ids) < 4:
+        return None
+    ids = ids.ravel().astype(int)
+    nx = board.getChessboardSize()[0]
+    return Board(corners.reshape(-1, 2), np.c_[ids % (nx - 1), ids // (nx - 1)], ids=ids)
+
+
+def test_charuco_board(tmp_path, capsys, monkeypatch):
+    """charuco:COLSxROWS:MARKER:DICT reaches the ChArUco detector (here OpenCV's) with that board."""
+    render = pytest.importorskip("sogdd.evaluation.calibration.render")
+    fake = types.ModuleType("sogdd.calib.charuco")
+    seen = []
+
+    def detect_charuco(img, board):
+        seen.append(tuple(board.getChessboardSize()))
+        return _opencv_charuco(img, board)
+
+    fake.detect_charuco = detect_charuco
+    monkeypatch.setitem(sys.modules, "sogdd.calib.charuco", fake)
+    monkeypatch.setattr(sogdd.calib, "charuco", fake, raising=False)
+    cam = render.Camera(K_TRUE, DIST, (640, 480))
+    board = cv2.aruco.CharucoBoard((5, 7), 1.0, 0.7, cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_5X5_100))
+    for k, (rv, tv) in enumerate(render.random_sequence(cam, render.ChessboardTarget(5, 7, 1.0), 6, seed=5)):
+        view = render.render_charuco(cam, board, rv, tv, blur=0.7, noise=1.0, rng=k)
+        cv2.imwrite(str(tmp_path / f"c{k}.png"), view.image)
+    code, _, err = _run(capsys, tmp_path, "--board", "charuco:5x7:0.7:DICT_5X5_100", "--out", tmp_path / "o",
+                        "--no-report")
+    assert code == 0, err
+    assert seen and all(s == (5, 7) for s in seen)
+    assert abs(read_camera(tmp_path / "o" / "camera.yaml")["camera_matrix"][0, 0] - 560.0) < 560 * 0.02
