@@ -3,7 +3,7 @@
 The steps (:func:`detect_boards`):
 
 1. X-corner candidates with their edge lines (:func:`sogdd.calib.xcorners.find_xcorners`;
-   on a reduced scale for images above 4.5 MP, and again at full scale when that
+   on a reduced scale for images above 2 MP, and again at full scale when that
    finds no board);
 2. boards grown from seeds by prediction (:mod:`sogdd.calib.lattice`), strongest
    seed first, each corner used by one board at most;
@@ -48,8 +48,8 @@ from scipy.spatial import cKDTree
 
 from .board import Board
 from .lattice import Lattice, check, grow, ray_neighbours, seeds
-from .refine import refine_corners
-from .xcorners import XCorners, find_xcorners, to_grey
+from .refine import half_widths, refine_grey
+from .xcorners import XCorners, default_scale, search, to_grey
 
 __all__ = ["detect_board", "detect_boards"]
 
@@ -146,7 +146,8 @@ def _finish(grey: np.ndarray, xc: XCorners, lat: Lattice, pattern: tuple[int, in
     xy = xc.xy[idx]
     quality = np.ones(len(xy))
     if refine:
-        xy, quality = refine_corners(grey, xy, cell=_local_cells(xy, labels), return_quality=True)
+        half = half_widths(xy, None, _local_cells(xy, labels))
+        xy, quality = refine_grey(grey, xy, half, half.astype(np.float64))
         keep = quality > 0
         idx, labels, xy, quality = idx[keep], labels[keep], xy[keep], quality[keep]
     for _ in range(2):
@@ -252,19 +253,18 @@ def detect_boards(image: np.ndarray, pattern: tuple[int, int] | None = None, *, 
         raise ValueError(f"min_corners must be an integer >= 9, got {min_corners!r}")
     if not isinstance(max_boards, (int, np.integer)) or isinstance(max_boards, bool) or max_boards < 1:
         raise ValueError(f"max_boards must be a positive integer, got {max_boards!r}")
-    xc = find_xcorners(grey, min_strength=min_strength, scale=scale, mask=mask)
+    if not np.isfinite(min_strength) or min_strength < 0:
+        raise ValueError(f"min_strength must be a finite number >= 0, got {min_strength!r}")
+    if scale is not None and not (0 < scale <= 1):
+        raise ValueError(f"scale must be in (0, 1], got {scale!r}")
+    if mask is not None and np.shape(mask) != grey.shape:
+        raise ValueError(f"mask must have the image's shape {grey.shape}, got {np.shape(mask)}")
+    xc = search(grey, min_strength, scale, mask)
     out = _boards(grey, xc, pat, int(min_corners), refine, int(max_boards))
-    if not out and scale is None and find_xcorners_scale(grey.shape) < 1:
-        xc = find_xcorners(grey, min_strength=min_strength, scale=1.0, mask=mask)
+    if not out and scale is None and default_scale(grey.shape) < 1:
+        xc = search(grey, min_strength, 1.0, mask)
         out = _boards(grey, xc, pat, int(min_corners), refine, int(max_boards))
     return out
-
-
-def find_xcorners_scale(shape: tuple[int, int]) -> float:
-    """The default search scale of an image of this shape (:func:`sogdd.calib.xcorners.find_xcorners`)."""
-    from .xcorners import SEARCH_PIXELS
-
-    return min(1.0, float(np.sqrt(SEARCH_PIXELS / (shape[0] * shape[1]))))
 
 
 def detect_board(image: np.ndarray, pattern: tuple[int, int] | None = None, **kwargs) -> Board | None:

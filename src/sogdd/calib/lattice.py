@@ -130,7 +130,7 @@ def seeds(xc: XCorners, nb: np.ndarray, dist: np.ndarray) -> np.ndarray:
 
 
 def homography(src: np.ndarray, dst: np.ndarray) -> np.ndarray | None:
-    """The least-squares (normalised DLT) homography mapping ``src`` (N, 2) to ``dst``; None if degenerate.
+    """The least-squares homography mapping ``src`` (N, 2) to ``dst`` (``h33 = 1``); None if degenerate.
 
     Examples
     --------
@@ -141,26 +141,30 @@ def homography(src: np.ndarray, dst: np.ndarray) -> np.ndarray | None:
     """
     if len(src) < 4:
         return None
-
-    def norm(p: np.ndarray) -> np.ndarray:
-        c = p.mean(axis=0)
-        s = np.sqrt(2) / max(np.sqrt(((p - c) ** 2).sum(axis=1)).mean(), 1e-12)
-        return np.array([[s, 0, -s * c[0]], [0, s, -s * c[1]], [0, 0, 1]])
-
-    ts, td = norm(src), norm(dst)
-    a = src @ ts[:2, :2].T + ts[:2, 2]
-    b = dst @ td[:2, :2].T + td[:2, 2]
+    src = np.asarray(src, np.float64)
+    dst = np.asarray(dst, np.float64)
+    cs, cd = src.mean(axis=0), dst.mean(axis=0)
+    ss = np.sqrt(2) / max(float(np.sqrt(((src - cs) ** 2).sum(axis=1)).mean()), 1e-12)
+    sd = np.sqrt(2) / max(float(np.sqrt(((dst - cd) ** 2).sum(axis=1)).mean()), 1e-12)
+    a, b = (src - cs) * ss, (dst - cd) * sd
     n = len(a)
-    M = np.zeros((2 * n, 9))
-    M[0::2, 0:2], M[0::2, 2] = a, 1
-    M[0::2, 6:8], M[0::2, 8] = -b[:, :1] * a, -b[:, 0]
-    M[1::2, 3:5], M[1::2, 5] = a, 1
-    M[1::2, 6:8], M[1::2, 8] = -b[:, 1:] * a, -b[:, 1]
-    _, sv, vt = np.linalg.svd(M)
-    if sv[-2] < 1e-9 * sv[0]:  # rank below 8: the points do not fix a homography
+    M = np.zeros((2 * n, 8))
+    M[:n, 0:2], M[:n, 2] = a, 1.0
+    M[:n, 6:8] = -b[:, :1] * a
+    M[n:, 3:5], M[n:, 5] = a, 1.0
+    M[n:, 6:8] = -b[:, 1:] * a
+    A = M.T @ M
+    rhs = M.T @ np.r_[b[:, 0], b[:, 1]]
+    try:
+        h = np.linalg.solve(A, rhs)
+    except np.linalg.LinAlgError:
         return None
-    H = np.linalg.inv(td) @ vt[-1].reshape(3, 3) @ ts
-    return H
+    if not np.isfinite(h).all() or abs(np.linalg.det(A)) < 1e-12 * np.trace(A) ** 8:
+        return None
+    Hn = np.r_[h, 1.0].reshape(3, 3)
+    ts = np.array([[ss, 0, -ss * cs[0]], [0, ss, -ss * cs[1]], [0, 0, 1]])
+    td_inv = np.array([[1 / sd, 0, cd[0]], [0, 1 / sd, cd[1]], [0, 0, 1]])
+    return td_inv @ Hn @ ts
 
 
 def apply(H: np.ndarray, p: np.ndarray) -> np.ndarray:
@@ -176,10 +180,14 @@ class _Grower:
         self.xc, self.tree, self.free, self.limit = xc, tree, free, limit
         self.at: dict[tuple[int, int], int] = {}
         self.tried: dict[tuple[int, int], int] = {}
+        self.lo = np.array([0, 0])
+        self.hi = np.array([0, 0])
 
     def add(self, lab: tuple[int, int], k: int) -> None:
         self.at[lab] = k
         self.free[k] = False
+        self.lo = np.minimum(self.lo, lab)
+        self.hi = np.maximum(self.hi, lab)
 
     def support(self, lab: tuple[int, int], reach: int = 2) -> tuple[np.ndarray, np.ndarray]:
         i, j = lab
@@ -205,8 +213,7 @@ class _Grower:
     def within_limit(self, lab: tuple[int, int]) -> bool:
         if self.limit is None:
             return True
-        labs = np.array(list(self.at) + [lab])
-        ext = labs.max(axis=0) - labs.min(axis=0) + 1
+        ext = np.maximum(self.hi, lab) - np.minimum(self.lo, lab) + 1
         return bool(ext.max() <= self.limit)
 
     def accept(self, lab: tuple[int, int], k: int, axes: np.ndarray) -> bool:
@@ -225,9 +232,12 @@ class _Grower:
             return False
         # parity: the light axis of a neighbour across an edge is perpendicular, of a diagonal one parallel
         i, j = lab
-        for q, m in self.at.items():
-            if max(abs(q[0] - i), abs(q[1] - j)) == 1:
-                turn = (q[0] - i + q[1] - j) % 2 == 1
+        for di in (-1, 0, 1):
+            for dj in (-1, 0, 1):
+                m = self.at.get((i + di, j + dj))
+                if m is None or (di, dj) == (0, 0):
+                    continue
+                turn = (di + dj) % 2 == 1
                 dl = abs(_wrap_pi(xc.light[k] - xc.light[m]))
                 if (abs(dl - np.pi / 2) if turn else dl) >= POLARITY_TOL:
                     return False
@@ -313,26 +323,28 @@ def check(xy: np.ndarray, labels: np.ndarray, *, tol: float = 0.1, reach: int = 
         src = labels[idx].astype(np.float64)
         if np.linalg.matrix_rank(src - src[0]) < 2:
             continue
-        # robust: the worst neighbour may itself be off; fit again without it when that helps
-        err = _loo_error(src, xy[idx], np.array([i, j], float), xy[k])
+        err = _loo_error(src, xy[idx], np.array([i, j], float), xy[k], tol)
         ok[k] = err <= tol
     return ok
 
 
-def _loo_error(src: np.ndarray, dst: np.ndarray, q: np.ndarray, p: np.ndarray) -> float:
-    best = np.inf
-    fits = [np.ones(len(src), bool)]
+def _loo_error(src: np.ndarray, dst: np.ndarray, q: np.ndarray, p: np.ndarray, tol: float) -> float:
+    """The error of ``p`` against the homography of its neighbours, in cells; fitted again without the
+    neighbour that fits worst when the first is beyond ``tol`` (that neighbour may be the one that is off)."""
     H = homography(src, dst)
-    if H is not None and len(src) >= 6:
-        res = np.hypot(*(apply(H, src) - dst).T)
+    if H is None:
+        return np.inf
+    err = _cells_off(H, q, p)
+    if err > tol and len(src) >= 6:
         m = np.ones(len(src), bool)
-        m[np.argmax(res)] = False
-        fits.append(m)
-    for m in fits:
-        H = homography(src[m], dst[m])
-        if H is None:
-            continue
-        pts = apply(H, np.array([q, q + (0.5, 0), q - (0.5, 0), q + (0, 0.5), q - (0, 0.5)]))
-        cell = min(np.hypot(*(pts[1] - pts[2])), np.hypot(*(pts[3] - pts[4])))
-        best = min(best, float(np.hypot(*(pts[0] - p)) / max(cell, 1e-9)))
-    return best
+        m[np.argmax(np.hypot(*(apply(H, src) - dst).T))] = False
+        H2 = homography(src[m], dst[m])
+        if H2 is not None:
+            err = min(err, _cells_off(H2, q, p))
+    return err
+
+
+def _cells_off(H: np.ndarray, q: np.ndarray, p: np.ndarray) -> float:
+    pts = apply(H, np.array([q, q + (0.5, 0), q - (0.5, 0), q + (0, 0.5), q - (0, 0.5)]))
+    cell = min(np.hypot(*(pts[1] - pts[2])), np.hypot(*(pts[3] - pts[4])))
+    return float(np.hypot(*(pts[0] - p)) / max(cell, 1e-9))

@@ -40,7 +40,7 @@ from scipy.spatial import cKDTree
 
 from .xcorners import to_grey
 
-__all__ = ["cell_sizes", "refine_corners"]
+__all__ = ["cell_sizes", "half_widths", "refine_corners", "refine_grey"]
 
 _JIT = dict(cache=True, nogil=True, error_model="numpy")
 #: the most sampling steps of the window each way from the centre (larger windows are strided)
@@ -210,7 +210,7 @@ def _points(points: object) -> np.ndarray:
     return pts
 
 
-def _half_widths(pts: np.ndarray, window: object, cell: object) -> np.ndarray:
+def half_widths(pts: np.ndarray, window: object, cell: object) -> np.ndarray:
     n = len(pts)
     if window is not None:
         w = np.broadcast_to(np.asarray(window, dtype=np.float64), (2,) if np.ndim(window) else ())
@@ -282,16 +282,24 @@ def refine_corners(image: np.ndarray, points: object, *, window: int | tuple[int
     pts = _points(points)
     if not isinstance(iterations, (int, np.integer)) or isinstance(iterations, bool) or iterations < 1:
         raise ValueError(f"iterations must be a positive integer, got {iterations!r}")
-    half = _half_widths(pts, window, cell)
+    half = half_widths(pts, window, cell)
     if max_shift is None:
         shift = half.astype(np.float64)
     else:
         if not (np.isfinite(max_shift) and max_shift > 0):
             raise ValueError(f"max_shift must be a positive number, got {max_shift!r}")
         shift = np.full(len(pts), float(max_shift))
+    out, quality = refine_grey(grey, pts, half, shift, int(iterations))
+    return (out, quality) if return_quality else out
+
+
+def refine_grey(grey: np.ndarray, pts: np.ndarray, half: np.ndarray, shift: np.ndarray,
+                iterations: int = 20) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`refine_corners` on a validated grey image with per-point half-widths and shift bounds."""
     stride = np.maximum(1, -(-half // MAX_HALF)).astype(np.int64)
     out = np.empty_like(pts)
     quality = np.zeros(len(pts))
     if len(pts):
-        _refine(np.ascontiguousarray(grey), pts, half, stride, shift, int(iterations), out, quality)
-    return (out, quality) if return_quality else out
+        _refine(np.ascontiguousarray(grey, dtype=np.float64), pts, half.astype(np.int64), stride,
+                shift.astype(np.float64), int(iterations), out, quality)
+    return out, quality

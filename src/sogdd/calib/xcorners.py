@@ -29,12 +29,12 @@ from functools import lru_cache
 import cv2
 import numpy as np
 
-__all__ = ["XCorners", "find_xcorners", "to_grey"]
+__all__ = ["XCorners", "default_scale", "find_xcorners", "search", "to_grey"]
 
 #: the saddle search's scale (the ``hr`` preset's ``sigma2``)
 SIGMA2 = 1.5
 #: images above this many pixels are searched at a reduced scale by default (the refinement works at full scale)
-SEARCH_PIXELS = 4_500_000
+SEARCH_PIXELS = 2_000_000
 
 
 @dataclass(frozen=True)
@@ -195,20 +195,31 @@ def find_xcorners(image: np.ndarray, *, min_strength: float = 8.0, scale: float 
     >>> round(float(np.degrees(xc.light[0]))), round(float(np.degrees(xc.spread[0])))
     (45, 45)
     """
-    from sogdd.select import find_saddles
-
     grey = to_grey(image)
     if not np.isfinite(min_strength) or min_strength < 0:
         raise ValueError(f"min_strength must be a finite number >= 0, got {min_strength!r}")
-    H, W = grey.shape
-    if scale is None:
-        scale = min(1.0, float(np.sqrt(SEARCH_PIXELS / (H * W))))
-    if not (0 < scale <= 1):
+    if scale is not None and not (0 < scale <= 1):
         raise ValueError(f"scale must be in (0, 1], got {scale!r}")
+    if mask is not None and np.shape(mask) != grey.shape:
+        raise ValueError(f"mask must have the image's shape {grey.shape}, got {np.shape(mask)}")
+    return search(grey, min_strength, scale, mask)
+
+
+def default_scale(shape: tuple[int, int]) -> float:
+    """The search scale of an image of this shape: 1 up to :data:`SEARCH_PIXELS` pixels, else that budget."""
+    return min(1.0, float(np.sqrt(SEARCH_PIXELS / (shape[0] * shape[1]))))
+
+
+def search(grey: np.ndarray, min_strength: float, scale: float | None, mask: np.ndarray | None) -> XCorners:
+    """:func:`find_xcorners` on a validated grey image (float64, 0-255)."""
+    from sogdd.select import find_saddles
+
+    H, W = grey.shape
+    scale = default_scale(grey.shape) if scale is None else scale
     work = grey
     if scale < 1:
         size = (max(8, round(W * scale)), max(8, round(H * scale)))
-        work = cv2.resize(grey, size, interpolation=cv2.INTER_AREA)
+        work = cv2.resize(grey.astype(np.float32), size, interpolation=cv2.INTER_AREA).astype(np.float64)
     unit = _unit(SIGMA2)
     xy, st = find_saddles(work, SIGMA2, min_strength=min_strength * unit)
     st = st / unit
@@ -220,8 +231,6 @@ def find_xcorners(image: np.ndarray, *, min_strength: float = 8.0, scale: float 
     keep = saddle & (st >= min_strength)
     if mask is not None:
         m = np.asarray(mask, dtype=bool)
-        if m.shape != (H, W):
-            raise ValueError(f"mask must have the image's shape {(H, W)}, got {m.shape}")
         ix = np.clip(np.rint(xy[:, 0]).astype(np.int64), 0, W - 1)
         iy = np.clip(np.rint(xy[:, 1]).astype(np.int64), 0, H - 1)
         keep &= m[iy, ix]
