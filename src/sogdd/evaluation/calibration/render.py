@@ -57,197 +57,15 @@ from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
-from numba import njit, prange
 
-from ..._jit import JIT
+from .model import Camera, ChessboardTarget, in_frame, pose_matrix
+from .raster import render_samples as _render
+from .raster import sample_coords as _sample_coords
 
 __all__ = ["Camera", "ChessboardTarget", "RenderedView", "render_view", "render_scene", "add_noise",
            "render_charuco", "random_sequence", "pose_matrix", "in_frame"]
 
 _LEVELS = (35.0, 215.0, 110.0)  # dark square, light paper, background
-
-
-@dataclass(frozen=True)
-class Camera:
-    """A pinhole camera with OpenCV's distortion ``(k1, k2, p1, p2[, k3])``.
-
-    Parameters
-    ----------
-    K : (3, 3) array
-        Intrinsic matrix ``[[fx, s, cx], [0, fy, cy], [0, 0, 1]]``.
-    dist : sequence of 4 or 5 floats
-        ``(k1, k2, p1, p2[, k3])``; stored as five values.
-    size : (width, height)
-        Image size in pixels.
-
-    Examples
-    --------
-    >>> cam = Camera(np.array([[800.0, 0, 319.5], [0, 800.0, 239.5], [0, 0, 1]]), (0.0, 0, 0, 0), (640, 480))
-    >>> cam.project(np.array([[0.0, 0.0, 2.0], [0.1, 0.0, 1.0]])).round(6).tolist()
-    [[319.5, 239.5], [399.5, 239.5]]
-    >>> cam.fx, cam.width, cam.height
-    (800.0, 640, 480)
-    """
-
-    K: np.ndarray
-    dist: tuple = (0.0, 0.0, 0.0, 0.0, 0.0)
-    size: tuple[int, int] = (640, 480)
-
-    def __post_init__(self) -> None:
-        K = np.asarray(self.K, dtype=np.float64)
-        if K.shape != (3, 3) or not np.all(np.isfinite(K)) or K[0, 0] <= 0 or K[1, 1] <= 0:
-            raise ValueError(f"K must be a finite (3, 3) matrix with positive focal lengths, got {K.tolist()}")
-        d = tuple(float(v) for v in np.asarray(self.dist, dtype=np.float64).reshape(-1))
-        if len(d) not in (4, 5) or not all(math.isfinite(v) for v in d):
-            raise ValueError(f"dist must be 4 or 5 finite values (k1, k2, p1, p2[, k3]), got {d}")
-        w, h = (int(v) for v in self.size)
-        if w < 1 or h < 1:
-            raise ValueError(f"size must be (width, height) >= 1, got {self.size}")
-        K = K.copy()
-        K.setflags(write=False)
-        object.__setattr__(self, "K", K)
-        object.__setattr__(self, "dist", d + (0.0,) * (5 - len(d)))
-        object.__setattr__(self, "size", (w, h))
-
-    @property
-    def fx(self) -> float:
-        return float(self.K[0, 0])
-
-    @property
-    def fy(self) -> float:
-        return float(self.K[1, 1])
-
-    @property
-    def width(self) -> int:
-        return self.size[0]
-
-    @property
-    def height(self) -> int:
-        return self.size[1]
-
-    def distort(self, xy: np.ndarray) -> np.ndarray:
-        """Pixels of normalised coordinates ``(x', y')`` (N, 2): the model of the module doc."""
-        xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
-        xd, yd = _distort_np(xy[:, 0], xy[:, 1], self.dist)
-        K = self.K
-        return np.stack([K[0, 0] * xd + K[0, 1] * yd + K[0, 2], K[1, 1] * yd + K[1, 2]], axis=1)
-
-    def project(self, points3d: np.ndarray, rvec: np.ndarray | None = None,
-                tvec: np.ndarray | None = None) -> np.ndarray:
-        """Project 3-D points (N, 3) to pixels (N, 2), as ``cv2.projectPoints``.
-
-        The points are in the camera frame, or in a frame given by ``rvec``
-        (Rodrigues vector) and ``tvec``: ``X_c = R(rvec) X + tvec``. Points at
-        or behind the camera's centre plane give NaN.
-        """
-        P = np.asarray(points3d, dtype=np.float64).reshape(-1, 3)
-        if rvec is not None or tvec is not None:
-            R, t = pose_matrix(np.zeros(3) if rvec is None else rvec, np.zeros(3) if tvec is None else tvec)
-            P = P @ R.T + t
-        with np.errstate(divide="ignore", invalid="ignore"):
-            z = np.where(P[:, 2] > 0, P[:, 2], np.nan)
-            return self.distort(np.stack([P[:, 0] / z, P[:, 1] / z], axis=1))
-
-    def undistort(self, pixels: np.ndarray, *, tol: float = 1e-13, max_iter: int = 100) -> np.ndarray:
-        """Normalised coordinates ``(x', y')`` (N, 2) of pixels (N, 2): the exact inverse of :meth:`distort`.
-
-        Newton's method on ``distort(x') = pixel`` from ``x' = K^-1 pixel``,
-        until every step is below ``tol`` (in normalised units). A pixel where
-        it does not converge (beyond the model's fold) gives NaN.
-        """
-        px = np.asarray(pixels, dtype=np.float64).reshape(-1, 2)
-        K = self.K
-        yd = (px[:, 1] - K[1, 2]) / K[1, 1]
-        xd = (px[:, 0] - K[0, 2] - K[0, 1] * yd) / K[0, 0]
-        x, y = xd.copy(), yd.copy()
-        active = np.ones(len(px), dtype=bool)
-        for _ in range(max_iter):
-            if not active.any():
-                break
-            xa, ya = x[active], y[active]
-            fx_, fy_ = _distort_np(xa, ya, self.dist)
-            j00, j01, j10, j11 = _distort_jac_np(xa, ya, self.dist)
-            ex, ey = fx_ - xd[active], fy_ - yd[active]
-            det = j00 * j11 - j01 * j10
-            dx = (j11 * ex - j01 * ey) / det
-            dy = (-j10 * ex + j00 * ey) / det
-            x[active], y[active] = xa - dx, ya - dy
-            step = np.maximum(np.abs(dx), np.abs(dy))
-            idx = np.flatnonzero(active)
-            active[idx[~(step > tol)]] = False  # NaN steps stop too
-        out = np.stack([x, y], axis=1)
-        bad = active | ~np.all(np.isfinite(out), axis=1)
-        if bad.any():
-            back = self.distort(out[~bad]) if (~bad).any() else np.zeros((0, 2))
-            out[bad] = np.nan
-            # a fold of the model can converge to a far-off preimage: check it
-            far = np.zeros(len(px), dtype=bool)
-            far[np.flatnonzero(~bad)] = np.hypot(*(back - px[~bad]).T) > 1e-6
-            out[far] = np.nan
-        return out
-
-
-@dataclass(frozen=True)
-class ChessboardTarget:
-    """A chessboard of ``cols x rows`` inner corners (OpenCV's ``patternSize``) and squares of ``square``.
-
-    Inner corner ``(i, j)`` is at ``(i square, j square, 0)``; the squares cover
-    ``[-square, cols square] x [-square, rows square]`` and a white margin of
-    ``margin`` (None: one square) surrounds them.
-
-    Examples
-    --------
-    >>> t = ChessboardTarget(3, 2, 10.0)
-    >>> t.labels().tolist()
-    [[0, 0], [1, 0], [2, 0], [0, 1], [1, 1], [2, 1]]
-    >>> t.object_points()[-1].tolist()
-    [20.0, 10.0, 0.0]
-    """
-
-    cols: int
-    rows: int
-    square: float = 1.0
-    margin: float | None = None
-
-    def __post_init__(self) -> None:
-        if int(self.cols) < 1 or int(self.rows) < 1:
-            raise ValueError(f"a chessboard needs >= 1 inner corner each way, got {self.cols} x {self.rows}")
-        if not (self.square > 0 and math.isfinite(self.square)):
-            raise ValueError(f"square must be positive, got {self.square}")
-        m = self.square if self.margin is None else float(self.margin)
-        if not (m >= 0 and math.isfinite(m)):
-            raise ValueError(f"margin must be >= 0, got {self.margin}")
-        object.__setattr__(self, "cols", int(self.cols))
-        object.__setattr__(self, "rows", int(self.rows))
-        object.__setattr__(self, "square", float(self.square))
-        object.__setattr__(self, "margin", m)
-
-    @property
-    def pattern_size(self) -> tuple[int, int]:
-        return (self.cols, self.rows)
-
-    def labels(self) -> np.ndarray:
-        """``(i, j)`` of every inner corner (N, 2) int64, ``i`` fastest (OpenCV's order)."""
-        j, i = np.mgrid[0:self.rows, 0:self.cols]
-        return np.stack([i.ravel(), j.ravel()], axis=1).astype(np.int64)
-
-    def object_points(self) -> np.ndarray:
-        """Board coordinates (N, 3) of the inner corners, in :meth:`labels`' order."""
-        out = np.zeros((self.cols * self.rows, 3))
-        out[:, :2] = self.labels() * self.square
-        return out
-
-    def outline(self, with_margin: bool = False, per_side: int = 16) -> np.ndarray:
-        """Points (4 per_side, 3) along the squares' (or the paper's) outer edge."""
-        s, m = self.square, (self.margin if with_margin else 0.0)
-        u0, u1, v0, v1 = -s - m, self.cols * s + m, -s - m, self.rows * s + m
-        t = np.linspace(0.0, 1.0, per_side, endpoint=False)
-        sides = [np.stack([u0 + (u1 - u0) * t, np.full_like(t, v0)], 1),
-                 np.stack([np.full_like(t, u1), v0 + (v1 - v0) * t], 1),
-                 np.stack([u1 - (u1 - u0) * t, np.full_like(t, v1)], 1),
-                 np.stack([np.full_like(t, u0), v1 - (v1 - v0) * t], 1)]
-        uv = np.concatenate(sides)
-        return np.concatenate([uv, np.zeros((len(uv), 1))], axis=1)
 
 
 @dataclass(frozen=True)
@@ -267,16 +85,6 @@ class RenderedView:
     rvec: np.ndarray = field(default_factory=lambda: np.zeros(3))
     tvec: np.ndarray = field(default_factory=lambda: np.zeros(3))
     ids: np.ndarray | None = None
-
-
-def pose_matrix(rvec: np.ndarray, tvec: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(R, t)`` of a Rodrigues vector and a translation, validated: (3, 3) and (3,)."""
-    r = np.asarray(rvec, dtype=np.float64).reshape(-1)
-    t = np.asarray(tvec, dtype=np.float64).reshape(-1)
-    if r.shape != (3,) or t.shape != (3,) or not (np.all(np.isfinite(r)) and np.all(np.isfinite(t))):
-        raise ValueError(f"rvec and tvec must be 3 finite values each, got {r.tolist()} and {t.tolist()}")
-    return cv2.Rodrigues(r)[0], t
-
 
 def render_view(camera: Camera, target: ChessboardTarget, rvec: np.ndarray, tvec: np.ndarray, *,
                 supersample: int = 4, blur: float = 0.0, noise: float = 0.0, falloff: float = 0.0,
@@ -425,7 +233,6 @@ def render_charuco(camera: Camera, board: cv2.aruco.CharucoBoard, rvec: np.ndarr
     return RenderedView(img, corners, labels, in_frame(corners, camera.size, border),
                         np.asarray(rvec, dtype=np.float64).reshape(3).copy(), t.copy(), ids)
 
-
 def random_sequence(camera: Camera, target: ChessboardTarget, n_views: int, *, tilt_max: float = 40.0,
                     seed: int = 0, partial: float = 0.0, cell_px: tuple[float, float] | None = None,
                     roll_max: float = 30.0, keep: float = 4.0) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -463,7 +270,6 @@ def random_sequence(camera: Camera, target: ChessboardTarget, n_views: int, *, t
         out.append(_draw_pose(camera, target, rng, tilt_max, roll_max, cell_px, keep,
                               cut=k >= n_views - n_partial))
     return out
-
 
 # ---------------------------------------------------------------------------------------------
 # poses
@@ -503,15 +309,6 @@ def _draw_pose(camera, target, rng, tilt_max, roll_max, cell_px, keep, cut):
     raise ValueError(f"could not place a {target.cols}x{target.rows} board in a {w}x{h} frame "
                      f"(cells {cell_px} px): the board is too large for the frame")
 
-
-def in_frame(corners: np.ndarray, size: tuple[int, int], border: float) -> np.ndarray:
-    """Whether each point (N, 2) is finite and at least ``border`` px inside a frame of ``size`` (w, h)."""
-    w, h = size
-    with np.errstate(invalid="ignore"):
-        return (np.all(np.isfinite(corners), axis=1) & (corners[:, 0] >= border) & (corners[:, 1] >= border)
-                & (corners[:, 0] <= w - 1 - border) & (corners[:, 1] <= h - 1 - border))
-
-
 # ---------------------------------------------------------------------------------------------
 # the image
 
@@ -527,189 +324,3 @@ def _finish(img: np.ndarray, blur: float, falloff: float) -> np.ndarray:
         r2 = ((xx - (w - 1) / 2) ** 2 + (yy - (h - 1) / 2) ** 2) / (((w - 1) / 2) ** 2 + ((h - 1) / 2) ** 2)
         img = img * (1.0 - falloff * r2)
     return img
-
-
-def _cam_args(camera: Camera, R: np.ndarray, t: np.ndarray) -> np.ndarray:
-    K = camera.K
-    n = R[:, 2]  # the board's normal in the camera frame
-    return np.concatenate([[K[0, 0], K[1, 1], K[0, 2], K[1, 2], K[0, 1]], camera.dist, R.ravel(), t,
-                           [float(n @ t)]])
-
-
-def _render(camera: Camera, R: np.ndarray, t: np.ndarray, s: int, board: np.ndarray) -> np.ndarray:
-    w, h = camera.size
-    out = np.empty((h, w), dtype=np.float64)
-    _render_kernel(_cam_args(camera, R, t), board, s, out)
-    return out
-
-
-def _sample_coords(camera: Camera, R: np.ndarray, t: np.ndarray, s: int) -> tuple[np.ndarray, np.ndarray]:
-    """Board coordinates (u, v) of every sample, (H s, W s) each; NaN where the ray misses the board plane."""
-    w, h = camera.size
-    u = np.empty((h * s, w * s), dtype=np.float64)
-    v = np.empty((h * s, w * s), dtype=np.float64)
-    _coords_kernel(_cam_args(camera, R, t), s, u, v)
-    return u, v
-
-
-def _distort_np(x, y, d):
-    k1, k2, p1, p2, k3 = d
-    r2 = x * x + y * y
-    rad = 1 + r2 * (k1 + r2 * (k2 + r2 * k3))
-    return (x * rad + 2 * p1 * x * y + p2 * (r2 + 2 * x * x),
-            y * rad + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y)
-
-
-def _distort_jac_np(x, y, d):
-    k1, k2, p1, p2, k3 = d
-    r2 = x * x + y * y
-    rad = 1 + r2 * (k1 + r2 * (k2 + r2 * k3))
-    drad = k1 + r2 * (2 * k2 + 3 * k3 * r2)  # d rad / d r2
-    j00 = rad + 2 * x * x * drad + 2 * p1 * y + 6 * p2 * x
-    j01 = 2 * x * y * drad + 2 * p1 * x + 2 * p2 * y
-    j10 = 2 * x * y * drad + 2 * p1 * x + 2 * p2 * y
-    j11 = rad + 2 * y * y * drad + 6 * p1 * y + 2 * p2 * x
-    return j00, j01, j10, j11
-
-
-@njit(**JIT)
-def _undistort1(xd, yd, x, y, k1, k2, p1, p2, k3):
-    """Newton's method on the distortion from (x, y); returns the solution (NaN if it does not converge)."""
-    for _ in range(100):
-        r2 = x * x + y * y
-        rad = 1 + r2 * (k1 + r2 * (k2 + r2 * k3))
-        drad = k1 + r2 * (2 * k2 + 3 * k3 * r2)
-        ex = x * rad + 2 * p1 * x * y + p2 * (r2 + 2 * x * x) - xd
-        ey = y * rad + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y - yd
-        j00 = rad + 2 * x * x * drad + 2 * p1 * y + 6 * p2 * x
-        j01 = 2 * x * y * drad + 2 * p1 * x + 2 * p2 * y
-        j11 = rad + 2 * y * y * drad + 6 * p1 * y + 2 * p2 * x
-        det = j00 * j11 - j01 * j01
-        dx = (j11 * ex - j01 * ey) / det
-        dy = (-j01 * ex + j00 * ey) / det
-        x -= dx
-        y -= dy
-        # Newton converges quadratically: after a step of d the error is about d^2 times the
-        # distortion's curvature over its slope (< 10 for any usable lens), so d < 1e-7 leaves < 1e-13
-        if abs(dx) < 1e-7 and abs(dy) < 1e-7:
-            return x, y
-        if not (abs(x) < 1e6 and abs(y) < 1e6):
-            break
-    return np.nan, np.nan
-
-
-@njit(**JIT)
-def _board_uv(xn, yn, c):
-    """Board coordinates of the ray (xn, yn, 1): intersection with the plane n . X = n . t."""
-    n0, n1, n2 = c[12], c[15], c[18]  # R[:, 2]
-    den = n0 * xn + n1 * yn + n2
-    lam = c[22] / den
-    if not (lam > 0) or not np.isfinite(lam):
-        return np.nan, np.nan
-    px, py, pz = lam * xn - c[19], lam * yn - c[20], lam - c[21]
-    # R^T (X - t): rows of R^T are the columns of R
-    return c[10] * px + c[13] * py + c[16] * pz, c[11] * px + c[14] * py + c[17] * pz
-
-
-@njit(**JIT)
-def _overlap(x, r, lo, hi):
-    a = max(x - r, lo)
-    b = min(x + r, hi)
-    return max(b - a, 0.0) / (2 * r)
-
-
-@njit(**JIT)
-def _parity_cover(x, r, sq, n):
-    """Box-filtered indicators of the even and of the odd squares along one axis (squares 0..n)."""
-    a0 = int(math.floor(x / sq)) + 1
-    even = 0.0
-    odd = 0.0
-    for a in range(a0 - 1, a0 + 2):
-        if a < 0 or a > n:
-            continue
-        f = _overlap(x, r, (a - 1) * sq, a * sq)
-        if a % 2 == 0:
-            even += f
-        else:
-            odd += f
-    return even, odd
-
-
-@njit(**JIT)
-def _reflectance(u, v, ru, rv, b):
-    sq, cols, rows, margin, dark, light, bg = b[0], int(b[1]), int(b[2]), b[3], b[4], b[5], b[6]
-    if not np.isfinite(u):
-        return bg
-    ru = min(max(ru, 1e-9), 0.5 * sq)
-    rv = min(max(rv, 1e-9), 0.5 * sq)
-    pu = _overlap(u, ru, -sq - margin, cols * sq + margin)
-    pv = _overlap(v, rv, -sq - margin, rows * sq + margin)
-    eu, ou = _parity_cover(u, ru, sq, cols)
-    ev, ov = _parity_cover(v, rv, sq, rows)
-    return bg + (light - bg) * pu * pv - (light - dark) * (eu * ev + ou * ov)
-
-
-@njit(**JIT)
-def _row_samples(c, row, sub, s, w, us, vs):
-    """(u, v) of every sample of sub-row ``sub`` of pixel row ``row``, (w s,) each, warm-started Newton."""
-    fx, fy, cx, cy, skew = c[0], c[1], c[2], c[3], c[4]
-    k1, k2, p1, p2, k3 = c[5], c[6], c[7], c[8], c[9]
-    py = row - 0.5 + (sub + 0.5) / s
-    yd = (py - cy) / fy
-    x0 = np.nan  # the previous two solutions: their linear extrapolation starts Newton's method
-    y0 = np.nan
-    x1 = np.nan
-    y1 = np.nan
-    for k in range(w * s):
-        px = -0.5 + (k + 0.5) / s
-        xd = (px - cx - skew * yd) / fx
-        if np.isfinite(x0) and np.isfinite(x1):
-            x, y = 2 * x1 - x0, 2 * y1 - y0
-        elif np.isfinite(x1):
-            x, y = x1, y1
-        else:
-            x, y = xd, yd
-        x, y = _undistort1(xd, yd, x, y, k1, k2, p1, p2, k3)
-        x0, y0, x1, y1 = x1, y1, x, y
-        if np.isfinite(x):
-            us[k], vs[k] = _board_uv(x, y, c)
-        else:
-            us[k], vs[k] = np.nan, np.nan
-
-
-@njit(parallel=True, cache=True, error_model="numpy")
-def _render_kernel(c, b, s, out):
-    h, w = out.shape
-    for row in prange(h):
-        us = np.empty((s, w * s))
-        vs = np.empty((s, w * s))
-        for sub in range(s):
-            _row_samples(c, row, sub, s, w, us[sub], vs[sub])
-        for col in range(w):
-            k0 = col * s
-            # the pixel's Jacobian d(u, v)/d(x, y) from its corner samples (1 px = s - 1 sample steps * s/(s-1))
-            step = (s - 1) / s
-            dux = 0.5 * ((us[0, k0 + s - 1] - us[0, k0]) + (us[s - 1, k0 + s - 1] - us[s - 1, k0])) / step
-            dvx = 0.5 * ((vs[0, k0 + s - 1] - vs[0, k0]) + (vs[s - 1, k0 + s - 1] - vs[s - 1, k0])) / step
-            duy = 0.5 * ((us[s - 1, k0] - us[0, k0]) + (us[s - 1, k0 + s - 1] - us[0, k0 + s - 1])) / step
-            dvy = 0.5 * ((vs[s - 1, k0] - vs[0, k0]) + (vs[s - 1, k0 + s - 1] - vs[0, k0 + s - 1])) / step
-            half = 0.5 / s
-            ru = half * math.sqrt(dux * dux + duy * duy)
-            rv = half * math.sqrt(dvx * dvx + dvy * dvy)
-            if not np.isfinite(ru):
-                ru = 0.0
-            if not np.isfinite(rv):
-                rv = 0.0
-            acc = 0.0
-            for sub in range(s):
-                for k in range(s):
-                    acc += _reflectance(us[sub, k0 + k], vs[sub, k0 + k], ru, rv, b)
-            out[row, col] = acc / (s * s)
-
-
-@njit(parallel=True, cache=True, error_model="numpy")
-def _coords_kernel(c, s, u, v):
-    hs, ws = u.shape
-    w = ws // s
-    for r in prange(hs):
-        _row_samples(c, r // s, r % s, s, w, u[r], v[r])
