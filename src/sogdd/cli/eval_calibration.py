@@ -14,7 +14,7 @@ Real photos (``--data`` or ``$SOGDD_DATA/calibration``, skipped with
 ``--no-real``): boards found, label distance after one global offset per set,
 RMS reprojection, fx against BoofCV's calibration.
 
-Methods (``--methods``, comma-separated; all by default): sogdd, hr-grid,
+Methods (``--methods``, comma-separated; all by default): sogdd, opencv-refine, hr-grid,
 opencv, opencv-sb, calib-targets, mrgingham, chess-corners, hr. A comparator
 that is not installed is skipped with a note (``pip install calib-targets
 chess-corners``, ``apt-get install mrgingham``). Protocol:

@@ -4,6 +4,8 @@
 name               kind    what runs
 =================  ======  =====================================================================
 sogdd              board   ``sogdd.calib.detect_board`` (its own refinement), partial boards too
+opencv-refine      board   ``cv2.findChessboardCorners`` + ``sogdd.calib.refine_corners`` (the
+                           drop-in for ``cv2.cornerSubPix``, its window from the local cell)
 hr-grid            board   ``cv2.findChessboardCorners`` orders the grid; each point snapped to
                            the nearest ``hr`` corner (``sogdd.detect_corners(preset="hr")``)
 opencv             board   ``cv2.findChessboardCorners`` + ``cv2.cornerSubPix`` 11 x 11
@@ -71,6 +73,16 @@ def _opencv(image: np.ndarray, pattern: tuple[int, int]) -> Detection:
     crit = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_COUNT, 100, 1e-4)
     pts = cv2.cornerSubPix(image, pts, (5, 5), (-1, -1), crit)  # an 11 x 11 window
     return _board(pts, pattern)
+
+
+def _opencv_refine(image: np.ndarray, pattern: tuple[int, int]) -> Detection:
+    from sogdd.calib import refine_corners
+
+    ok, pts = cv2.findChessboardCorners(image, pattern,
+                                        flags=cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE)
+    if not ok:
+        return _NONE
+    return _board(refine_corners(image, pts.reshape(-1, 2)), pattern)
 
 
 def _opencv_sb(image: np.ndarray, pattern: tuple[int, int]) -> Detection:
@@ -147,10 +159,16 @@ def _mrgingham(image: np.ndarray, pattern: tuple[int, int]) -> Detection:
     return _board(pts, pattern)
 
 
-def _sogdd(image: np.ndarray, pattern: tuple[int, int]) -> Detection:
-    from sogdd.calib import detect_board
+def _detect_board():
+    try:
+        from sogdd.calib import detect_board
+    except ImportError:  # before the package exports it
+        from sogdd.calib.detect import detect_board
+    return detect_board
 
-    board = detect_board(image, pattern)
+
+def _sogdd(image: np.ndarray, pattern: tuple[int, int]) -> Detection:
+    board = _detect_board()(image, pattern)
     if board is None:
         return _NONE
     return Detection(np.asarray(board.image_points, dtype=np.float64), np.asarray(board.labels, dtype=np.int64))
@@ -173,7 +191,15 @@ def _has_module(name: str) -> bool:
 
 def _sogdd_available() -> bool:
     try:
-        from sogdd.calib import detect_board  # noqa: F401
+        _detect_board()
+    except ImportError:
+        return False
+    return True
+
+
+def _refine_available() -> bool:
+    try:
+        from sogdd.calib import refine_corners  # noqa: F401
     except ImportError:
         return False
     return True
@@ -181,6 +207,7 @@ def _sogdd_available() -> bool:
 
 METHODS: dict[str, Method] = {m.name: m for m in (
     Method("sogdd", "board", _sogdd, "sogdd.calib.detect_board"),
+    Method("opencv-refine", "board", _opencv_refine, "sogdd.calib.refine_corners"),
     Method("hr-grid", "board", _hr_grid),
     Method("opencv", "board", _opencv),
     Method("opencv-sb", "board", _opencv_sb),
@@ -192,6 +219,7 @@ METHODS: dict[str, Method] = {m.name: m for m in (
 
 _PROBES: dict[str, Callable[[], bool]] = {
     "sogdd": _sogdd_available,
+    "opencv-refine": _refine_available,
     "calib-targets": lambda: _has_module("calib_targets"),
     "chess-corners": lambda: _has_module("chess_corners"),
     "mrgingham": lambda: shutil.which("mrgingham") is not None,
