@@ -120,6 +120,19 @@ def test_a_board_size_that_contradicts_the_option(frames, tmp_path, capsys, stan
     assert "--board chessboard:9x6" in err
 
 
+def test_a_board_smaller_than_the_option(frames, tmp_path, capsys, monkeypatch):
+    """A detector that returns every view's whole 9x6 grid as a partial board of --board 10x7."""
+    fake = types.ModuleType("sogdd.calib.detect")
+    fake.detect_boards = lambda img, pattern=None: [Board(b.image_points, b.labels + 1)
+                                                    for b in _opencv_boards(img, (9, 6))]
+    monkeypatch.setitem(sys.modules, "sogdd.calib.detect", fake)
+    monkeypatch.setattr(sogdd.calib, "detect", fake, raising=False)
+    code, _, err = _run(capsys, frames, "--board", "chessboard:10x7", "--out", tmp_path / "o")
+    assert code == 2 and err.count("\n") == 1
+    assert "all 8 boards show exactly 9x6 inner corners; give --board chessboard:9x6" in err
+    assert not (tmp_path / "o").exists()
+
+
 def test_too_few_views(frames, tmp_path, capsys, stand_in):
     code, _, err = _run(capsys, frames / "f0.png", frames / "f1.png", "--board", "chessboard:9x6",
                         "--out", tmp_path / "o")
@@ -168,6 +181,9 @@ def test_sogdds_own_detector_end_to_end(frames, tmp_path, capsys):
     code, text, err = _run(capsys, frames, "--board", "chessboard:auto", "--out", tmp_path / "auto")
     assert code == 0, err
     assert abs(read_camera(tmp_path / "auto" / "camera.yaml")["camera_matrix"][0, 0] - 560.0) < 560 * 0.01
+    for wrong in ("8x5", "10x7"):
+        code, text, err = _run(capsys, frames, "--board", f"chessboard:{wrong}", "--out", tmp_path / wrong)
+        assert code == 2 and "contradicts the images" in err and "chessboard:9x6" in err, err
 
 
 def _opencv_charuco(img, board):

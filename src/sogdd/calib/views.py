@@ -24,7 +24,9 @@ import numpy as np
 
 from .board import Board
 
-__all__ = ["BoardSpec", "ViewResult", "check_detector", "detect_files", "detect_view", "parse_board"]
+__all__ = [
+    "BoardSpec", "ViewResult", "check_detector", "detect_files", "detect_view", "grid_dims", "parse_board",
+]
 
 _SYNTAX = ("expected chessboard:COLSxROWS (inner corners), chessboard:auto or "
            "charuco:COLSxROWS:MARKER:DICT (squares, marker/square ratio, OpenCV dictionary), "
@@ -158,20 +160,45 @@ def detect_view(path: str, spec: BoardSpec) -> ViewResult:
             s = wrong[0].size
             return ViewResult(str(path), (), size, seen=f"a board of {s[0]}x{s[1]} inner corners", other_size=s)
         if not boards:
-            return _what_else(str(path), img, size, detect)
+            return _what_else(str(path), img, size, spec.pattern, detect)
     return ViewResult(str(path), tuple(boards), size, seen="" if boards else "no board")
 
 
-def _what_else(path: str, img: np.ndarray, size, detect) -> ViewResult:
-    """No board of the given size: look for a board of any size, to say what the image shows."""
+def grid_dims(board: Board) -> tuple[int, int] | None:
+    """(columns, rows) of a board whose labels fill a whole rectangle, else None.
+
+    Examples
+    --------
+    >>> grid_dims(Board(np.zeros((6, 2)), [(i, j) for j in range(2) for i in range(3)]))
+    (3, 2)
+    """
+    lab = board.labels
+    if len(lab) == 0:
+        return None
+    w, h = (int(v) for v in lab.max(axis=0) - lab.min(axis=0) + 1)
+    return (w, h) if w * h == len(lab) else None
+
+
+def _what_else(path: str, img: np.ndarray, size, pattern, detect) -> ViewResult:
+    """No board of the given size: look for a board of any size, to say what the image shows.
+
+    A complete grid that does not fit in the pattern (in either orientation)
+    cannot be part of it: its size contradicts the pattern.
+    """
     others = [b for b in detect.detect_boards(img, None) if len(b)]
-    full = [b for b in others if b.size is not None]
-    if full:
-        s = full[0].size
-        return ViewResult(path, (), size, seen=f"a board of {s[0]}x{s[1]} inner corners", other_size=tuple(s))
+    for b in others:
+        dims = b.size if b.size is not None else grid_dims(b)
+        if dims is not None and not _fits(dims, pattern):
+            return ViewResult(path, (), size, seen=f"a board of {dims[0]}x{dims[1]} inner corners",
+                              other_size=tuple(dims))
     if others:
         return ViewResult(path, (), size, seen=f"a partial board ({max(len(b) for b in others)} corners)")
     return ViewResult(path, (), size, seen="no board")
+
+
+def _fits(dims, pattern) -> bool:
+    (w, h), (c, r) = dims, pattern
+    return (w <= c and h <= r) or (w <= r and h <= c)
 
 
 def check_detector(spec: BoardSpec) -> None:

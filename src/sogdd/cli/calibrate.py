@@ -110,6 +110,21 @@ def _no_board(results, spec) -> None:
     raise ValueError(f"no board ({spec}) in any of the {len(good)} image(s): {seen}{more}")
 
 
+def _check_smaller(results, spec) -> None:
+    """Every board a whole grid of one same size, smaller than --board: the size was miscounted
+    (partial views of a larger board would not all show the same whole rectangle)."""
+    from ..calib.views import grid_dims
+
+    boards = [b for r in results for b in r.boards]
+    if spec.pattern is None or len(boards) < 3 or any(b.size is not None for b in boards):
+        return
+    dims = {grid_dims(b) for b in boards}
+    if len(dims) == 1 and None not in dims:
+        w, h = dims.pop()
+        raise ValueError(f"--board {spec} contradicts the images: all {len(boards)} boards show exactly "
+                         f"{w}x{h} inner corners; give --board chessboard:{w}x{h} (inner corners, not squares)")
+
+
 def run(args: argparse.Namespace) -> int:
     from ..calib.calibrate import calibrate
     from ..calib.outputs import FILES, write_calibration
@@ -137,6 +152,7 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(f"none of the {len(results)} image(s) could be read")
     if not any(r.boards for r in results):
         _no_board(results, spec)
+    _check_smaller(results, spec)
     boards, names, files = _views(results)
     size = _image_size(results)
     cal = calibrate(boards, size, square=args.square, model=args.model, names=names, reject=args.reject,
