@@ -8,7 +8,9 @@ The steps (:func:`detect_boards`):
 2. boards grown from seeds by prediction (:mod:`sogdd.calib.lattice`), strongest
    seed first, each corner used by one board at most;
 3. every corner refined at full resolution with a window of half its local cell
-   (:func:`sogdd.calib.refine_corners`); a corner whose refinement fails is dropped;
+   (:func:`sogdd.calib.refine_corners`); a corner whose refinement fails, or whose
+   window is far less point-symmetric than the board's others (:data:`ASYMMETRY`;
+   an occluder, the frame's edge), is dropped;
 4. the check: each corner must be predicted by a homography of its neighbours
    within :data:`CHECK_TOL` of a cell (:func:`sogdd.calib.lattice.check`); a corner
    that is not is dropped, twice over;
@@ -55,6 +57,10 @@ __all__ = ["detect_board", "detect_boards"]
 
 #: leave-one-out prediction error allowed for a refined corner, in cells
 CHECK_TOL = 0.12
+#: a refined corner is dropped when its asymmetry ``1 - quality`` exceeds this multiple of the board's median
+ASYMMETRY = 10.0
+#: ... unless it is below this (a board without noise has a median near 0)
+MIN_ASYMMETRY = 0.002
 _ROT = [np.array([[1, 0], [0, 1]]), np.array([[0, -1], [1, 0]]), np.array([[-1, 0], [0, -1]]),
         np.array([[0, 1], [-1, 0]])]
 
@@ -70,6 +76,18 @@ def _check_pattern(pattern: object) -> tuple[int, int] | None:
     if not ok:
         raise ValueError(f"pattern must be two integers >= 2 (inner corners), got {pattern!r}")
     return int(c), int(r)
+
+
+def _symmetric(quality: np.ndarray) -> np.ndarray:
+    """The corners whose asymmetry ``1 - quality`` is within :data:`ASYMMETRY` times the board's median.
+
+    An occluder, a window cut by the frame or a corner that is not the board's
+    breaks the point symmetry; noise alone leaves ``1 - quality`` near its median.
+    """
+    asym = 1.0 - quality
+    if len(asym) == 0:
+        return np.zeros(0, dtype=bool)
+    return (quality > 0) & (asym <= max(ASYMMETRY * float(np.median(asym)), MIN_ASYMMETRY))
 
 
 def _local_cells(xy: np.ndarray, labels: np.ndarray) -> np.ndarray:
@@ -148,7 +166,7 @@ def _finish(grey: np.ndarray, xc: XCorners, lat: Lattice, pattern: tuple[int, in
     if refine:
         half = half_widths(xy, None, _local_cells(xy, labels))
         xy, quality = refine_grey(grey, xy, half, half.astype(np.float64))
-        keep = quality > 0
+        keep = _symmetric(quality)
         idx, labels, xy, quality = idx[keep], labels[keep], xy[keep], quality[keep]
     for _ in range(2):
         if len(xy) < min_corners:
@@ -175,13 +193,12 @@ def _boards(grey: np.ndarray, xc: XCorners, pattern: tuple[int, int] | None, min
     nb, dist = ray_neighbours(xc, tree)
     free = np.ones(len(xc), dtype=bool)
     out: list[Board] = []
-    limit = max(pattern) if pattern is not None else None
     for s in seeds(xc, nb, dist):
         if len(out) >= max_boards:
             break
         if not free[s] or not free[nb[s]].all():
             continue
-        lat = grow(xc, int(s), nb, free, tree, limit=limit)
+        lat = grow(xc, int(s), nb, free, tree)  # whole: a part of a larger grid is no board of the pattern
         if len(lat) < min_corners:
             free[lat.index] = True
             free[s] = False  # not a seed again

@@ -27,7 +27,7 @@ which keeps the time per corner bounded.
 
 A point that would move farther than ``max_shift`` (default: the window's
 half-width), or whose normal matrix is singular, keeps its start and gets
-quality 0.
+quality 0. Near the image's edge the window shrinks to stay inside it.
 """
 
 from __future__ import annotations
@@ -296,6 +296,9 @@ def refine_corners(image: np.ndarray, points: object, *, window: int | tuple[int
 def refine_grey(grey: np.ndarray, pts: np.ndarray, half: np.ndarray, shift: np.ndarray,
                 iterations: int = 20) -> tuple[np.ndarray, np.ndarray]:
     """:func:`refine_corners` on a validated grey image with per-point half-widths and shift bounds."""
+    H, W = grey.shape
+    room = np.floor(np.min(np.c_[pts, W - 1 - pts[:, 0], H - 1 - pts[:, 1]], axis=1)) - 2  # and the gradient
+    half = np.maximum(np.minimum(half, room), 1).astype(np.int64)  # the window stays inside the image
     stride = np.maximum(1, -(-half // MAX_HALF)).astype(np.int64)
     out = np.empty_like(pts)
     quality = np.zeros(len(pts))
