@@ -43,7 +43,8 @@ def frames(tmp_path_factory):
 
 def _opencv_boards(img, pattern=None):
     for size in [pattern] if pattern is not None else SIZES:
-        ok, c = cv2.findChessboardCorners(img, size)
+        flags = cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_FAST_CHECK
+        ok, c = cv2.findChessboardCorners(img, size, flags=flags)
         if ok:
             crit = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 40, 1e-3)
             c = cv2.cornerSubPix(img, c, (5, 5), (-1, -1), crit)
