@@ -5,6 +5,7 @@ A client of the core (:mod:`sogdd.detector` and its stages); the core never impo
 
 from .board import Board
 from .calibrate import Calibration, CrossValidation, ProjectionDifference, calibrate, projection_difference
+from .detect import detect_board, detect_boards
 from .refine import refine_corners
 
 __all__ = [
@@ -13,6 +14,8 @@ __all__ = [
     "CrossValidation",
     "ProjectionDifference",
     "calibrate",
+    "detect_board",
+    "detect_boards",
     "projection_difference",
     "refine_corners",
 ]
