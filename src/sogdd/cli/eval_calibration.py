@@ -51,6 +51,8 @@ def evaluate(args, argv_text: str) -> dict:
 
     if args.draws < 1:
         raise ValueError(f"--draws must be >= 1, got {args.draws}")
+    if args.views is not None and args.views < 3:
+        raise ValueError(f"--views must be >= 3 (a calibration needs 3 views), got {args.views}")
     seqs = sequences(_names(args.sequences), quick=args.quick)
     methods, notes = availability(method_names(args.methods))
     real_root = None if args.no_real else data_root(args.data)
@@ -60,11 +62,12 @@ def evaluate(args, argv_text: str) -> dict:
         notes.append("real photos skipped: no $SOGDD_DATA/calibration (pass --data)")
     say = reporter(args)
     t0 = time.perf_counter()
-    rows = run_sequences(seqs, methods, draws=args.draws, progress=say)
+    rows = run_sequences(seqs, methods, draws=args.draws, views=args.views, progress=say)
     real = run_real(real_root, methods, progress=say) if real_root is not None else []
     if real_root is not None and "mrgingham" in methods:
         notes.append("mrgingham reads square grids only: not run on the 6 x 4 real boards")
     return {"version": __version__, "command": argv_text, "quick": bool(args.quick), "draws": args.draws,
+            "views": args.views,
             "seconds": round(time.perf_counter() - t0, 1), "methods": methods, "notes": notes,
             "sequences": {s.name: s.note for s in seqs}, "synthetic": rows, "real": real}
 
@@ -97,6 +100,8 @@ def register_calibration(eval_subparsers) -> None:
     c.add_argument("--sequences", metavar="A,B", help="only these sequences [default: all]")
     c.add_argument("--methods", metavar="A,B", help="only these methods [default: all]")
     c.add_argument("--draws", type=int, default=1, help="noise draws per view")
+    c.add_argument("--views", type=int, metavar="N",
+                   help="only the first N views of each sequence (cut views kept in proportion) [default: all]")
     c.add_argument("--data", metavar="DIR", help="calibration photos [default: $SOGDD_DATA/calibration]")
     c.add_argument("--no-real", action="store_true", help="skip the real calibration photos")
     add_output_arguments(c, "calibration.json, calibration.md and calibration.png")

@@ -126,15 +126,19 @@ class _Pool:
                 "views_used": round(float(a[:, 3].mean()), 1), "notes": notes}
 
 
-def run_sequences(seqs: list[Sequence], methods: list[str], *, draws: int = 1,
+def run_sequences(seqs: list[Sequence], methods: list[str], *, draws: int = 1, views: int | None = None,
                   progress: Callable[[str], None] | None = None) -> list[dict]:
-    """Run ``methods`` on every view and noise draw of ``seqs``: one row per (sequence, method)."""
+    """Run ``methods`` on every view (the first ``views`` of each) and noise draw of ``seqs``.
+
+    One row per (sequence, method). With ``views``, a ``partial`` sequence keeps
+    its cut views (the last ones) in proportion.
+    """
     rows = []
     for seq in seqs:
         pools = {m: _Pool() for m in methods}
         pattern = seq.target.pattern_size
         obj = seq.target.object_points()
-        for v, (rvec, tvec) in enumerate(seq.poses()):
+        for v, (rvec, tvec) in _chosen(seq, views):
             clean = render_scene(seq.camera, seq.target, rvec, tvec, blur=seq.blur, falloff=seq.falloff)
             truth = seq.camera.project(obj, rvec, tvec)
             inside = in_frame(truth, seq.camera.size, 4.0)
@@ -152,11 +156,22 @@ def run_sequences(seqs: list[Sequence], methods: list[str], *, draws: int = 1,
             if progress:
                 progress(f"{seq.name}: view {v + 1}/{seq.n_views}")
         for m in methods:
-            row = {"sequence": seq.name, "method": m, "kind": METHODS[m].kind, "views": seq.n_views,
-                   "draws": draws}
+            row = {"sequence": seq.name, "method": m, "kind": METHODS[m].kind,
+                   "views": len(_chosen(seq, views)), "draws": draws}
             row.update(pools[m].summary(seq, METHODS[m].kind))
             rows.append(row)
     return rows
+
+
+def _chosen(seq: Sequence, views: int | None) -> list[tuple[int, tuple[np.ndarray, np.ndarray]]]:
+    """``(index, pose)`` of the views to run: all, or ``views`` of them, full and cut ones in proportion."""
+    poses = list(enumerate(seq.poses()))
+    if views is None or views >= len(poses):
+        return poses
+    n_cut = int(round(seq.partial * seq.n_views))
+    full, cut = poses[:len(poses) - n_cut], poses[len(poses) - n_cut:]
+    k_cut = int(round(views * n_cut / len(poses)))
+    return full[:views - k_cut] + cut[:k_cut]
 
 
 # ---------------------------------------------------------------------------------------------
