@@ -151,3 +151,15 @@ def test_real_photos_scored():
     assert [r["method"] for r in rows] == ["opencv"]  # mrgingham: square boards only
     r = rows[0]
     assert r["boards"] == 1 and r["matched"] == 24 and r["label_distance"] < 0.5
+
+
+def test_views_option_keeps_cut_views_in_proportion(capsys):
+    from sogdd.evaluation.calibration.protocol import _chosen
+    from sogdd.evaluation.calibration.sequences import SEQUENCES
+
+    seq = SEQUENCES["partial"]  # 15 views, the last 6 cut by the frame
+    idx = [i for i, _ in _chosen(seq, 5)]
+    assert idx == [0, 1, 2, 9, 10]
+    assert len(_chosen(seq, None)) == 15 and len(_chosen(seq, 40)) == 15
+    assert main(["eval", "calibration", "--quick", "--no-real", "--views", "2"]) == 2
+    assert "--views must be >= 3" in capsys.readouterr().err
