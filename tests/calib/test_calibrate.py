@@ -215,3 +215,17 @@ def test_too_few_views_says_why_the_others_were_left_out():
     boards[2] = Board(boards[2].image_points[:5], LABELS[:5])
     with pytest.raises(ValueError, match=r"1 more\); rejected: too few corners: 1"):
         calibrate(boards + [None], SIZE)
+
+
+def test_rejection_never_leaves_a_view_with_too_few_corners():
+    """At the fewest views, a small view's outliers stay rather than leave it under min_corners."""
+    boards = _boards(3, noise=0.03, seed=13)
+    keep = (LABELS[:, 0] < 4) & (LABELS[:, 1] < 2)  # 8 corners
+    pts = boards[2].image_points[keep].copy()
+    pts[[0, 3, 5]] += [[3.0, 0.0], [0.0, -3.0], [2.5, 2.5]]
+    boards[2] = Board(pts, LABELS[keep])
+    cal = calibrate(boards, SIZE, min_views=3)
+    assert cal.view_used.all() and cal.corner_used[2].sum() >= 6
+    more = _boards(5, noise=0.03, seed=14)
+    cal = calibrate(boards + more, SIZE, min_views=3)
+    assert not cal.view_used[2] and cal.reasons[2]  # with views to spare, the view goes as a whole

@@ -222,14 +222,22 @@ def _reject_view(st: _State, res, limit_c: float, k: float, floor: float, min_vi
     return limit_v
 
 
-def _reject_corners(st: _State, res, limit_c: float) -> int:
+def _reject_corners(st: _State, res, limit_c: float, min_views: int, min_corners: int) -> int:
     """Mark the used views' corners beyond ``limit_c`` rejected and re-admit those back within it
     (a gross outlier drags its view's pose, and with it its neighbours, until it is gone);
-    return how many changed."""
+    return how many changed. A view left with fewer than ``min_corners`` goes as a whole
+    (while more than ``min_views`` remain; else its corners stay)."""
     n = 0
     for v in np.flatnonzero(st.view_ok):
         r = np.hypot(*res[v].T)
         ok = r <= limit_c
+        if ok.sum() < min_corners:
+            if st.view_ok.sum() > min_views:
+                st.view_ok[v] = False
+                st.reasons[v] = (f"too few corners left after rejection ({int(ok.sum())} < {min_corners} "
+                                 f"within {limit_c:.3g} px)")
+                n += 1
+            continue
         n += int(np.sum(ok != st.corner_ok[v]))
         st.corner_ok[v] = ok
         st.corner_reasons[v] = {int(c): f"residual {r[c]:.3g} px beyond the limit {limit_c:.3g} px"
@@ -252,7 +260,7 @@ def _iterate(st: _State, k: float, floor: float, min_views: int, min_corners: in
         thresholds = {"corner": limit_c, "view_rms": limit_v}
         if st.view_ok.sum() < n_views:
             continue
-        if _reject_corners(st, res, limit_c) == 0:
+        if _reject_corners(st, res, limit_c, min_views, min_corners) == 0:
             return idx, fit, res, thresholds
     idx, fit = _solve(st)
     return idx, fit, _all_residuals(st, idx, fit), thresholds
