@@ -138,7 +138,8 @@ def run_sequences(seqs: list[Sequence], methods: list[str], *, draws: int = 1, v
         pools = {m: _Pool() for m in methods}
         pattern = seq.target.pattern_size
         obj = seq.target.object_points()
-        for v, (rvec, tvec) in _chosen(seq, views):
+        chosen = _chosen(seq, views)
+        for done, (v, (rvec, tvec)) in enumerate(chosen):
             clean = render_scene(seq.camera, seq.target, rvec, tvec, blur=seq.blur, falloff=seq.falloff)
             truth = seq.camera.project(obj, rvec, tvec)
             inside = in_frame(truth, seq.camera.size, 4.0)
@@ -154,10 +155,10 @@ def run_sequences(seqs: list[Sequence], methods: list[str], *, draws: int = 1, v
                     else:
                         pool.boards.setdefault(d, [])
             if progress:
-                progress(f"{seq.name}: view {v + 1}/{seq.n_views}")
+                progress(f"{seq.name}: view {done + 1}/{len(chosen)}")
         for m in methods:
             row = {"sequence": seq.name, "method": m, "kind": METHODS[m].kind,
-                   "views": len(_chosen(seq, views)), "draws": draws}
+                   "views": len(chosen), "draws": draws}
             row.update(pools[m].summary(seq, METHODS[m].kind))
             rows.append(row)
     return rows
