@@ -179,11 +179,19 @@ def _summary(args, cal, out: Path, main_files: list[str], written, failed) -> No
                     "rms": cal.rms, "views_used": cal.n_used, "views": len(cal.names),
                     "cross_validation_mean": None if cv is None else cv.mean,
                     "verdict": [{"level": lv, "text": t} for lv, t in findings],
+                    "rejected": {n: r for n, r, u in zip(cal.names, cal.reasons, cal.view_used) if not u},
                     "unreadable": [r.path for r in failed]})
         return
     lines = [f"{cal.model}: fx {K[0, 0]:.2f} fy {K[1, 1]:.2f} cx {K[0, 2]:.2f} cy {K[1, 2]:.2f}, "
              f"RMS {cal.rms:.4f} px, {cal.n_used} of {len(cal.names)} views used"
              + (f", cross-validation {cv.mean:.3f} px" if cv is not None else "")]
     lines += [f"  {lv}: {t}" for lv, t in findings]
+    rejected = [(n, r) for n, r, u in zip(cal.names, cal.reasons, cal.view_used) if not u]
+    lines += [f"  rejected {n}: {r}" for n, r in rejected[:5]]
+    if len(rejected) > 5:
+        lines.append(f"  ... and {len(rejected) - 5} more rejected views (views.csv)")
+    n_bad = sum(len(d) for d, u in zip(cal.corner_reasons, cal.view_used) if u)
+    if n_bad:
+        lines.append(f"  {n_bad} corner(s) rejected in the used views (corners.csv, used = 0)")
     lines.append(f"written to {out}/: {', '.join(main_files)} ...")
     sys.stdout.write("\n".join(lines) + "\n")
