@@ -229,3 +229,15 @@ def test_rejection_never_leaves_a_view_with_too_few_corners():
     more = _boards(5, noise=0.03, seed=14)
     cal = calibrate(boards + more, SIZE, min_views=3)
     assert not cal.view_used[2] and cal.reasons[2]  # with views to spare, the view goes as a whole
+
+
+def test_projection_difference_within_a_polygon():
+    """Cameras that differ in k3 agree near the centre and part far from it."""
+    d3 = D_TRUE + [0, 0, 0, 0, 0.5]
+    poly = np.array([[200, 150], [440, 150], [440, 330], [200, 330]], float)
+    d = projection_difference((K_TRUE, D_TRUE), (K_TRUE, d3), SIZE, within=poly)
+    assert 0.1 < d.within.mean() < 0.3
+    assert d.mean_within < 0.1 * d.mean and d.max_within < 0.1 * d.max
+    assert np.all(d.distance[d.within] <= d.max_within)
+    with pytest.raises(ValueError, match="polygon of at least 3 points"):
+        projection_difference((K_TRUE, D_TRUE), (K_TRUE, d3), SIZE, within=poly[:2])

@@ -25,6 +25,8 @@ def test_verdict_follows_the_coverage():
     spread = calibrate(_boards(14, noise=0.05, seed=21, spread=1.6), SIZE)
     assert coverage(centre)[2] < coverage(spread)[2]
     assert "cover only the centre" in _texts(centre)
+    assert "the model extrapolates there" in _texts(centre)  # the halves part beyond the corners
+    assert centre.cross_validation.mean_within < 0.5 < centre.cross_validation.max
     assert "cover only the centre" not in _texts(spread)
     assert verdict(spread)[0][0] == "ok" and "looks sound" in verdict(spread)[0][1]
 

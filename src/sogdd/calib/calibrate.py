@@ -283,7 +283,10 @@ def _cross_validate(st: _State, idx: np.ndarray, min_views: int):
                             for n, (o, i) in enumerate(zip(obj, img))])
         fits.append((K, D, float(np.sqrt(np.mean(np.sum(r * r, axis=1))))))
     (Ka, Da, ra), (Kb, Db, rb) = fits
-    diff = projection_difference((Ka, Da, st.model), (Kb, Db, st.model), st.size, fit_rotation=True)
+    used = np.concatenate([st.boards[v].image_points[st.corner_ok[v]] for v in idx]).astype(np.float32)
+    hull = cv2.convexHull(used).reshape(-1, 2)
+    diff = projection_difference((Ka, Da, st.model), (Kb, Db, st.model), st.size, fit_rotation=True,
+                                 within=hull if len(hull) >= 3 else None)
     cv = CrossValidation(diff, tuple(int(v) for v in halves[0]), tuple(int(v) for v in halves[1]),
                          Ka, Da, Kb, Db, ra, rb)
     return cv, ""

@@ -19,7 +19,9 @@ class CrossValidation:
     ----------
     difference : ProjectionDifference
         Camera A against camera B over the image (:func:`projection_difference`
-        with ``fit_rotation=True``: the halves' camera frames are free to differ by a rotation).
+        with ``fit_rotation=True``: the halves' camera frames are free to differ
+        by a rotation, fitted inside the convex hull of the used corners;
+        ``mean_within``/``max_within`` are the statistics there).
     views_a, views_b : tuple of int
         Indices of the views in each half.
     K_a, dist_a, K_b, dist_b : ndarray
@@ -47,6 +49,16 @@ class CrossValidation:
     def max(self) -> float:
         """Largest projection difference between the halves (px)."""
         return self.difference.max
+
+    @property
+    def mean_within(self) -> float:
+        """Mean projection difference inside the hull of the used corners (px)."""
+        return self.difference.mean_within
+
+    @property
+    def max_within(self) -> float:
+        """Largest projection difference inside the hull of the used corners (px)."""
+        return self.difference.max_within
 
 
 @dataclass(frozen=True)

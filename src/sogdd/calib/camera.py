@@ -166,6 +166,10 @@ class ProjectionDifference:
         The distance at each grid point; NaN where camera A's ray is invalid.
     valid_fraction : float
         Share of grid points where both cameras' rays are defined.
+    within : (len(ys), len(xs)) bool or None
+        Grid points inside the ``within`` polygon (None without one).
+    mean_within, max_within : float
+        Mean and largest distance inside that polygon (NaN without one).
     """
 
     mean: float
@@ -174,6 +178,9 @@ class ProjectionDifference:
     ys: np.ndarray
     distance: np.ndarray
     valid_fraction: float
+    within: np.ndarray | None = None
+    mean_within: float = float("nan")
+    max_within: float = float("nan")
 
 
 def _camera_parts(cam) -> tuple[np.ndarray, np.ndarray, str]:
@@ -199,7 +206,8 @@ def _camera_parts(cam) -> tuple[np.ndarray, np.ndarray, str]:
 
 
 def projection_difference(cam_a, cam_b, image_size: tuple[int, int], *, grid: int = 64,
-                          margin: float = 0.0, fit_rotation: bool = False) -> ProjectionDifference:
+                          margin: float = 0.0, fit_rotation: bool = False,
+                          within: np.ndarray | None = None) -> ProjectionDifference:
     """The distance between where two cameras project the same rays, over the image.
 
     Each point ``p`` of a ``grid`` x ``grid * h / w`` grid of pixels is
@@ -210,7 +218,10 @@ def projection_difference(cam_a, cam_b, image_size: tuple[int, int], *, grid: in
     ``fit_rotation`` the rotation :math:`R` minimising the sum of squared
     differences is fitted first (as mrcal does): two calibrations whose
     principal points differ, each with its views' poses rotated to match, see
-    the same rays, and only what no rotation explains is left.
+    the same rays, and only what no rotation explains is left. With a
+    ``within`` polygon (e.g. the hull of the calibration's corners) the rotation
+    is fitted to the grid points inside it, and the mean and max there are
+    reported too: outside the data a model extrapolates, often wildly.
 
     Parameters
     ----------
@@ -223,6 +234,8 @@ def projection_difference(cam_a, cam_b, image_size: tuple[int, int], *, grid: in
         Keep the grid this many px inside the image border.
     fit_rotation : bool
         Fit the rotation between the two camera frames (see above).
+    within : (M, 2) array, optional
+        A polygon in pixel coordinates (x, y).
 
     Examples
     --------
@@ -242,16 +255,35 @@ def projection_difference(cam_a, cam_b, image_size: tuple[int, int], *, grid: in
     gx, gy = np.meshgrid(xs, ys)
     px = np.stack([gx.ravel(), gy.ravel()], axis=1)
     rays, ok = undistort(px, Ka, da, ma)
+    inside = _inside(px, within)
     d = np.full(len(px), np.nan)
     if ok.any():
         pts = np.c_[rays[ok], np.ones(ok.sum())]
-        rvec = _best_rotation(pts, px[ok], Kb, db, mb) if fit_rotation else None
+        fit = inside[ok] if within is not None and inside[ok].sum() >= 3 else np.ones(ok.sum(), bool)
+        rvec = _best_rotation(pts[fit], px[ok][fit], Kb, db, mb) if fit_rotation else None
         pb = project(pts, Kb, db, mb, rvec)
         d[ok] = np.hypot(*(pb - px[ok]).T)
+    mean, mx = _stats(d)
+    shape = gx.shape
+    if within is None:
+        return ProjectionDifference(mean, mx, xs, ys, d.reshape(shape), float(np.isfinite(d).mean()))
+    mean_in, max_in = _stats(d[inside])
+    return ProjectionDifference(mean, mx, xs, ys, d.reshape(shape), float(np.isfinite(d).mean()),
+                                inside.reshape(shape), mean_in, max_in)
+
+
+def _stats(d: np.ndarray) -> tuple[float, float]:
     good = np.isfinite(d)
-    mean = float(d[good].mean()) if good.any() else float("nan")
-    mx = float(d[good].max()) if good.any() else float("nan")
-    return ProjectionDifference(mean, mx, xs, ys, d.reshape(gx.shape), float(good.mean()))
+    return (float(d[good].mean()), float(d[good].max())) if good.any() else (float("nan"), float("nan"))
+
+
+def _inside(px: np.ndarray, polygon: np.ndarray | None) -> np.ndarray:
+    if polygon is None:
+        return np.ones(len(px), bool)
+    poly = np.asarray(polygon, dtype=np.float32).reshape(-1, 1, 2)
+    if len(poly) < 3:
+        raise ValueError(f"within must be a polygon of at least 3 points, got {len(poly)}")
+    return np.array([cv2.pointPolygonTest(poly, (float(x), float(y)), False) >= 0 for x, y in px])
 
 
 def _best_rotation(rays: np.ndarray, px: np.ndarray, K, dist, model) -> np.ndarray:

@@ -69,7 +69,8 @@ def calibration_dict(cal: Calibration) -> dict:
         "views_used": cal.n_used,
         "corners_used": cal.n_corners_used,
         "cross_validation": None if cv is None else {
-            "mean": _num(cv.mean), "max": _num(cv.max), "rms_a": _num(cv.rms_a), "rms_b": _num(cv.rms_b),
+            "mean": _num(cv.mean), "max": _num(cv.max), "mean_within": _num(cv.mean_within),
+            "max_within": _num(cv.max_within), "rms_a": _num(cv.rms_a), "rms_b": _num(cv.rms_b),
             "views_a": [cal.names[v] for v in cv.views_a], "views_b": [cal.names[v] for v in cv.views_b],
             "camera_matrix_a": cv.K_a.tolist(), "distortion_a": cv.dist_a.tolist(),
             "camera_matrix_b": cv.K_b.tolist(), "distortion_b": cv.dist_b.tolist(),
@@ -129,7 +130,9 @@ def write_camera_yaml(cal: Calibration, path: str | os.PathLike) -> Path:
     ``distortion_coefficients`` (1xN, OpenCV's order for the model),
     ``distortion_names``, ``std_intrinsics`` (fx, fy, cx, cy, then the
     coefficients), ``rms``, ``views_used``, ``views_total``, ``corners_used``,
-    ``square``, ``cross_validation_mean``/``_max`` (px, -1 without one),
+    ``square``, ``cross_validation_mean``/``_max`` over the image and
+    ``cross_validation_mean_within``/``_max_within`` inside the hull of the
+    used corners (px, -1 without a cross-validation),
     ``sogdd_version``. The file is read back before it is renamed into place.
     """
     path = Path(path)
@@ -153,6 +156,8 @@ def write_camera_yaml(cal: Calibration, path: str | os.PathLike) -> Path:
         fs.write("square", float(cal.square))
         fs.write("cross_validation_mean", -1.0 if cv is None else float(cv.mean))
         fs.write("cross_validation_max", -1.0 if cv is None else float(cv.max))
+        fs.write("cross_validation_mean_within", -1.0 if cv is None else float(cv.mean_within))
+        fs.write("cross_validation_max_within", -1.0 if cv is None else float(cv.max_within))
         fs.write("sogdd_version", __version__)
         fs.release()
         back = read_camera(tmp)

@@ -83,9 +83,11 @@ def verdict(cal: Calibration) -> list[tuple[str, str]]:
     """Plain-words findings on a calibration, each ``(level, text)`` with level "ok", "warn" or "bad".
 
     The rules: fewer than 10 used views is few; RMS above 0.5 px is high (0.2
-    px: fair); a mean cross-validation difference above 2 px is large (0.5
-    px: fair); corners in fewer than half of the outer ring of an 8 x 6 grid of
-    the frame cover "only the centre"; no view tilting the board 15 degrees or
+    px: fair); a mean cross-validation difference inside the corners' hull
+    above 2 px is large (0.5 px: fair), and outside it a difference above
+    both 2 px and 3 times the largest inside is extrapolation; corners in
+    fewer than half of the outer ring of an 8 x 6 grid of the frame cover
+    "only the centre"; no view tilting the board 15 degrees or
     more leaves the focal length weak; more than a fifth of the views rejected
     is reported. Without any finding the verdict is one "ok".
 
@@ -116,7 +118,7 @@ def verdict(cal: Calibration) -> list[tuple[str, str]]:
     if not any(level != "ok" for level, _ in out):
         cv = cal.cross_validation
         out.insert(0, ("ok", f"the calibration looks sound: {n} views, RMS {cal.rms:.3f} px"
-                             + (f", halves agree to {cv.mean:.2f} px" if cv is not None else "")))
+                             + (f", halves agree to {_cv_inside(cv)[0]:.2f} px" if cv is not None else "")))
     return out
 
 
@@ -140,14 +142,26 @@ def _cross_validation_findings(cal: Calibration) -> list[tuple[str, str]]:
     if cv is None:
         return [("warn", (cal.notes[0] if cal.notes else "no cross-validation")
                  + ": the calibration's stability is unknown")]
-    if cv.mean > _CV_LARGE:
-        return [("bad", f"large cross-validation difference ({cv.mean:.2f} px mean, {cv.max:.2f} max): the two "
-                        "halves of the views disagree; the model may not fit the lens (try the rational or "
-                        "fisheye model) or more views are needed")]
-    if cv.mean > _CV_FAIR:
-        return [("warn", f"fair cross-validation difference ({cv.mean:.2f} px mean, {cv.max:.2f} max): more "
-                         "views, tilted and near the edges, would pin the camera down")]
-    return []
+    mean, mx = _cv_inside(cv)
+    out = []
+    if mean > _CV_LARGE:
+        out.append(("bad", f"large cross-validation difference ({mean:.2f} px mean, {mx:.2f} max where the "
+                           "corners are): the two halves of the views disagree; the model may not fit the lens "
+                           "(try the rational or fisheye model) or more views are needed"))
+    elif mean > _CV_FAIR:
+        out.append(("warn", f"fair cross-validation difference ({mean:.2f} px mean, {mx:.2f} max where the "
+                            "corners are): more views, tilted and near the edges, would pin the camera down"))
+    if np.isfinite(cv.max) and cv.max > max(_CV_LARGE, 3 * mx):
+        out.append(("warn", f"outside the corners the halves differ by up to {cv.max:.3g} px: the model "
+                            "extrapolates there; do not trust it beyond the area the boards covered"))
+    return out
+
+
+def _cv_inside(cv) -> tuple[float, float]:
+    """The cross-validation's mean and max inside the corners' hull (whole image without one)."""
+    if np.isfinite(cv.mean_within):
+        return cv.mean_within, cv.max_within
+    return cv.mean, cv.max
 
 
 # --------------------------------------------------------------------------------------------------
@@ -216,9 +230,15 @@ def _cross_validation_figure(cal: Calibration, path: Path) -> bool:
     d = cv.difference
     w, h = cal.image_size
     fig, ax = plt.subplots(figsize=(8, 8 * h / w + 0.6))
-    im = ax.imshow(d.distance, extent=(d.xs[0], d.xs[-1], d.ys[-1], d.ys[0]), cmap="viridis")
+    top = max(2 * _cv_inside(cv)[1], 1e-3)  # the colours for the data's region; beyond it saturates
+    im = ax.imshow(d.distance, extent=(d.xs[0], d.xs[-1], d.ys[-1], d.ys[0]), cmap="viridis", vmin=0,
+                   vmax=min(top, float(np.nanmax(d.distance))))
     fig.colorbar(im, ax=ax, label="px")
-    ax.set_title(f"cross-validation: halves differ by {d.mean:.3f} px mean, {d.max:.3f} px max")
+    if d.within is not None:  # the corners' hull: the region the data supports
+        ax.contour(d.xs, d.ys, d.within.astype(float), levels=[0.5], colors="w", linewidths=1.5)
+    mean, mx = _cv_inside(cv)
+    ax.set_title(f"cross-validation: {mean:.3f} px mean, {mx:.3f} max inside the corners' hull (white);\n"
+                 f"whole frame {d.mean:.3f} mean, {d.max:.3g} max", fontsize=9)
     _save(fig, path)
     return True
 
@@ -336,7 +356,8 @@ def _html(cal: Calibration, title: str, thumbs: list[str], has_cv: bool) -> str:
     cv = cal.cross_validation
     summary = (f"{cal.model} model, {cal.image_size[0]}x{cal.image_size[1]}, {cal.n_used} of {len(cal.names)} "
                f"views and {cal.n_corners_used} corners used, RMS {cal.rms:.4f} px"
-               + (f", cross-validation {cv.mean:.3f} px mean / {cv.max:.3f} px max" if cv is not None else ""))
+               + (", cross-validation {:.3f} px mean / {:.3f} px max inside the corners' hull"
+                  .format(*_cv_inside(cv)) if cv is not None else ""))
     cards = []
     for v, (name, f) in enumerate(zip(cal.names, thumbs)):
         rms = cal.view_rms[v]

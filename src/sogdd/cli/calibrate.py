@@ -178,13 +178,15 @@ def _summary(args, cal, out: Path, main_files: list[str], written, failed) -> No
                     "fx": K[0, 0], "fy": K[1, 1], "cx": K[0, 2], "cy": K[1, 2], "dist": cal.dist.tolist(),
                     "rms": cal.rms, "views_used": cal.n_used, "views": len(cal.names),
                     "cross_validation_mean": None if cv is None else cv.mean,
+                    "cross_validation_mean_within": None if cv is None else cv.mean_within,
                     "verdict": [{"level": lv, "text": t} for lv, t in findings],
                     "rejected": {n: r for n, r, u in zip(cal.names, cal.reasons, cal.view_used) if not u},
                     "unreadable": [r.path for r in failed]})
         return
     lines = [f"{cal.model}: fx {K[0, 0]:.2f} fy {K[1, 1]:.2f} cx {K[0, 2]:.2f} cy {K[1, 2]:.2f}, "
              f"RMS {cal.rms:.4f} px, {cal.n_used} of {len(cal.names)} views used"
-             + (f", cross-validation {cv.mean:.3f} px" if cv is not None else "")]
+             + (f", cross-validation {cv.mean_within:.3f} px inside the corners ({cv.mean:.3g} over the frame)"
+                if cv is not None else "")]
     lines += [f"  {lv}: {t}" for lv, t in findings]
     rejected = [(n, r) for n, r, u in zip(cal.names, cal.reasons, cal.view_used) if not u]
     lines += [f"  rejected {n}: {r}" for n, r in rejected[:5]]
