@@ -49,11 +49,15 @@ def evaluate(args, argv_text: str) -> dict:
     from ..evaluation.calibration.protocol import availability, data_root, run_real, run_sequences
     from ..evaluation.calibration.sequences import sequences
 
+    if args.no_rendered and args.no_real:
+        raise ValueError("--no-rendered and --no-real leave nothing to run")
+    if args.merge and not args.out:
+        raise ValueError("--merge needs --out")
     if args.draws < 1:
         raise ValueError(f"--draws must be >= 1, got {args.draws}")
     if args.views is not None and args.views < 3:
         raise ValueError(f"--views must be >= 3 (a calibration needs 3 views), got {args.views}")
-    seqs = sequences(_names(args.sequences), quick=args.quick)
+    seqs = [] if args.no_rendered else sequences(_names(args.sequences), quick=args.quick)
     methods, notes = availability(method_names(args.methods))
     real_root = None if args.no_real else data_root(args.data)
     if real_root is not None and not real_root.is_dir():
@@ -78,7 +82,7 @@ def run_calibration(args) -> int:
     argv_text = "sogdd eval calibration" + "".join(f" {shlex.quote(a)}" for a in _argv_tail())
     res = evaluate(args, argv_text)
     if args.out:
-        write_results(res, Path(args.out))
+        write_results(res, Path(args.out), merge=args.merge)
     if args.json:
         print_json(res)
     else:
@@ -104,5 +108,9 @@ def register_calibration(eval_subparsers) -> None:
                    help="only the first N views of each sequence (cut views kept in proportion) [default: all]")
     c.add_argument("--data", metavar="DIR", help="calibration photos [default: $SOGDD_DATA/calibration]")
     c.add_argument("--no-real", action="store_true", help="skip the real calibration photos")
+    c.add_argument("--no-rendered", action="store_true", help="skip the rendered sequences (real photos only)")
     add_output_arguments(c, "calibration.json, calibration.md and calibration.png")
+    c.add_argument("--merge", action="store_true",
+                   help="add to the calibration.json already in --out (rows of the same sequence or photo set "
+                        "and method are replaced), so that sequences can run one command each")
     c.set_defaults(func=run_calibration)

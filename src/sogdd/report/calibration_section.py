@@ -16,7 +16,7 @@ from pathlib import Path
 
 from .tables import markdown_table
 
-__all__ = ["calibration_figure", "calibration_stage", "results_markdown", "write_results"]
+__all__ = ["calibration_figure", "calibration_stage", "merge_results", "results_markdown", "write_results"]
 
 _JSON = "calibration.json"
 _PNG = "calibration.png"
@@ -79,11 +79,43 @@ def results_markdown(res: dict) -> str:
     return "\n".join(out)
 
 
-def write_results(res: dict, out: str | Path) -> Path:
-    """Write ``calibration.json``, ``calibration.md`` and ``calibration.png`` into ``out``; the JSON's path."""
+def merge_results(old: dict, new: dict) -> dict:
+    """``new`` added to ``old``: rows of the same (sequence or set, method) replaced, the rest kept, in order.
+
+    The commands, notes and sequences of both are kept; ``seconds`` adds up.
+
+    Examples
+    --------
+    >>> a = {"command": "A", "synthetic": [{"sequence": "s", "method": "m", "v": 1}], "real": [], "seconds": 2}
+    >>> b = {"command": "B", "synthetic": [{"sequence": "s", "method": "m", "v": 2},
+    ...                                    {"sequence": "t", "method": "m", "v": 3}], "real": [], "seconds": 1}
+    >>> m = merge_results(a, b)
+    >>> [r["v"] for r in m["synthetic"]], m["commands"], m["seconds"]
+    ([2, 3], ['A', 'B'], 3)
+    """
+    out = dict(new)
+    for key, ident in (("synthetic", "sequence"), ("real", "set")):
+        rows = {(r[ident], r["method"]): r for r in old.get(key) or []}
+        for r in new.get(key) or []:
+            rows[(r[ident], r["method"])] = r
+        out[key] = list(rows.values())
+    out["commands"] = list(old.get("commands") or [old.get("command")]) + [new.get("command")]
+    out["notes"] = list(dict.fromkeys((old.get("notes") or []) + (new.get("notes") or [])))
+    out["sequences"] = {**(old.get("sequences") or {}), **(new.get("sequences") or {})}
+    out["seconds"] = (old.get("seconds") or 0) + (new.get("seconds") or 0)
+    return out
+
+
+def write_results(res: dict, out: str | Path, *, merge: bool = False) -> Path:
+    """Write ``calibration.json``, ``calibration.md`` and ``calibration.png`` into ``out``; the JSON's path.
+
+    ``merge``: add ``res`` to the ``calibration.json`` already there (:func:`merge_results`).
+    """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     path = out / _JSON
+    if merge and path.is_file():
+        res = merge_results(json.loads(path.read_text()), res)
     path.write_text(json.dumps(res, indent=1))
     (out / "calibration.md").write_text(results_markdown(res))
     if res.get("synthetic"):
@@ -139,7 +171,9 @@ def calibration_stage(page, runs: Path) -> None:
         return
     res = json.loads(path.read_text())
     page.md += [
-        f"Read from `{path}`, made by `{res.get('command', 'sogdd eval calibration')}` "
+        f"Read from `{path}`, made by "
+        + ", ".join(f"`{c}`" for c in res.get("commands") or [res.get("command", "sogdd eval calibration")])
+        + " "
         f"(sogdd {res.get('version', '?')}, {res.get('seconds', 0):.0f} s). Rendered views through an exactly "
         "known pinhole camera with k1, k2, p1, p2 (4 x 4 supersampled, blur, falloff, noise); corner error "
         "against the projected truth after each view's best label alignment; projection difference: the mean "
