@@ -5,6 +5,7 @@ A client of the core (:mod:`sogdd.detector` and its stages); the core never impo
 
 from .board import Board
 from .calibrate import Calibration, CrossValidation, ProjectionDifference, calibrate, projection_difference
+from .charuco import detect_charuco
 from .detect import detect_board, detect_boards
 from .refine import refine_corners
 
@@ -16,6 +17,7 @@ __all__ = [
     "calibrate",
     "detect_board",
     "detect_boards",
+    "detect_charuco",
     "projection_difference",
     "refine_corners",
 ]
