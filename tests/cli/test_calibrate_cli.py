@@ -196,9 +196,21 @@ def _opencv_charuco(img, board):
     return Board(corners.reshape(-1, 2), np.c_[ids % (nx - 1), ids // (nx - 1)], ids=ids)
 
 
-def test_charuco_board(tmp_path, capsys, monkeypatch):
-    """charuco:COLSxROWS:MARKER:DICT reaches the ChArUco detector (here OpenCV's) with that board."""
+@pytest.fixture(scope="module")
+def charuco_frames(tmp_path_factory):
+    """Six rendered 640x480 views of a ChArUco board of 5x7 squares, markers 0.7 of a square, DICT_5X5_100."""
     render = pytest.importorskip("sogdd.evaluation.calibration.render")
+    cam = render.Camera(K_TRUE, DIST, (640, 480))
+    board = cv2.aruco.CharucoBoard((5, 7), 1.0, 0.7, cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_5X5_100))
+    folder = tmp_path_factory.mktemp("charuco")
+    for k, (rv, tv) in enumerate(render.random_sequence(cam, render.ChessboardTarget(5, 7, 1.0), 6, seed=5)):
+        view = render.render_charuco(cam, board, rv, tv, blur=0.7, noise=1.0, rng=k)
+        cv2.imwrite(str(folder / f"c{k}.png"), view.image)
+    return folder
+
+
+def test_charuco_board(charuco_frames, tmp_path, capsys, monkeypatch):
+    """charuco:COLSxROWS:MARKER:DICT reaches the ChArUco detector (here OpenCV's) with that board."""
     fake = types.ModuleType("sogdd.calib.charuco")
     seen = []
 
@@ -209,13 +221,17 @@ def test_charuco_board(tmp_path, capsys, monkeypatch):
     fake.detect_charuco = detect_charuco
     monkeypatch.setitem(sys.modules, "sogdd.calib.charuco", fake)
     monkeypatch.setattr(sogdd.calib, "charuco", fake, raising=False)
-    cam = render.Camera(K_TRUE, DIST, (640, 480))
-    board = cv2.aruco.CharucoBoard((5, 7), 1.0, 0.7, cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_5X5_100))
-    for k, (rv, tv) in enumerate(render.random_sequence(cam, render.ChessboardTarget(5, 7, 1.0), 6, seed=5)):
-        view = render.render_charuco(cam, board, rv, tv, blur=0.7, noise=1.0, rng=k)
-        cv2.imwrite(str(tmp_path / f"c{k}.png"), view.image)
-    code, _, err = _run(capsys, tmp_path, "--board", "charuco:5x7:0.7:DICT_5X5_100", "--out", tmp_path / "o",
-                        "--no-report")
+    code, _, err = _run(capsys, charuco_frames, "--board", "charuco:5x7:0.7:DICT_5X5_100",
+                        "--out", tmp_path / "o", "--no-report")
     assert code == 0, err
     assert seen and all(s == (5, 7) for s in seen)
     assert abs(read_camera(tmp_path / "o" / "camera.yaml")["camera_matrix"][0, 0] - 560.0) < 560 * 0.02
+
+
+def test_sogdds_own_charuco_detector(charuco_frames, tmp_path, capsys):
+    pytest.importorskip("sogdd.calib.charuco", reason="sogdd's ChArUco detector is missing")
+    code, _, err = _run(capsys, charuco_frames, "--board", "charuco:5x7:0.7:DICT_5X5_100",
+                        "--out", tmp_path / "o", "--no-report")
+    assert code == 0, err
+    cam = read_camera(tmp_path / "o" / "camera.yaml")
+    assert abs(cam["camera_matrix"][0, 0] - 560.0) < 560 * 0.02 and cam["rms"] < 0.1
