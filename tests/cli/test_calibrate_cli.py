@@ -134,6 +134,24 @@ def test_a_board_smaller_than_the_option(frames, tmp_path, capsys, monkeypatch):
     assert not (tmp_path / "o").exists()
 
 
+def test_two_boards_in_one_image_are_two_views(frames, tmp_path, capsys, monkeypatch):
+    """Each board has its own pose: a second board in an image is the view NAME#2."""
+    def two(img, pattern=None):
+        (b,) = _opencv_boards(img, (9, 6))
+        left, right = b.labels[:, 0] < 4, b.labels[:, 0] >= 4
+        return [Board(b.image_points[left], b.labels[left]), Board(b.image_points[right], b.labels[right])]
+
+    fake = types.ModuleType("sogdd.calib.detect")
+    fake.detect_boards = two
+    monkeypatch.setitem(sys.modules, "sogdd.calib.detect", fake)
+    monkeypatch.setattr(sogdd.calib, "detect", fake, raising=False)
+    code, _, err = _run(capsys, frames, "--board", "chessboard:9x6", "--out", tmp_path / "o", "--no-report")
+    assert code == 0, err
+    views = list(csv.DictReader(open(tmp_path / "o" / "views.csv")))
+    assert [v["view"] for v in views[:2]] == ["f0.png", "f0.png#2"] and len(views) == 16
+    assert views[0]["corners_found"] == "24" and views[1]["corners_found"] == "30"
+
+
 def test_too_few_views(frames, tmp_path, capsys, stand_in):
     code, _, err = _run(capsys, frames / "f0.png", frames / "f1.png", "--board", "chessboard:9x6",
                         "--out", tmp_path / "o")
