@@ -163,3 +163,16 @@ def test_views_option_keeps_cut_views_in_proportion(capsys):
     assert len(_chosen(seq, None)) == 15 and len(_chosen(seq, 40)) == 15
     assert main(["eval", "calibration", "--quick", "--no-real", "--views", "2"]) == 2
     assert "--views must be >= 3" in capsys.readouterr().err
+
+
+def test_cli_merge_adds_sequences_to_one_result(tmp_path, capsys):
+    out = str(tmp_path / "cal")
+    base = ["eval", "calibration", "--quick", "--methods", "opencv", "--no-real", "--quiet", "--out", out]
+    assert main(base + ["--sequences", "sharp"]) == 0
+    assert main(base + ["--sequences", "partial", "--merge"]) == 0
+    res = json.loads((Path(out) / "calibration.json").read_text())
+    assert [r["sequence"] for r in res["synthetic"]] == ["sharp", "partial"]
+    assert len(res["commands"]) == 2 and "--merge" in res["commands"][1]
+    capsys.readouterr()
+    assert main(["eval", "calibration", "--quick", "--no-real", "--merge"]) == 2
+    assert "--merge needs --out" in capsys.readouterr().err

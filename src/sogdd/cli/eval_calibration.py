@@ -24,7 +24,6 @@ chess-corners``, ``apt-get install mrgingham``). Protocol:
 from __future__ import annotations
 
 import shlex
-import sys
 import time
 from pathlib import Path
 
@@ -79,8 +78,7 @@ def evaluate(args, argv_text: str) -> dict:
 def run_calibration(args) -> int:
     from ..report.calibration_section import results_markdown, write_results
 
-    argv_text = "sogdd eval calibration" + "".join(f" {shlex.quote(a)}" for a in _argv_tail())
-    res = evaluate(args, argv_text)
+    res = evaluate(args, command_text(args))
     if args.out:
         write_results(res, Path(args.out), merge=args.merge)
     if args.json:
@@ -90,9 +88,29 @@ def run_calibration(args) -> int:
     return 0
 
 
-def _argv_tail() -> list[str]:
-    argv = sys.argv[1:]
-    return argv[argv.index("calibration") + 1:] if "calibration" in argv else []
+def command_text(args) -> str:
+    """The command line that runs what ``args`` asks for (recorded in the results).
+
+    Examples
+    --------
+    >>> from argparse import Namespace
+    >>> command_text(Namespace(quick=True, sequences="sharp", methods=None, draws=1, views=None, data=None,
+    ...                        no_real=True, no_rendered=False, out="out dir", merge=False))
+    "sogdd eval calibration --quick --sequences sharp --no-real --out 'out dir'"
+    """
+    parts = ["sogdd", "eval", "calibration"] + (["--quick"] if getattr(args, "quick", False) else [])
+    for name in ("sequences", "methods", "draws", "views", "data"):
+        val = getattr(args, name, None)
+        if val is not None and not (name == "draws" and val == 1):
+            parts += [f"--{name}", str(val)]
+    for flag in ("no_real", "no_rendered"):
+        if getattr(args, flag, False):
+            parts.append("--" + flag.replace("_", "-"))
+    if getattr(args, "out", None):
+        parts += ["--out", str(args.out)]
+    if getattr(args, "merge", False):
+        parts.append("--merge")
+    return " ".join(shlex.quote(p) for p in parts)
 
 
 def register_calibration(eval_subparsers) -> None:
