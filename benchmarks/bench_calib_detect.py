@@ -6,6 +6,10 @@ the first call compiles and is not counted. Prints the median of ``--repeat``
 calls, the stages' share, and the corners found.
 
     SOGDD_NUM_THREADS=2 NUMBA_NUM_THREADS=2 python benchmarks/bench_calib_detect.py
+
+``--accuracy N`` measures instead the corner error (mean, max, boards found, wrong
+labels) on N rendered views (``sogdd.evaluation.calibration.render``, tilts up to
+40 degrees, k1 = -0.12) per cell size (6-8 to 45-60 px) and blur (0.8, 1.2, 2.5).
 """
 
 from __future__ import annotations
@@ -38,13 +42,62 @@ def frame(width: int, height: int, n: int, *, blur: float = 1.0, noise: float = 
     return np.clip(out, 0, 255).astype(np.uint8), truth
 
 
+def wrong_labels(labels: np.ndarray, truth: np.ndarray) -> int:
+    """Corners whose label the best integer map ``truth = A label + t`` (a rotation and a shift) gets wrong."""
+    X = np.c_[labels, np.ones(len(labels))]
+    sol = np.rint(np.linalg.lstsq(X, truth, rcond=None)[0])
+    if round(abs(np.linalg.det(sol[:2]))) != 1:
+        return len(labels)
+    return int(np.count_nonzero(np.abs(X @ sol - truth).sum(axis=1)))
+
+
+def accuracy(n_views: int, fractions: list[float]) -> None:
+    """Corner error of detect_boards on rendered views (calib-eval's renderer): per cell size and blur."""
+    from scipy.spatial import cKDTree
+
+    import sogdd.calib.refine as refine
+    from sogdd.calib.detect import detect_boards
+    from sogdd.evaluation.calibration.render import Camera, ChessboardTarget, random_sequence, render_view
+
+    cam = Camera(np.array([[700.0, 0, 319.5], [0, 700.0, 239.5], [0, 0, 1]]), (-0.12, 0.03, 0.001, -0.001),
+                 (640, 480))
+    for cells, target in (((6, 8), ChessboardTarget(20, 14, 0.01)), ((10, 16), ChessboardTarget(14, 10, 0.02)),
+                          ((25, 35), ChessboardTarget(9, 6, 0.03)), ((45, 60), ChessboardTarget(6, 4, 0.04))):
+        poses = random_sequence(cam, target, n_views, seed=1, cell_px=cells, tilt_max=40.0)
+        for blur, noise in ((0.8, 2.0), (1.2, 3.0), (2.5, 4.0)):
+            views = [render_view(cam, target, r, t, blur=blur, noise=noise, rng=k)
+                     for k, (r, t) in enumerate(poses)]
+            row = []
+            for frac in fractions:
+                refine.WINDOW_FRACTION = frac
+                errs, found, wrong = [], 0, 0
+                for v in views:
+                    b = max(detect_boards(v.image, (target.cols, target.rows)), key=len, default=None)
+                    if b is None:
+                        continue
+                    found += 1
+                    d, k = cKDTree(v.corners).query(b.image_points)
+                    wrong += wrong_labels(b.labels, v.labels[k])
+                    errs.append(d)
+                e = np.concatenate(errs) if errs else np.array([np.nan])
+                row.append(f"w {frac}: {found}/{len(views)} boards, {len(e)} corners, {wrong} wrong, "
+                           f"mean {np.mean(e):.4f} max {np.max(e):.3f}")
+            print(f"cells {cells[0]}-{cells[1]} px, blur {blur}, noise {noise}: " + "; ".join(row), flush=True)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--width", type=int, default=4000)
     ap.add_argument("--height", type=int, default=3000)
     ap.add_argument("--corners", type=int, default=20)
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--accuracy", type=int, default=0, metavar="N",
+                    help="instead: corner error on N rendered views per cell size and blur")
+    ap.add_argument("--fractions", type=float, nargs="+", default=[0.4], help="window fractions of --accuracy")
     a = ap.parse_args()
+    if a.accuracy:
+        accuracy(a.accuracy, a.fractions)
+        return
     from scipy.spatial import cKDTree
 
     from sogdd.calib.detect import detect_boards

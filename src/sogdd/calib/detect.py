@@ -15,7 +15,10 @@ The steps (:func:`detect_boards`):
    within :data:`CHECK_TOL` of a cell (:func:`sogdd.calib.lattice.check`); a corner
    that is not is dropped, twice over;
 5. a board is kept with at least ``min_corners`` corners, three rows and three
-   columns of them, and a complete 3 x 3 block;
+   columns of them, a complete 3 x 3 block, and 80 % of its links running along
+   an edge between a dark and a light square (:func:`_edges`; a corner without
+   such a link is dropped), and few strong X-corners inside its outline left out
+   (:func:`_orphans`: a lattice of wrong steps leaves most of them out);
 6. the labels (below).
 
 Labels
@@ -61,6 +64,12 @@ CHECK_TOL = 0.12
 ASYMMETRY = 10.0
 #: ... unless it is below this (a board without noise has a median near 0)
 MIN_ASYMMETRY = 0.002
+#: a link's contrast across it, relative to the board's median (:func:`_edges`)
+EDGE_CONTRAST = 0.3
+#: the share of a board's links that must run along edges
+EDGE_SHARE = 0.8
+#: strong X-corners inside a board's outline that are not its corners, per board corner (:func:`_orphans`)
+MAX_ORPHANS = 0.25
 _ROT = [np.array([[1, 0], [0, 1]]), np.array([[0, -1], [1, 0]]), np.array([[-1, 0], [0, -1]]),
         np.array([[0, 1], [-1, 0]])]
 
@@ -88,6 +97,66 @@ def _symmetric(quality: np.ndarray) -> np.ndarray:
     if len(asym) == 0:
         return np.zeros(0, dtype=bool)
     return (quality > 0) & (asym <= max(ASYMMETRY * float(np.median(asym)), MIN_ASYMMETRY))
+
+
+def _bilinear(grey: np.ndarray, p: np.ndarray) -> np.ndarray:
+    H, W = grey.shape
+    x = np.clip(p[..., 0], 0, W - 1.001)
+    y = np.clip(p[..., 1], 0, H - 1.001)
+    x0, y0 = np.floor(x).astype(np.int64), np.floor(y).astype(np.int64)
+    fx, fy = x - x0, y - y0
+    return ((grey[y0, x0] * (1 - fx) + grey[y0, x0 + 1] * fx) * (1 - fy)
+            + (grey[y0 + 1, x0] * (1 - fx) + grey[y0 + 1, x0 + 1] * fx) * fy)
+
+
+def _edges(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray) -> tuple[float, np.ndarray]:
+    """The share of lattice links that run along an edge, and the corners with at least one such link.
+
+    A link between label neighbours ``p, q`` of a true board runs along an edge
+    between a dark and a light square: at ``t = 1/4, 1/2, 3/4`` of the way the
+    image differs across the link, ``I(m + d n) - I(m - d n)`` (``n`` the link's
+    normal, ``d = max(0.1 |q - p|, 1)`` px), with one sign and at least
+    :data:`EDGE_CONTRAST` of the board's median difference. A grid that links
+    corners across squares (a lattice of wrong steps, e.g. a knight's move of a
+    board blurred beyond recognition) fails it at ``t = 1/4`` or ``3/4``.
+    """
+    pos = {tuple(q): k for k, q in enumerate(labels.tolist())}
+    pairs = np.array([(k, pos[(i + di, j + dj)]) for k, (i, j) in enumerate(labels.tolist())
+                      for di, dj in ((1, 0), (0, 1)) if (i + di, j + dj) in pos], dtype=np.int64).reshape(-1, 2)
+    if len(pairs) == 0:
+        return 0.0, np.zeros(len(xy), dtype=bool)
+    p, q = xy[pairs[:, 0]], xy[pairs[:, 1]]
+    v = q - p
+    length = np.hypot(v[:, 0], v[:, 1])
+    n = np.stack([-v[:, 1], v[:, 0]], axis=1) / np.maximum(length, 1e-9)[:, None]
+    d = np.maximum(0.1 * length, 1.0)[:, None] * n
+    diff = np.stack([_bilinear(grey, p + t * v + d) - _bilinear(grey, p + t * v - d)
+                     for t in (0.25, 0.5, 0.75)])
+    scale = float(np.median(np.abs(diff[1])))
+    ok = (np.abs(diff) >= EDGE_CONTRAST * scale).all(axis=0) & (np.sign(diff) == np.sign(diff[1])).all(axis=0)
+    ok &= scale > 0
+    has = np.zeros(len(xy), dtype=bool)
+    has[pairs[ok].ravel()] = True
+    return float(np.mean(ok)), has
+
+
+def _orphans(xc: XCorners, idx: np.ndarray, xy: np.ndarray, cells: np.ndarray) -> float:
+    """Strong X-corners inside the board's outline that are none of its corners, per board corner.
+
+    A true board uses every inner corner in its outline; a lattice of wrong steps
+    (a knight's move, a diagonal) leaves most of them out.
+    """
+    import cv2
+
+    hull = cv2.convexHull(xy.astype(np.float32)).reshape(-1, 2)
+    strong = xc.strength >= 0.5 * float(np.median(xc.strength[idx]))
+    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    cand = np.flatnonzero(strong & np.all((xc.xy >= lo) & (xc.xy <= hi), axis=1))
+    cell = float(np.median(cells[np.isfinite(cells)])) if np.isfinite(cells).any() else 1.0
+    d, _ = cKDTree(xy).query(xc.xy[cand])
+    cand = cand[d > 0.3 * cell]
+    inside = [cv2.pointPolygonTest(hull, (float(x), float(y)), True) > 0.3 * cell for x, y in xc.xy[cand]]
+    return float(np.count_nonzero(inside)) / max(len(xy), 1)
 
 
 def _local_cells(xy: np.ndarray, labels: np.ndarray) -> np.ndarray:
@@ -175,7 +244,13 @@ def _finish(grey: np.ndarray, xc: XCorners, lat: Lattice, pattern: tuple[int, in
         idx, labels, xy, quality = idx[keep], labels[keep], xy[keep], quality[keep]
     if len(xy) < min_corners or min(len(np.unique(labels[:, 0])), len(np.unique(labels[:, 1]))) < 3:
         return None
-    if not _has_block(labels):
+    if _orphans(xc, idx, xy, _local_cells(xy, labels)) > MAX_ORPHANS:
+        return None
+    share, linked = _edges(grey, xy, labels)
+    if share < EDGE_SHARE:
+        return None
+    idx, labels, xy, quality = idx[linked], labels[linked], xy[linked], quality[linked]
+    if len(xy) < min_corners or not _has_block(labels):
         return None
     oriented = _orient(xc, idx, xy, labels, pattern)
     if oriented is None:

@@ -35,9 +35,9 @@ from .xcorners import XCorners
 __all__ = ["Lattice", "check", "grow", "homography", "ray_neighbours", "seeds"]
 
 #: a neighbour lies within this angle (rad) of the ray along an edge line
-CONE = np.radians(12.0)
+CONE = np.radians(20.0)
 #: one of the neighbour's edge lines is parallel to the ray within this angle (rad)
-EDGE_TOL = np.radians(15.0)
+EDGE_TOL = np.radians(22.0)
 #: the neighbour's light axis is perpendicular to the corner's within this angle (rad)
 POLARITY_TOL = np.radians(25.0)
 #: a predicted corner is searched within this fraction of the local cell

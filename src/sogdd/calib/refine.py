@@ -20,8 +20,9 @@ a wrong one, and every pixel of the window contributes. Gauss-Newton steps
 
 The window follows the corner: its half-width is half the local cell
 (the distance to the nearest other corner) and its weight a Gaussian of the same
-width, so a 6 px cell uses a 3 px window and a blurred 60 px cell 30 px, on
-which a blur of 5 px still leaves the symmetry intact. Large windows are
+width, so a 6 px cell uses a 3 px window and a 40 px cell 20 px, the most (beyond
+it, lens distortion bends the edges more than the extra pixels help; a blur of
+5 px still fits). Large windows are
 sampled on a coarser grid of offsets (at most :data:`MAX_HALF` steps each way),
 which keeps the time per corner bounded.
 
@@ -48,7 +49,7 @@ MAX_HALF = 12
 #: the window's half-width as a fraction of the local cell
 WINDOW_FRACTION = 0.5
 #: smallest and largest default half-widths (px)
-MIN_HALF, MAX_WINDOW = 2, 60
+MIN_HALF, MAX_WINDOW = 2, 20
 #: the half-width when a point has no other point to measure its cell by (cornerSubPix's usual 11 x 11)
 DEFAULT_HALF = 5
 
@@ -249,7 +250,7 @@ def refine_corners(image: np.ndarray, points: object, *, window: int | tuple[int
     window : int or (int, int) or None
         Half-width ``h`` in px, as ``cv2.cornerSubPix``'s ``winSize`` (``(5, 5)`` is
         an 11 x 11 window; the smaller of the two is used). None: half the local
-        cell, ``cell / 2`` clipped to [2, 60] px.
+        cell, ``cell / 2`` clipped to [2, 20] px.
     cell : float or (N,) array or None
         The local cell size in px, for ``window=None``; None: each point's distance
         to its nearest other point (:func:`cell_sizes`), and an 11 x 11 window for a
