@@ -9,11 +9,12 @@ import cv2
 import numpy as np
 import pytest
 
-from sogdd.calib.calibrate import calibrate
+from sogdd.calib.board import Board
+from sogdd.calib.calibrate import calibrate, project
 from sogdd.calib.report import coverage, verdict, write_report
 
 sys.path.insert(0, str(Path(__file__).parent))
-from test_calibrate import SIZE, _boards  # noqa: E402
+from test_calibrate import COLS, D_TRUE, K_TRUE, LABELS, OBJ, ROWS, SIZE, _boards  # noqa: E402
 
 
 def _texts(cal):
@@ -62,3 +63,19 @@ def test_the_page_and_its_figures(tmp_path):
     assert thumb.shape[1] == 240 and (thumb[..., 1] > 150).any()  # green corners drawn
     with pytest.raises(ValueError, match="2 images for 9 views"):
         write_report(cal, tmp_path, images=images[:2])
+
+
+def test_verdict_says_when_the_board_never_tilts():
+    rng = np.random.default_rng(30)
+    boards = []
+    for _ in range(12):
+        rvec = rng.normal(0, np.deg2rad(3), 3)
+        centre = rng.uniform([180, 140], [460, 340])
+        ray = np.linalg.solve(K_TRUE, [*centre, 1.0]) * rng.uniform(12, 16)
+        tvec = ray - cv2.Rodrigues(rvec)[0] @ [(COLS - 1) / 2, (ROWS - 1) / 2, 0]
+        p = project(OBJ, K_TRUE, D_TRUE, "pinhole", rvec, tvec)
+        boards.append(Board(p + rng.normal(0, 0.05, p.shape), LABELS))
+    cal = calibrate(boards, SIZE)
+    assert "the board faces the camera in every view" in _texts(cal)
+    tilted = calibrate(_boards(12, noise=0.05, seed=31), SIZE)
+    assert "faces the camera" not in _texts(tilted)

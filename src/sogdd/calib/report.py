@@ -70,12 +70,12 @@ def coverage(cal: Calibration, grid: tuple[int, int] = _GRID) -> tuple[np.ndarra
 
 
 def _tilts(cal: Calibration) -> np.ndarray:
-    """Angle (degrees) between each used view's board normal and the line of sight to the board."""
+    """Angle (degrees) between each used view's board normal and the optical axis: a board
+    parallel to the image plane maps to it by an affine map, which says nothing of the focal length."""
     out = []
     for v in np.flatnonzero(cal.view_used):
         R, _ = cv2.Rodrigues(cal.rvecs[v])
-        sight = cal.tvecs[v] / np.linalg.norm(cal.tvecs[v])
-        out.append(np.degrees(np.arccos(min(1.0, abs(float(R[:, 2] @ sight))))))
+        out.append(np.degrees(np.arccos(min(1.0, abs(float(R[2, 2]))))))
     return np.array(out)
 
 
