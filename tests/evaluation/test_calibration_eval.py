@@ -176,3 +176,12 @@ def test_cli_merge_adds_sequences_to_one_result(tmp_path, capsys):
     capsys.readouterr()
     assert main(["eval", "calibration", "--quick", "--no-real", "--merge"]) == 2
     assert "--merge needs --out" in capsys.readouterr().err
+
+
+def test_points_only_do_not_pair_with_corners_outside_the_frame():
+    xy, lab, inside = _truth()
+    inside = inside.copy()
+    inside[0] = False  # a corner cut by the frame: a stray point beside it is not scored
+    pts = np.concatenate([xy[1:], [xy[0] + [6.0, 0.0]]])
+    s = score_view(pts, None, xy, lab, inside)
+    assert s.n_correct == 29 and s.errors.max() == 0

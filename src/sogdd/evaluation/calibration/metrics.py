@@ -21,7 +21,8 @@ most pairs agree with. Under it every detected corner has an aligned label.
   its labels are left-handed against the truth's.
 
 Points-only methods (no labels) are paired one-to-one with the nearest true
-corner within half the local cell; their unpaired points are not scored.
+corner inside the frame (``inside``) within half the local cell; their unpaired
+points are not scored.
 """
 
 from __future__ import annotations
@@ -115,6 +116,10 @@ def score_view(points: np.ndarray, labels: np.ndarray | None, truth: np.ndarray,
     if len(points) == 0 or not finite.any():
         return ViewScore(found=False, n_inside=n_inside)
     cell = local_cell(truth, true_labels)
+    if labels is None:  # points only: stray points near the frame's edge would pair with cut corners
+        finite = finite & inside
+        if not finite.any():
+            return ViewScore(found=False, n_inside=n_inside, n_detected=len(points))
     idx_f = np.flatnonzero(finite)
     dist, near = cKDTree(truth[idx_f]).query(points)
     near = idx_f[near]
