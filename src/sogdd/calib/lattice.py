@@ -50,6 +50,8 @@ SEED_RATIO = 1.6
 KNN = 12
 
 _OFFS = np.array([(1, 0), (0, 1), (-1, 0), (0, -1)])
+#: the label offsets whose corners predict a label (a 5 x 5 block without its centre)
+_SUPPORT = np.array([(a, b) for a in range(-2, 3) for b in range(-2, 3) if (a, b) != (0, 0)])
 
 
 @dataclass
@@ -154,14 +156,14 @@ def homography(src: np.ndarray, dst: np.ndarray) -> np.ndarray | None:
     M[n:, 3:5], M[n:, 5] = a, 1.0
     M[n:, 6:8] = -b[:, 1:] * a
     A = M.T @ M
-    rhs = M.T @ np.r_[b[:, 0], b[:, 1]]
+    rhs = M.T @ np.concatenate([b[:, 0], b[:, 1]])
     try:
         h = np.linalg.solve(A, rhs)
     except np.linalg.LinAlgError:
         return None
     if not np.isfinite(h).all() or abs(np.linalg.det(A)) < 1e-12 * np.trace(A) ** 8:
         return None
-    Hn = np.r_[h, 1.0].reshape(3, 3)
+    Hn = np.append(h, 1.0).reshape(3, 3)
     ts = np.array([[ss, 0, -ss * cs[0]], [0, ss, -ss * cs[1]], [0, 0, 1]])
     td_inv = np.array([[1 / sd, 0, cd[0]], [0, 1 / sd, cd[1]], [0, 0, 1]])
     return td_inv @ Hn @ ts
@@ -169,7 +171,7 @@ def homography(src: np.ndarray, dst: np.ndarray) -> np.ndarray | None:
 
 def apply(H: np.ndarray, p: np.ndarray) -> np.ndarray:
     """``H`` applied to points (N, 2)."""
-    q = np.c_[p, np.ones(len(p))] @ H.T
+    q = p @ H[:, :2].T + H[:, 2]
     return q[:, :2] / q[:, 2:]
 
 
@@ -195,20 +197,6 @@ class _Grower:
                 if (a, b) in self.at and (a, b) != lab]
         idx = np.array([self.at[q] for q in keys], dtype=np.int64)
         return np.array(keys, dtype=np.float64).reshape(-1, 2), idx
-
-    def predict(self, lab: tuple[int, int]) -> tuple[np.ndarray, np.ndarray] | None:
-        """Predicted position and the local lattice vectors ``(a_i, a_j)`` at ``lab``."""
-        src, idx = self.support(lab)
-        if len(src) < 4 or np.linalg.matrix_rank(src - src[0]) < 2:
-            return None
-        H = homography(src, self.xc.xy[idx])
-        if H is None:
-            return None
-        q = np.array(lab, dtype=np.float64)
-        pts = apply(H, np.array([q, q + (0.5, 0), q - (0.5, 0), q + (0, 0.5), q - (0, 0.5)]))
-        if not np.isfinite(pts).all():
-            return None
-        return pts[0], np.array([pts[1] - pts[2], pts[3] - pts[4]])
 
     def within_limit(self, lab: tuple[int, int]) -> bool:
         if self.limit is None:
@@ -252,18 +240,35 @@ class _Grower:
                     out.add(q)
         return sorted(out)
 
-    def round(self) -> int:
-        """One round over the free labels next to the board; the number of corners added."""
-        claims: dict[int, list[tuple[float, tuple[int, int]]]] = {}
+    def untried(self) -> list[tuple[int, int]]:
+        """The free labels next to the board with more support than when last tried."""
+        labs = []
         for lab in self.frontier():
             n_sup = len(self.support(lab)[1])
             if self.tried.get(lab, -1) >= n_sup or not self.within_limit(lab):
                 continue
             self.tried[lab] = n_sup
-            pred = self.predict(lab)
-            if pred is None:
+            labs.append(lab)
+        return labs
+
+    def round(self) -> int:
+        """One round over the free labels next to the board; the number of corners added."""
+        labs = self.untried()
+        if not labs:
+            return 0
+        nbr = np.array([[self.at.get((i + a, j + b), -1) for a, b in _SUPPORT.tolist()] for i, j in labs],
+                       dtype=np.int64)
+        w = (nbr >= 0).astype(np.float64)
+        cov = np.einsum("nk,ka,kb->nab", w, _SUPPORT.astype(float), _SUPPORT.astype(float))
+        fit = (w.sum(axis=1) >= 4) & (np.linalg.det(cov) > 1e-9)
+        if not fit.any():
+            return 0
+        P = predict_batch(self.xc.xy, nbr[fit], w[fit], _SUPPORT.astype(float))
+        claims: dict[int, list[tuple[float, tuple[int, int]]]] = {}
+        for lab, pts in zip([q for q, f in zip(labs, fit) if f], P):
+            if not np.isfinite(pts).all():
                 continue
-            p, axes = pred
+            p, axes = pts[0], np.array([pts[1] - pts[2], pts[3] - pts[4]])
             cell = float(min(np.hypot(*axes[0]), np.hypot(*axes[1])))
             near = self.tree.query_ball_point(p, SEARCH * cell)
             near = sorted((float(np.hypot(*(self.xc.xy[k] - p))), k) for k in near if self.free[k])
@@ -313,19 +318,74 @@ def check(xy: np.ndarray, labels: np.ndarray, *, tol: float = 0.1, reach: int = 
     """
     xy = np.asarray(xy, dtype=np.float64)
     labels = np.asarray(labels, dtype=np.int64)
-    ok = np.zeros(len(xy), dtype=bool)
+    n = len(xy)
+    ok = np.zeros(n, dtype=bool)
+    if n == 0:
+        return ok
     pos = {tuple(q): k for k, q in enumerate(labels.tolist())}
-    for k, (i, j) in enumerate(labels.tolist()):
-        idx = [pos[(a, b)] for a in range(i - reach, i + reach + 1) for b in range(j - reach, j + reach + 1)
-               if (a, b) in pos and (a, b) != (i, j)]
-        if len(idx) < 5:
-            continue
-        src = labels[idx].astype(np.float64)
-        if np.linalg.matrix_rank(src - src[0]) < 2:
-            continue
-        err = _loo_error(src, xy[idx], np.array([i, j], float), xy[k], tol)
-        ok[k] = err <= tol
+    span = range(-reach, reach + 1)
+    offs = np.array([(a, b) for a in span for b in span if (a, b) != (0, 0)])
+    nbr = np.array([[pos.get((i + a, j + b), -1) for a, b in offs.tolist()] for i, j in labels.tolist()],
+                   dtype=np.int64)
+    w = (nbr >= 0).astype(np.float64)
+    cnt = w.sum(axis=1)
+    cov = np.einsum("nk,ka,kb->nab", w, offs.astype(float), offs.astype(float))
+    fit = (cnt >= 5) & (np.linalg.det(cov) * 1.0 > 1e-9)
+    err = np.full(n, np.inf)
+    if fit.any():
+        err[fit] = _batch_errors(xy, nbr[fit], w[fit], offs.astype(float), np.flatnonzero(fit))
+    ok = err <= tol
+    # a neighbour that is itself off spoils the fit: fit again without the worst one
+    for k in np.flatnonzero(fit & ~ok & (cnt >= 6)):
+        idx = nbr[k][nbr[k] >= 0]
+        i, j = labels[k]
+        err_k = _loo_error(labels[idx].astype(np.float64), xy[idx], np.array([i, j], float), xy[k], tol)
+        ok[k] = err_k <= tol
     return ok
+
+
+def _batch_errors(xy: np.ndarray, nbr: np.ndarray, w: np.ndarray, offs: np.ndarray,
+                  which: np.ndarray) -> np.ndarray:
+    """Leave-one-out errors in cells of the corners ``which`` (:func:`predict_batch`)."""
+    P = predict_batch(xy, nbr, w, offs)
+    cell = np.minimum(np.hypot(*(P[:, 1] - P[:, 2]).T), np.hypot(*(P[:, 3] - P[:, 4]).T))
+    err = np.hypot(*(P[:, 0] - xy[which]).T) / np.maximum(cell, 1e-9)
+    return np.where(np.isfinite(err), err, np.inf)
+
+
+def predict_batch(xy: np.ndarray, nbr: np.ndarray, w: np.ndarray, offs: np.ndarray) -> np.ndarray:
+    """Positions at label offsets ``0, (+-1/2, 0), (0, +-1/2)`` from homographies of the neighbours, (n, 5, 2).
+
+    ``nbr`` (n, K): indices into ``xy`` of the neighbours at label offsets ``offs``
+    (K, 2), -1 where there is none; ``w`` their 0/1 weights.
+    One least-squares homography (``h33 = 1``) per corner, all solved at once:
+    label offsets (within +-2) to positions relative to the neighbours' mean,
+    scaled by their mean distance (the normalisation of the DLT).
+    """
+    dst = xy[np.maximum(nbr, 0)]  # (n, K, 2)
+    cnt = w.sum(axis=1)
+    mean = np.einsum("nk,nkd->nd", w, dst) / cnt[:, None]
+    rel = dst - mean[:, None, :]
+    scale = np.einsum("nk,nk->n", w, np.hypot(rel[..., 0], rel[..., 1])) / cnt
+    scale = np.maximum(scale, 1e-12)
+    b = rel / scale[:, None, None]
+    a = np.broadcast_to(offs, b.shape)
+    K = a.shape[1]
+    one, zero = np.ones(K), np.zeros(K)
+    r1 = np.stack([a[..., 0], a[..., 1], np.broadcast_to(one, a.shape[:2]), np.broadcast_to(zero, a.shape[:2]),
+                   np.broadcast_to(zero, a.shape[:2]), np.broadcast_to(zero, a.shape[:2]),
+                   -b[..., 0] * a[..., 0], -b[..., 0] * a[..., 1]], axis=-1)
+    r2 = np.stack([np.broadcast_to(zero, a.shape[:2]), np.broadcast_to(zero, a.shape[:2]),
+                   np.broadcast_to(zero, a.shape[:2]), a[..., 0], a[..., 1], np.broadcast_to(one, a.shape[:2]),
+                   -b[..., 1] * a[..., 0], -b[..., 1] * a[..., 1]], axis=-1)
+    A = np.einsum("nk,nki,nkj->nij", w, r1, r1) + np.einsum("nk,nki,nkj->nij", w, r2, r2)
+    rhs = np.einsum("nk,nki,nk->ni", w, r1, b[..., 0]) + np.einsum("nk,nki,nk->ni", w, r2, b[..., 1])
+    A = A + 1e-12 * np.eye(8)
+    h = np.linalg.solve(A, rhs[..., None])[..., 0]
+    H = np.concatenate([h, np.ones((len(h), 1))], axis=1).reshape(-1, 3, 3)
+    q = np.array([[0, 0, 1], [0.5, 0, 1], [-0.5, 0, 1], [0, 0.5, 1], [0, -0.5, 1]], float)
+    P = np.einsum("nij,mj->nmi", H, q)
+    return P[..., :2] / P[..., 2:] * scale[:, None, None] + mean[:, None, :]
 
 
 def _loo_error(src: np.ndarray, dst: np.ndarray, q: np.ndarray, p: np.ndarray, tol: float) -> float:
