@@ -7,7 +7,7 @@ The steps (:func:`detect_boards`):
    finds no board);
 2. boards grown from seeds by prediction (:mod:`sogdd.calib.lattice`), strongest
    seed first, each corner used by one board at most;
-3. every corner refined at full resolution with a window of half its local cell
+3. every corner refined at full resolution with a window of 0.65 of its local cell
    (:func:`sogdd.calib.refine_corners`); a corner whose refinement fails, or whose
    window is far less point-symmetric than the board's others (:data:`ASYMMETRY`;
    an occluder, the frame's edge), is dropped;

@@ -32,7 +32,7 @@ from scipy.spatial import cKDTree
 
 from .xcorners import XCorners
 
-__all__ = ["Lattice", "check", "grow", "homography", "ray_neighbours", "seeds"]
+__all__ = ["check", "homography"]
 
 #: a neighbour lies within this angle (rad) of the ray along an edge line
 CONE = np.radians(20.0)

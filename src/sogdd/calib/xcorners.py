@@ -29,7 +29,7 @@ from functools import lru_cache
 import cv2
 import numpy as np
 
-__all__ = ["XCorners", "default_scale", "find_xcorners", "search", "to_grey"]
+__all__ = ["XCorners", "find_xcorners"]
 
 #: the saddle search's scale (the ``hr`` preset's ``sigma2``)
 SIGMA2 = 1.5
