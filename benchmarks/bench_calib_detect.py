@@ -94,10 +94,13 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--accuracy", type=int, default=0, metavar="N",
                     help="instead: corner error on N rendered views per cell size and blur")
-    ap.add_argument("--fractions", type=float, nargs="+", default=[0.4], help="window fractions of --accuracy")
+    ap.add_argument("--fractions", type=float, nargs="+", default=None,
+                    help="window fractions (of the cell) to compare in --accuracy; default: the library's")
     a = ap.parse_args()
     if a.accuracy:
-        accuracy(a.accuracy, a.fractions)
+        import sogdd.calib.refine as refine
+
+        accuracy(a.accuracy, a.fractions or [refine.WINDOW_FRACTION])
         return
     from scipy.spatial import cKDTree
 
