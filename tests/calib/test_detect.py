@@ -173,3 +173,18 @@ def test_bad_arguments_are_one_line_errors(bad, message):
 def test_not_an_array_is_a_type_error():
     with pytest.raises(TypeError, match="numpy array"):
         detect_boards([[0, 1], [1, 0]])
+
+
+def test_dense_board_blurred_beyond_recognition_gives_no_wrong_labels():
+    # cells of 6-8 px under a blur of 2.5 px: the edge lines blur away, and a lattice of knight's
+    # moves over the true corners once passed every local check
+    from sogdd.evaluation.calibration.render import random_sequence
+
+    cam = Camera(np.array([[700.0, 0, 319.5], [0, 700.0, 239.5], [0, 0, 1]]), (-0.12, 0.03, 0.001, -0.001),
+                 (640, 480))
+    target = ChessboardTarget(20, 14, 0.01)
+    r, t = random_sequence(cam, target, 3, seed=1, cell_px=(6, 8), tilt_max=40.0)[2]
+    v = render_view(cam, target, r, t, blur=2.5, noise=4.0, rng=2)
+    for b in detect_boards(v.image, (20, 14)):
+        d, A, t, wrong = match(b, v)
+        assert wrong == 0 and round(abs(np.linalg.det(A))) == 1
