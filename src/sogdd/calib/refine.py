@@ -9,14 +9,17 @@ through ``p`` under perspective, and a Gaussian (or any symmetric) blur keeps th
 symmetry. So ``I(p + d) = I(p - d)`` for every offset ``d`` smaller than the
 distance to the next edge line, and the corner is the point that minimises
 
-    E(p, g) = sum_d w(d) (I(p + d) - I(p - d) - 2 g . d)^2
+    E(p) = sum_d w(d) (I(p + d) - I(p - d))^2
 
-over a window of integer offsets ``d`` (``I`` interpolated bilinearly; ``g``
-absorbs a linear illumination gradient, whose odd part would otherwise pull
-``p``). No model of the blur or of the wedges is fitted, so nothing is biased by
-a wrong one, and every pixel of the window contributes. Gauss-Newton steps
-``(J^T W J) delta = -J^T W r`` with ``r = I(p + d) - I(p - d) - 2 g . d`` and
-``J = (grad I(p + d) - grad I(p - d), -2 d)`` converge in a few iterations.
+over a window of integer offsets ``d`` (``I`` interpolated bilinearly). No model
+of the blur or of the wedges is fitted, so nothing is biased by a wrong one, and
+every pixel of the window contributes. Gauss-Newton steps
+``(J^T W J) delta = -J^T W r`` with ``r = I(p + d) - I(p - d)`` and
+``J = grad I(p + d) - grad I(p - d)`` converge in a few iterations. (A term
+``- 2 g . d`` for a linear illumination gradient ``g`` was measured and left out:
+on rendered boards with an illumination falloff of 0.4 it raised the mean error
+from 0.017 to 0.023 px at cells of 6-8 px and from 0.014 to 0.015 at 10-16 px,
+the two extra unknowns costing more than the gradient's pull.)
 
 The window follows the corner: its half-width is 0.65 of the local cell (the
 distance to the nearest other corner; the board stays point-symmetric beyond the
@@ -74,15 +77,15 @@ def _bil(img, x, y):  # pragma: no cover - jit
 @numba.njit(**_JIT)
 def _normal(img, px, py, R, s, inv, A, b):  # pragma: no cover - jit
     """Normal equations of the symmetric fit at ``(px, py)`` (module doc); returns ``(E, total)``."""
-    for u in range(4):
+    for u in range(2):
         b[u] = 0.0
-        for v in range(4):
+        for v in range(2):
             A[u, v] = 0.0
     e = 0.0
     sw = 0.0
     s1 = 0.0
     s2 = 0.0
-    J = np.empty(4)
+    J = np.empty(2)
     for dy in range(0, R + 1, s):
         for dx in range(-R, R + 1, s):
             if dy == 0 and dx <= 0:
@@ -99,49 +102,26 @@ def _normal(img, px, py, R, s, inv, A, b):  # pragma: no cover - jit
                           - _bil(img, xb + 1, yb) + _bil(img, xb - 1, yb))
             J[1] = 0.5 * (_bil(img, xa, ya + 1) - _bil(img, xa, ya - 1)
                           - _bil(img, xb, yb + 1) + _bil(img, xb, yb - 1))
-            J[2] = -2.0 * dx
-            J[3] = -2.0 * dy
-            for u in range(4):
+            for u in range(2):
                 b[u] += w * J[u] * r
-                for v in range(u, 4):
+                for v in range(u, 2):
                     A[u, v] += w * J[u] * J[v]
             e += w * r * r
             sw += 2.0 * w
             s1 += w * (va + vb)
             s2 += w * (va * va + vb * vb)
-    for u in range(4):
-        for v in range(u):
-            A[u, v] = A[v, u]
+    A[1, 0] = A[0, 1]
     return e, s2 - s1 * s1 / max(sw, 1e-300)
 
 
 @numba.njit(**_JIT)
 def _solve(A, b, x):  # pragma: no cover - jit
-    """Solve the normal equations: the residual's linear gradient ``g`` eliminated, then ``(dx, dy)``."""
-    # the gradient terms' block is diagonal in d (sums of d_x^2, d_y^2, d_x d_y): Schur complement
-    a22 = A[2, 2]
-    a23 = A[2, 3]
-    a33 = A[3, 3]
-    det2 = a22 * a33 - a23 * a23
-    if det2 <= 0.0:
+    """Solve the 2 x 2 normal equations of the corner's step; False when singular."""
+    det = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
+    if not (det > 1e-12 * (A[0, 0] * A[1, 1] + 1e-300)):
         return False
-    i22 = a33 / det2
-    i23 = -a23 / det2
-    i33 = a22 / det2
-    m = np.empty((2, 2))
-    c = np.empty(2)
-    for u in range(2):
-        # A_u,g (A_gg)^-1
-        t2 = A[u, 2] * i22 + A[u, 3] * i23
-        t3 = A[u, 2] * i23 + A[u, 3] * i33
-        for v in range(2):
-            m[u, v] = A[u, v] - t2 * A[2, v] - t3 * A[3, v]
-        c[u] = -(b[u] - t2 * b[2] - t3 * b[3])
-    det = m[0, 0] * m[1, 1] - m[0, 1] * m[1, 0]
-    if not (det > 1e-12 * (m[0, 0] * m[1, 1] + 1e-300)):
-        return False
-    x[0] = (m[1, 1] * c[0] - m[0, 1] * c[1]) / det
-    x[1] = (m[0, 0] * c[1] - m[1, 0] * c[0]) / det
+    x[0] = -(A[1, 1] * b[0] - A[0, 1] * b[1]) / det
+    x[1] = -(A[0, 0] * b[1] - A[1, 0] * b[0]) / det
     return True
 
 
@@ -156,8 +136,8 @@ def _refine(img, pts, half, stride, max_shift, iterations, out, quality):  # pra
         s = stride[k]
         sig = max(R / 1.0, 1.0)
         inv = 1.0 / (2.0 * sig * sig)
-        A = np.empty((4, 4))
-        b = np.empty(4)
+        A = np.empty((2, 2))
+        b = np.empty(2)
         step = np.zeros(2)
         ok = False
         q = 0.0
@@ -237,8 +217,8 @@ def refine_corners(image: np.ndarray, points: object, *, window: int | tuple[int
                    return_quality: bool = False) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
     """Refine X-corners (chessboard inner corners) to their centre of point symmetry.
 
-    Minimises ``E(p, g) = sum_d w(d) (I(p + d) - I(p - d) - 2 g . d)^2`` over the
-    corner ``p`` and a linear illumination gradient ``g``, by Gauss-Newton, with a
+    Minimises ``E(p) = sum_d w(d) (I(p + d) - I(p - d))^2`` over the corner ``p``
+    (its centre of point symmetry) by Gauss-Newton, with a
     Gaussian weight ``w(d) = exp(-|d|^2 / (2 h^2))`` over the offsets ``|d_x|, |d_y| <= h``
     (module doc). A drop-in for ``cv2.cornerSubPix`` on any detector's X-corners
     (``findChessboardCorners``, ``findChessboardCornersSB``, ChArUco, mrgingham).
@@ -279,8 +259,8 @@ def refine_corners(image: np.ndarray, points: object, *, window: int | tuple[int
     >>> edge = np.clip(t, -0.5, 0.5)     # each pixel's covered fraction, minus 1/2
     >>> img = cv2.GaussianBlur(128 + 200 * edge[:, None] * edge[None, :], (0, 0), 1.0)  # blur sigma 1 px
     >>> xy, q = refine_corners(img, [[19.0, 20.5]], window=6, return_quality=True)
-    >>> np.round(np.abs(xy - 19.8).max(), 2), bool(q[0] > 0.99)  # from 0.8 px off to 0.02
-    (np.float64(0.02), True)
+    >>> np.round(np.abs(xy - 19.8).max(), 2), bool(q[0] > 0.99)  # from 0.8 px off to 0.01
+    (np.float64(0.01), True)
     """
     grey = to_grey(image)
     pts = _points(points)
