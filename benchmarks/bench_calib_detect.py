@@ -10,7 +10,11 @@ with their error. On a loaded machine the CPU time is the steadier figure.
 
 ``--accuracy N`` measures instead the corner error (mean, max, boards found, wrong
 labels) on N rendered views (``sogdd.evaluation.calibration.render``, tilts up to
-40 degrees, k1 = -0.12) per cell size (6-8 to 45-60 px) and blur (0.8, 1.2, 2.5).
+40 degrees, k1 = -0.12) per cell size (6-8 to 45-60 px) and blur (0.8, 1.2, 2.5);
+with ``--compare`` also hr's points and OpenCV's two detectors. ``--photos DATA``
+runs the real photos of ``DATA/calibration/chessboard_*`` (6 x 4 inner corners):
+boards found, distance to the hand labels after one global offset per set, and
+the RMS reprojection error of ``cv2.calibrateCamera`` on the full boards.
 """
 
 from __future__ import annotations
@@ -52,7 +56,83 @@ def wrong_labels(labels: np.ndarray, truth: np.ndarray) -> int:
     return int(np.count_nonzero(np.abs(X @ sol - truth).sum(axis=1)))
 
 
-def accuracy(n_views: int, fractions: list[float]) -> None:
+def comparators(views: list, pattern: tuple[int, int]) -> list[str]:
+    """The same views through hr's points (nearest to each true corner within 1.5 px), OpenCV's
+    findChessboardCorners + cornerSubPix 11 x 11 and findChessboardCornersSB (EXHAUSTIVE | ACCURACY)."""
+    from scipy.spatial import cKDTree
+
+    import sogdd
+
+    out = {"hr points": [], "classic+cornerSubPix": [], "SB": []}
+    found = dict.fromkeys(out, 0)
+    crit = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 0.001)
+    sb = cv2.CALIB_CB_EXHAUSTIVE | cv2.CALIB_CB_ACCURACY
+    for v in views:
+        c = sogdd.detect_corners(v.image.astype(np.float32) / 255, preset="hr")
+        d, _ = cKDTree(c.xy).query(v.corners[v.inside])
+        out["hr points"].append(d[d < 1.5])
+        found["hr points"] += 1
+        ok, cc = cv2.findChessboardCorners(v.image, pattern)
+        if ok:
+            cc = cv2.cornerSubPix(v.image, cc, (5, 5), (-1, -1), crit)
+            out["classic+cornerSubPix"].append(cKDTree(v.corners).query(cc.reshape(-1, 2))[0])
+            found["classic+cornerSubPix"] += 1
+        ok, cc = cv2.findChessboardCornersSB(v.image, pattern, flags=sb)
+        if ok:
+            out["SB"].append(cKDTree(v.corners).query(cc.reshape(-1, 2))[0])
+            found["SB"] += 1
+    text = []
+    for m, e in out.items():
+        err = f", mean {np.concatenate(e).mean():.4f} max {np.concatenate(e).max():.3f}" if e else ""
+        text.append(f"{m}: {found[m]}/{len(views)}{err}")
+    return text
+
+
+def photos(root: str) -> None:
+    """Real photos: boards found, distance to the hand labels after one global offset, calibration RMS."""
+    import glob
+    import os
+
+    from scipy.spatial import cKDTree
+
+    from sogdd.calib.detect import detect_board
+
+    lab = np.array([(i, j) for j in range(4) for i in range(6)])
+    sb = cv2.CALIB_CB_EXHAUSTIVE | cv2.CALIB_CB_ACCURACY
+    for name in ("chessboard_sony", "chessboard_border", "chessboard_hard"):
+        files = sorted(glob.glob(os.path.join(root, "calibration", name, "*.jpg")))
+        if not files:
+            print(f"{name}: not found under {root}")
+            continue
+        found: dict[str, list] = {"sogdd": [], "SB": [], "classic+cornerSubPix": []}
+        for f in files:
+            img = cv2.imread(f, cv2.IMREAD_GRAYSCALE)
+            b = detect_board(img, (6, 4))
+            found["sogdd"].append(None if b is None else (f, b.image_points, b.labels))
+            ok, c = cv2.findChessboardCornersSB(img, (6, 4), flags=sb)
+            found["SB"].append((f, c.reshape(-1, 2).astype(float), lab) if ok else None)
+            ok, c = cv2.findChessboardCorners(img, (6, 4))
+            if ok:
+                c = cv2.cornerSubPix(img, c, (5, 5), (-1, -1), (3, 30, 0.001))
+            found["classic+cornerSubPix"].append((f, c.reshape(-1, 2).astype(float), lab) if ok else None)
+        shape = {cv2.imread(f).shape[:2] for f in files}
+        for m, rows in found.items():
+            got = [r for r in rows if r is not None]
+            d = np.concatenate([r[1][cKDTree(r[1]).query(np.loadtxt(r[0][:-4] + ".txt", comments="#"))[1]]
+                                - np.loadtxt(r[0][:-4] + ".txt", comments="#") for r in got])
+            off = d.mean(axis=0)
+            dist = np.hypot(*(d - off).T)
+            rms = float("nan")
+            full = [r for r in got if len(r[1]) == 24]
+            if len(shape) == 1 and len(full) >= 3:
+                h, w = next(iter(shape))
+                obj = [np.c_[r[2], np.zeros(len(r[2]))].astype(np.float32) for r in full]
+                rms = cv2.calibrateCamera(obj, [r[1].astype(np.float32) for r in full], (w, h), None, None)[0]
+            print(f"{name} {m}: {len(got)}/{len(files)} boards, offset {np.round(off, 3).tolist()}, hand-label "
+                  f"distance mean {dist.mean():.3f} max {dist.max():.3f}, calibration RMS {rms:.4f}")
+
+
+def accuracy(n_views: int, fractions: list[float], compare: bool = False) -> None:
     """Corner error of detect_boards on rendered views (calib-eval's renderer): per cell size and blur."""
     from scipy.spatial import cKDTree
 
@@ -83,6 +163,8 @@ def accuracy(n_views: int, fractions: list[float]) -> None:
                 e = np.concatenate(errs) if errs else np.array([np.nan])
                 row.append(f"w {frac}: {found}/{len(views)} boards, {len(e)} corners, {wrong} wrong, "
                            f"mean {np.mean(e):.4f} max {np.max(e):.3f}")
+            if compare:
+                row += comparators(views, (target.cols, target.rows))
             print(f"cells {cells[0]}-{cells[1]} px, blur {blur}, noise {noise}: " + "; ".join(row), flush=True)
 
 
@@ -94,13 +176,18 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--accuracy", type=int, default=0, metavar="N",
                     help="instead: corner error on N rendered views per cell size and blur")
+    ap.add_argument("--compare", action="store_true", help="--accuracy: also hr's points, OpenCV's classic, SB")
+    ap.add_argument("--photos", metavar="DATA", help="instead: the photos of DATA/calibration/chessboard_*")
     ap.add_argument("--fractions", type=float, nargs="+", default=None,
                     help="window fractions (of the cell) to compare in --accuracy; default: the library's")
     a = ap.parse_args()
     if a.accuracy:
         import sogdd.calib.refine as refine
 
-        accuracy(a.accuracy, a.fractions or [refine.WINDOW_FRACTION])
+        accuracy(a.accuracy, a.fractions or [refine.WINDOW_FRACTION], a.compare)
+        return
+    if a.photos:
+        photos(a.photos)
         return
     from scipy.spatial import cKDTree
 
