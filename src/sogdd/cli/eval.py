@@ -13,6 +13,7 @@ import argparse
 import sys
 
 from . import eval_corners, eval_downstream
+from .eval_calibration import register_calibration
 from .eval_chessboard import register_chessboard
 
 __all__ = ["configure"]
@@ -26,3 +27,4 @@ def configure(p: argparse.ArgumentParser) -> None:
     eval_corners.register(sub)
     eval_downstream.register(sub)
     register_chessboard(sub)
+    register_calibration(sub)

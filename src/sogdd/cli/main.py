@@ -32,6 +32,7 @@ COMMANDS = {
     "detect": "detect corners in images",
     "response": "write the corner measure map (.npy)",
     "demo": "run on a built-in example and write an overlay",
+    "calibrate": "calibrate a camera from images of a chessboard or ChArUco board",
     "theory": "the paper's corner theory: figures, sigma ranges, tables",
     "eval": "evaluate detectors: GT accuracy, repeatability, resolution, matching, SfM",
     "report": "run the evaluations and write the results page (Markdown + figures)",

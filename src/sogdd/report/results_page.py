@@ -7,7 +7,9 @@ quick grid by default, the paper's grid with ``full=True``; the learned
 detectors' rows read from cached runs, :mod:`.learned_runs`),
 :func:`~.resolution_section.resolution_stage` (the adjacent-corner benchmark;
 cached full-grid runs when there are), :func:`~.chessboard_section.chessboard_stage`
-(dense checkerboards, rendered and real), :func:`~.fig1_section.fig1_stage`
+(dense checkerboards, rendered and real), :func:`~.calibration_section.calibration_stage`
+(calibration targets: read from ``figures/calibration/``, which ``sogdd eval calibration --out``
+writes), :func:`~.fig1_section.fig1_stage`
 (the paper's Fig. 1 on a real image) and :func:`downstream_stage` (matching,
 with homography AUC beside MMA, and SfM runs already written). Where the
 registry has ``sogdd-hr``, every section includes it. The page
@@ -31,6 +33,7 @@ from ..baselines import learned_extra
 from ..evaluation.gt import evaluate_gt, find_gt_sets
 from ..evaluation.repeatability import evaluate_repeatability, load_images, top_n_label
 from ..evaluation.specs import LEARNED, DetectorSpec, default_fast_specs, default_gt_specs, registry_names
+from .calibration_section import calibration_stage
 from .chessboard_section import chessboard_stage
 from .fig1_section import fig1_stage
 from .gt import PAPER_ROWS, gt_overlay_montage, paper_vs_ours
@@ -326,6 +329,7 @@ def build_report(
     runs = Path(resolution_runs) if resolution_runs else out_md.parent / "figures" / "resolution_full"
     resolution_stage(page, runs)
     chessboard_stage(page, data, extra=hr_names(), quick=chessboard_quick)
+    calibration_stage(page, out_md.parent / "figures" / "calibration")
     fig1_stage(page, data)
     page.md += downstream_stage(out_md.parent / "figures" / "downstream", out_md.parent)
     t_gt = page.seconds["gt"]

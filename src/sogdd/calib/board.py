@@ -1,0 +1,90 @@
+"""The result of board detection: image points with integer board labels."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["Board"]
+
+
+@dataclass(frozen=True)
+class Board:
+    """A calibration board seen in one image: its corners, labelled on the board's lattice.
+
+    Attributes
+    ----------
+    image_points : (N, 2) float64
+        Corner positions, ``x`` (column) and ``y`` (row), pixel centres at
+        integers (OpenCV's convention).
+    labels : (N, 2) int64
+        Each corner's lattice label ``(i, j)``: ``i`` counts along the board's
+        first axis, ``j`` along its second, and the frame ``(i, j, 0)`` is
+        right-handed with the board's normal pointing away from the camera
+        (so that ``i`` runs left to right and ``j`` top to bottom for a board
+        seen face on and upright, like OpenCV's ``patternSize`` order).
+        Labels start at 0 for a complete board of known size; for a partial
+        board or one of unknown size they are relative to an arbitrary corner
+        but consistent within the view.
+    quality : (N,) float64
+        Per-corner quality in ``[0, 1]`` (1 is best).
+    size : tuple of int or None
+        ``(columns, rows)`` of inner corners when the whole board was seen and
+        its size is known, else None.
+    outline : (M, 2) float64
+        A polygon around the detected corners, in image coordinates.
+    ids : (N,) int64 or None
+        Absolute corner IDs (ChArUco), when the board carries them.
+
+    Examples
+    --------
+    >>> b = Board(np.array([[10.0, 20.0], [30.0, 20.0]]), np.array([[0, 0], [1, 0]]))
+    >>> b.object_points(25.0).tolist()
+    [[0.0, 0.0, 0.0], [25.0, 0.0, 0.0]]
+    >>> len(b), b.quality.tolist()
+    (2, [1.0, 1.0])
+    """
+
+    image_points: np.ndarray
+    labels: np.ndarray
+    quality: np.ndarray = field(default=None)  # type: ignore[assignment]
+    size: tuple[int, int] | None = None
+    outline: np.ndarray = field(default=None)  # type: ignore[assignment]
+    ids: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        pts = np.asarray(self.image_points, dtype=np.float64).reshape(-1, 2)
+        lab = np.asarray(self.labels, dtype=np.int64).reshape(-1, 2)
+        if len(lab) != len(pts):
+            raise ValueError(f"{len(pts)} image points but {len(lab)} labels")
+        n = len(pts)
+        q = np.ones(n) if self.quality is None else np.asarray(self.quality, dtype=np.float64).reshape(-1)
+        if len(q) != n:
+            raise ValueError(f"{n} image points but {len(q)} quality values")
+        outline = self.outline
+        if outline is None:
+            outline = _hull(pts)
+        object.__setattr__(self, "image_points", pts)
+        object.__setattr__(self, "labels", lab)
+        object.__setattr__(self, "quality", q)
+        object.__setattr__(self, "outline", np.asarray(outline, dtype=np.float64).reshape(-1, 2))
+        if self.ids is not None:
+            object.__setattr__(self, "ids", np.asarray(self.ids, dtype=np.int64).reshape(-1))
+
+    def __len__(self) -> int:
+        return len(self.image_points)
+
+    def object_points(self, square: float = 1.0) -> np.ndarray:
+        """Board coordinates ``(i * square, j * square, 0)`` of the corners, (N, 3) float64."""
+        out = np.zeros((len(self), 3))
+        out[:, :2] = self.labels * float(square)
+        return out
+
+
+def _hull(pts: np.ndarray) -> np.ndarray:
+    if len(pts) < 3:
+        return pts.copy()
+    import cv2
+
+    return cv2.convexHull(pts.astype(np.float32)).reshape(-1, 2).astype(np.float64)

@@ -1,0 +1,147 @@
+"""The result of a calibration: the camera, its diagnostics, and the two halves' cross-validation."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .camera import MODELS, ProjectionDifference
+
+__all__ = ["Calibration", "CrossValidation"]
+
+
+@dataclass(frozen=True)
+class CrossValidation:
+    """Two calibrations from the two interleaved halves of the used views, and how far they disagree.
+
+    Attributes
+    ----------
+    difference : ProjectionDifference
+        Camera A against camera B over the image (:func:`projection_difference`
+        with ``fit_rotation=True``: the halves' camera frames are free to differ
+        by a rotation, fitted inside the convex hull of the used corners;
+        ``mean_within``/``max_within`` are the statistics there).
+    views_a, views_b : tuple of int
+        Indices of the views in each half.
+    K_a, dist_a, K_b, dist_b : ndarray
+        The two halves' cameras.
+    rms_a, rms_b : float
+        Their RMS reprojection errors (px).
+    """
+
+    difference: ProjectionDifference
+    views_a: tuple[int, ...]
+    views_b: tuple[int, ...]
+    K_a: np.ndarray
+    dist_a: np.ndarray
+    K_b: np.ndarray
+    dist_b: np.ndarray
+    rms_a: float
+    rms_b: float
+
+    @property
+    def mean(self) -> float:
+        """Mean projection difference between the halves (px)."""
+        return self.difference.mean
+
+    @property
+    def max(self) -> float:
+        """Largest projection difference between the halves (px)."""
+        return self.difference.max
+
+    @property
+    def mean_within(self) -> float:
+        """Mean projection difference inside the hull of the used corners (px)."""
+        return self.difference.mean_within
+
+    @property
+    def max_within(self) -> float:
+        """Largest projection difference inside the hull of the used corners (px)."""
+        return self.difference.max_within
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """A calibrated camera with its diagnostics (the result of :func:`calibrate`).
+
+    Attributes
+    ----------
+    model : str
+        "pinhole", "rational" or "fisheye".
+    image_size : (width, height)
+    K : (3, 3) float64
+        Camera matrix ``[[fx, s, cx], [0, fy, cy], [0, 0, 1]]``.
+    dist : 1-D float64
+        Distortion coefficients, named by ``MODELS[model]``.
+    rms : float
+        RMS reprojection error over the used corners (px):
+        :math:`\\sqrt{\\sum \\lVert r \\rVert^2 / n}`.
+    std : dict of str to float
+        Standard deviations of the intrinsics (``fx, fy, cx, cy`` and the
+        distortion coefficients), OpenCV's estimate from the Jacobian scaled by
+        the residuals; NaN for the fisheye model (OpenCV gives none).
+    names : tuple of str
+        A name per view.
+    boards : tuple of Board or None
+        The input boards (None where a view had none).
+    residuals : tuple of (N_v, 2) float64 or None
+        Per corner, observed minus projected position (px); for a rejected view
+        from its pose re-estimated with the final intrinsics (``solvePnP``);
+        None for a view without a board or a pose.
+    corner_used : tuple of (N_v,) bool or None
+        Whether the final calibration used each corner.
+    view_used : (V,) bool
+    view_rms : (V,) float64
+        RMS of each view's used corners (of all its corners for a rejected
+        view; NaN without a pose).
+    reasons : tuple of str
+        Why each view was rejected ("" for a used view).
+    corner_reasons : tuple of dict
+        Per view, ``{corner index: why it was rejected}``.
+    rvecs, tvecs : (V, 3) float64
+        Board poses (NaN without one).
+    cross_validation : CrossValidation or None
+        None with fewer than ``2 * min_views`` used views (see ``notes``).
+    thresholds : dict of str to float
+        The rejection thresholds of the last iteration (px).
+    notes : tuple of str
+        What the calibration could not do (e.g. why there is no cross-validation).
+    square : float
+        Board square size (units of ``tvecs``).
+    """
+
+    model: str
+    image_size: tuple[int, int]
+    K: np.ndarray
+    dist: np.ndarray
+    rms: float
+    std: dict
+    names: tuple[str, ...]
+    boards: tuple
+    residuals: tuple
+    corner_used: tuple
+    view_used: np.ndarray
+    view_rms: np.ndarray
+    reasons: tuple[str, ...]
+    corner_reasons: tuple
+    rvecs: np.ndarray
+    tvecs: np.ndarray
+    cross_validation: CrossValidation | None
+    thresholds: dict = field(default_factory=dict)
+    notes: tuple[str, ...] = ()
+    square: float = 1.0
+
+    @property
+    def n_used(self) -> int:
+        """Number of views the calibration used."""
+        return int(np.sum(self.view_used))
+
+    @property
+    def n_corners_used(self) -> int:
+        """Number of corners the calibration used."""
+        return int(sum(int(u.sum()) for u in self.corner_used if u is not None))
+
+    def coefficients(self) -> dict:
+        """The distortion coefficients by name."""
+        return dict(zip(MODELS[self.model], (float(v) for v in self.dist)))

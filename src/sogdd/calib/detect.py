@@ -1,0 +1,373 @@
+"""Chessboard detection: X-corners, the lattice, refinement, the checks, the labels.
+
+The steps (:func:`detect_boards`):
+
+1. X-corner candidates with their edge lines (:func:`sogdd.calib.xcorners.find_xcorners`;
+   on a reduced scale for images above 2 MP, and again at full scale when that
+   finds no board);
+2. boards grown from seeds by prediction (:mod:`sogdd.calib.lattice`), strongest
+   seed first, each corner used by one board at most;
+3. every corner refined at full resolution with a window of 0.65 of its local cell
+   (:func:`sogdd.calib.refine_corners`); a corner whose refinement fails, or whose
+   window is far less point-symmetric than the board's others (:data:`ASYMMETRY`;
+   an occluder, the frame's edge), is dropped;
+4. the check: each corner must be predicted by a homography of its neighbours
+   within :data:`CHECK_TOL` of a cell (:func:`sogdd.calib.lattice.check`); a corner
+   that is not is dropped, twice over;
+5. a board is kept with at least ``min_corners`` corners, three rows and three
+   columns of them, a complete 3 x 3 block, and 80 % of its links running along
+   an edge between a dark and a light square (:func:`_edges`; a corner without
+   such a link is dropped), and few strong X-corners inside its outline left out
+   (:func:`_orphans`: a lattice of wrong steps leaves most of them out);
+6. the labels (below).
+
+Labels
+------
+Labels are right-handed: ``i`` runs along the board's first axis, ``j`` along the
+second, and ``(a_i, a_j)`` (the image directions of ``+i`` and ``+j``) turn like
+the image's ``(x, y)`` (``i`` left to right, ``j`` top to bottom on an upright
+board seen face on; the board frame ``(i, j, 0)`` has its normal pointing away
+from the camera).
+
+- Known size ``pattern=(cols, rows)`` (inner corners, OpenCV's ``patternSize``) and
+  the whole board seen: labels ``0 .. cols - 1`` along ``i`` and ``0 .. rows - 1``
+  along ``j``, ``Board.size = (cols, rows)``. Which corner is ``(0, 0)``: when
+  ``cols + rows`` is odd the board is not symmetric under a half turn, and
+  ``(0, 0)`` is the corner whose outer square (the one beyond ``(0, 0)`` in
+  ``-i, -j``) is dark: the same physical corner in every view. Otherwise (the
+  half turn maps the board onto itself, colours included) ``(0, 0)`` is the end
+  that puts ``+i`` closest to the image's ``+x`` direction (left to right).
+- Unknown size, or a board larger than seen (partial, occluded): ``Board.size`` is
+  None and the labels are relative: the rotation (of four) that puts ``+i``
+  closest to the image's ``+x``, shifted so that the smallest ``i`` and ``j`` are 0.
+  They are consistent within the view, not across views.
+
+A grid that cannot be the given pattern (more rows or columns than it has) is not
+returned.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .board import Board
+from .lattice import Lattice, check, grow, ray_neighbours, seeds
+from .refine import half_widths, refine_grey
+from .xcorners import XCorners, default_scale, search, to_grey
+
+__all__ = ["detect_board", "detect_boards"]
+
+#: leave-one-out prediction error allowed for a refined corner, in cells
+CHECK_TOL = 0.12
+#: a refined corner is dropped when its asymmetry ``1 - quality`` exceeds this multiple of the board's median
+ASYMMETRY = 10.0
+#: ... unless it is below this (a board without noise has a median near 0)
+MIN_ASYMMETRY = 0.002
+#: a link's contrast across it, relative to the board's median (:func:`_edges`)
+EDGE_CONTRAST = 0.3
+#: the share of a board's links that must run along edges
+EDGE_SHARE = 0.8
+#: strong X-corners inside a board's outline that are not its corners, per board corner (:func:`_orphans`)
+MAX_ORPHANS = 0.25
+_ROT = [np.array([[1, 0], [0, 1]]), np.array([[0, -1], [1, 0]]), np.array([[-1, 0], [0, -1]]),
+        np.array([[0, 1], [-1, 0]])]
+
+
+def _check_pattern(pattern: object) -> tuple[int, int] | None:
+    if pattern is None:
+        return None
+    try:
+        c, r = pattern  # type: ignore[misc]
+    except (TypeError, ValueError):
+        raise ValueError(f"pattern must be (cols, rows) of inner corners or None, got {pattern!r}") from None
+    ok = all(isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v >= 2 for v in (c, r))
+    if not ok:
+        raise ValueError(f"pattern must be two integers >= 2 (inner corners), got {pattern!r}")
+    return int(c), int(r)
+
+
+def _symmetric(quality: np.ndarray) -> np.ndarray:
+    """The corners whose asymmetry ``1 - quality`` is within :data:`ASYMMETRY` times the board's median.
+
+    An occluder, a window cut by the frame or a corner that is not the board's
+    breaks the point symmetry; noise alone leaves ``1 - quality`` near its median.
+    """
+    asym = 1.0 - quality
+    if len(asym) == 0:
+        return np.zeros(0, dtype=bool)
+    return (quality > 0) & (asym <= max(ASYMMETRY * float(np.median(asym)), MIN_ASYMMETRY))
+
+
+def _bilinear(grey: np.ndarray, p: np.ndarray) -> np.ndarray:
+    H, W = grey.shape
+    x = np.clip(p[..., 0], 0, W - 1.001)
+    y = np.clip(p[..., 1], 0, H - 1.001)
+    x0, y0 = np.floor(x).astype(np.int64), np.floor(y).astype(np.int64)
+    fx, fy = x - x0, y - y0
+    return ((grey[y0, x0] * (1 - fx) + grey[y0, x0 + 1] * fx) * (1 - fy)
+            + (grey[y0 + 1, x0] * (1 - fx) + grey[y0 + 1, x0 + 1] * fx) * fy)
+
+
+def _edges(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray) -> tuple[float, np.ndarray]:
+    """The share of lattice links that run along an edge, and the corners with at least one such link.
+
+    A link between label neighbours ``p, q`` of a true board runs along an edge
+    between a dark and a light square: at ``t = 1/4, 1/2, 3/4`` of the way the
+    image differs across the link, ``I(m + d n) - I(m - d n)`` (``n`` the link's
+    normal, ``d = max(0.1 |q - p|, 1)`` px), with one sign and at least
+    :data:`EDGE_CONTRAST` of the board's median difference. A grid that links
+    corners across squares (a lattice of wrong steps, e.g. a knight's move of a
+    board blurred beyond recognition) fails it at ``t = 1/4`` or ``3/4``.
+    """
+    pos = {tuple(q): k for k, q in enumerate(labels.tolist())}
+    pairs = np.array([(k, pos[(i + di, j + dj)]) for k, (i, j) in enumerate(labels.tolist())
+                      for di, dj in ((1, 0), (0, 1)) if (i + di, j + dj) in pos], dtype=np.int64).reshape(-1, 2)
+    if len(pairs) == 0:
+        return 0.0, np.zeros(len(xy), dtype=bool)
+    p, q = xy[pairs[:, 0]], xy[pairs[:, 1]]
+    v = q - p
+    length = np.hypot(v[:, 0], v[:, 1])
+    n = np.stack([-v[:, 1], v[:, 0]], axis=1) / np.maximum(length, 1e-9)[:, None]
+    d = np.maximum(0.1 * length, 1.0)[:, None] * n
+    diff = np.stack([_bilinear(grey, p + t * v + d) - _bilinear(grey, p + t * v - d)
+                     for t in (0.25, 0.5, 0.75)])
+    scale = float(np.median(np.abs(diff[1])))
+    ok = (np.abs(diff) >= EDGE_CONTRAST * scale).all(axis=0) & (np.sign(diff) == np.sign(diff[1])).all(axis=0)
+    ok &= scale > 0
+    has = np.zeros(len(xy), dtype=bool)
+    has[pairs[ok].ravel()] = True
+    return float(np.mean(ok)), has
+
+
+def _orphans(xc: XCorners, idx: np.ndarray, xy: np.ndarray, cells: np.ndarray) -> float:
+    """Strong X-corners inside the board's outline that are none of its corners, per board corner.
+
+    A true board uses every inner corner in its outline; a lattice of wrong steps
+    (a knight's move, a diagonal) leaves most of them out.
+    """
+    import cv2
+
+    hull = cv2.convexHull(xy.astype(np.float32)).reshape(-1, 2)
+    strong = xc.strength >= 0.5 * float(np.median(xc.strength[idx]))
+    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    cand = np.flatnonzero(strong & np.all((xc.xy >= lo) & (xc.xy <= hi), axis=1))
+    cell = float(np.median(cells[np.isfinite(cells)])) if np.isfinite(cells).any() else 1.0
+    d, _ = cKDTree(xy).query(xc.xy[cand])
+    cand = cand[d > 0.3 * cell]
+    inside = [cv2.pointPolygonTest(hull, (float(x), float(y)), True) > 0.3 * cell for x, y in xc.xy[cand]]
+    return float(np.count_nonzero(inside)) / max(len(xy), 1)
+
+
+def _local_cells(xy: np.ndarray, labels: np.ndarray) -> np.ndarray:
+    """Each corner's distance to its nearest 4-neighbour on the lattice (inf when it has none)."""
+    pos = {tuple(q): k for k, q in enumerate(labels.tolist())}
+    out = np.full(len(xy), np.inf)
+    for k, (i, j) in enumerate(labels.tolist()):
+        for di, dj in ((1, 0), (-1, 0), (0, 1), (0, -1)):
+            m = pos.get((i + di, j + dj))
+            if m is not None:
+                out[k] = min(out[k], float(np.hypot(*(xy[m] - xy[k]))))
+    return out
+
+
+def _axes(xy: np.ndarray, labels: np.ndarray) -> np.ndarray:
+    """Mean image displacement per label step along ``i`` and ``j``: rows ``a_i``, ``a_j``."""
+    pos = {tuple(q): k for k, q in enumerate(labels.tolist())}
+    out = np.zeros((2, 2))
+    for ax, (di, dj) in enumerate(((1, 0), (0, 1))):
+        d = [xy[pos[(i + di, j + dj)]] - xy[k] for k, (i, j) in enumerate(labels.tolist())
+             if (i + di, j + dj) in pos]
+        if d:
+            out[ax] = np.mean(d, axis=0)
+    return out
+
+
+def _has_block(labels: np.ndarray) -> bool:
+    s = {tuple(q) for q in labels.tolist()}
+    return any(all((i + a, j + b) in s for a in (-1, 0, 1) for b in (-1, 0, 1)) for i, j in s)
+
+
+def _outer_square_dark(xc: XCorners, idx: np.ndarray, labels: np.ndarray, axes: np.ndarray) -> bool:
+    """Majority vote: is the square beyond label (0, 0) in ``-i, -j`` dark (module doc)?"""
+    diag = [np.arctan2(*(axes[0] + axes[1])[::-1]), np.arctan2(*(axes[0] - axes[1])[::-1])]
+    light = xc.light[idx]
+    on_pp = np.abs(np.cos(light - diag[0])) > np.abs(np.cos(light - diag[1]))  # (+i, +j) wedge light
+    parity = (labels.sum(axis=1) % 2).astype(bool)
+    # the (-i, -j) wedge has the (+i, +j) wedge's colour; it turns with each label step
+    light_at_origin = on_pp ^ parity
+    return bool(np.count_nonzero(light_at_origin) * 2 < len(light_at_origin))
+
+
+def _orient(xc: XCorners, idx: np.ndarray, xy: np.ndarray, labels: np.ndarray,
+            pattern: tuple[int, int] | None) -> tuple[np.ndarray, tuple[int, int] | None] | None:
+    """Final labels and size (module doc), or None when the grid cannot be ``pattern``."""
+    axes = _axes(xy, labels)
+    ext = labels.max(axis=0) - labels.min(axis=0) + 1
+    full = pattern is not None and sorted(ext.tolist()) == sorted(pattern)
+    if pattern is not None and not full and (ext.max() > max(pattern) or ext.min() > min(pattern)):
+        return None
+    rots = _ROT
+    if full:
+        rots = [R for R in _ROT if (np.abs(R) @ ext).tolist() == list(pattern)]
+    scores = []
+    for R in rots:
+        a_i = R.T[:, 0] @ axes  # the image direction of the new +i: A R^-1 e_i
+        scores.append(a_i[0] / max(np.hypot(*a_i), 1e-12))
+    best = rots[int(np.argmax(scores))]
+    lab = labels @ best.T
+    lab -= lab.min(axis=0)
+    if not full:
+        return lab, None
+    c, r = pattern  # type: ignore[misc]
+    if (c + r) % 2 == 1:
+        new_axes = _axes(xy, lab)
+        if not _outer_square_dark(xc, idx, lab, new_axes):
+            lab = np.array([c - 1, r - 1]) - lab  # the half turn
+    return lab, (c, r)
+
+
+def _finish(grey: np.ndarray, xc: XCorners, lat: Lattice, pattern: tuple[int, int] | None,
+            min_corners: int, refine: bool) -> Board | None:
+    idx, labels = lat.index, lat.labels
+    xy = xc.xy[idx]
+    quality = np.ones(len(xy))
+    if refine:
+        half = half_widths(xy, None, _local_cells(xy, labels))
+        xy, quality = refine_grey(grey, xy, half, half.astype(np.float64))
+        keep = _symmetric(quality)
+        idx, labels, xy, quality = idx[keep], labels[keep], xy[keep], quality[keep]
+    for _ in range(2):
+        if len(xy) < min_corners:
+            return None
+        keep = check(xy, labels, tol=CHECK_TOL)
+        idx, labels, xy, quality = idx[keep], labels[keep], xy[keep], quality[keep]
+    if len(xy) < min_corners or min(len(np.unique(labels[:, 0])), len(np.unique(labels[:, 1]))) < 3:
+        return None
+    if _orphans(xc, idx, xy, _local_cells(xy, labels)) > MAX_ORPHANS:
+        return None
+    share, linked = _edges(grey, xy, labels)
+    if share < EDGE_SHARE:
+        return None
+    idx, labels, xy, quality = idx[linked], labels[linked], xy[linked], quality[linked]
+    if len(xy) < min_corners or not _has_block(labels):
+        return None
+    oriented = _orient(xc, idx, xy, labels, pattern)
+    if oriented is None:
+        return None
+    lab, size = oriented
+    order = np.lexsort((lab[:, 0], lab[:, 1]))  # row by row, as OpenCV lists a pattern's corners
+    return Board(xy[order], lab[order], quality[order], size=size)
+
+
+def _boards(grey: np.ndarray, xc: XCorners, pattern: tuple[int, int] | None, min_corners: int, refine: bool,
+            max_boards: int) -> list[Board]:
+    if len(xc) < 5:
+        return []
+    tree = cKDTree(xc.xy)
+    nb, dist = ray_neighbours(xc, tree)
+    free = np.ones(len(xc), dtype=bool)
+    out: list[Board] = []
+    for s in seeds(xc, nb, dist):
+        if len(out) >= max_boards:
+            break
+        if not free[s] or not free[nb[s]].all():
+            continue
+        lat = grow(xc, int(s), nb, free, tree)  # whole: a part of a larger grid is no board of the pattern
+        if len(lat) < min_corners:
+            free[lat.index] = True
+            free[s] = False  # not a seed again
+            continue
+        board = _finish(grey, xc, lat, pattern, min_corners, refine)
+        if board is not None:
+            out.append(board)
+    out.sort(key=lambda b: -len(b))
+    return out
+
+
+def detect_boards(image: np.ndarray, pattern: tuple[int, int] | None = None, *, min_corners: int = 12,
+                  min_strength: float = 8.0, scale: float | None = None, refine: bool = True,
+                  max_boards: int = 16, mask: np.ndarray | None = None) -> list[Board]:
+    """Find the chessboards in an image, label their corners and refine them.
+
+    X-corners (saddle points with two edge lines, :func:`sogdd.calib.xcorners.find_xcorners`)
+    are linked into lattices grown from seeds by local-homography prediction
+    (:mod:`sogdd.calib.lattice`), refined to their centre of point symmetry
+    (:func:`sogdd.calib.refine_corners`), and kept only where every corner agrees
+    with a homography of its neighbours within 0.12 of a cell. Labels are
+    right-handed (module doc for which corner is ``(0, 0)``).
+
+    Parameters
+    ----------
+    image : ndarray
+        Grey or colour image, any dtype (float on [0, 1] or on 0-255).
+    pattern : (cols, rows) or None
+        Inner corners of the board (OpenCV's ``patternSize``), or None for an
+        unknown size. A grid that cannot be this pattern is not returned; one
+        smaller than it (partial, occluded) is, with relative labels and
+        ``size=None``.
+    min_corners : int
+        Fewest corners a board may have (at least 9; three rows and three
+        columns and a complete 3 x 3 block are needed too).
+    min_strength : float
+        Weakest X-corner considered, in grey levels of contrast.
+    scale : float or None
+        Search scale (:func:`sogdd.calib.xcorners.find_xcorners`); the corners are
+        refined at full resolution.
+    refine : bool
+        Refine the corners (else the saddle points, coarse at a reduced scale).
+    max_boards : int
+        Most boards returned.
+    mask : ndarray of bool or None
+        Where corners may lie.
+
+    Returns
+    -------
+    list of Board
+        Largest first; empty when there is no board.
+
+    Examples
+    --------
+    >>> import cv2
+    >>> sq = np.kron((np.indices((6, 8)).sum(axis=0) % 2) * 200.0 + 30, np.ones((20, 20)))
+    >>> img = cv2.GaussianBlur(np.pad(sq, 30, constant_values=230.0), (0, 0), 1.0)  # 7 x 5 inner corners
+    >>> b = detect_boards(img, (7, 5))[0]
+    >>> b.size, len(b), b.labels[:2].tolist()
+    ((7, 5), 35, [[0, 0], [1, 0]])
+    >>> np.round(b.image_points[0], 2).tolist()  # the first inner corner, between pixels 49 and 50
+    [49.5, 49.5]
+    >>> detect_boards(np.full((100, 100), 128.0))
+    []
+    """
+    grey = to_grey(image)
+    pat = _check_pattern(pattern)
+    if not isinstance(min_corners, (int, np.integer)) or isinstance(min_corners, bool) or min_corners < 9:
+        raise ValueError(f"min_corners must be an integer >= 9, got {min_corners!r}")
+    if not isinstance(max_boards, (int, np.integer)) or isinstance(max_boards, bool) or max_boards < 1:
+        raise ValueError(f"max_boards must be a positive integer, got {max_boards!r}")
+    if not np.isfinite(min_strength) or min_strength < 0:
+        raise ValueError(f"min_strength must be a finite number >= 0, got {min_strength!r}")
+    if scale is not None and not (0 < scale <= 1):
+        raise ValueError(f"scale must be in (0, 1], got {scale!r}")
+    if mask is not None and np.shape(mask) != grey.shape:
+        raise ValueError(f"mask must have the image's shape {grey.shape}, got {np.shape(mask)}")
+    xc = search(grey, min_strength, scale, mask)
+    out = _boards(grey, xc, pat, int(min_corners), refine, int(max_boards))
+    if not out and scale is None and default_scale(grey.shape) < 1:
+        xc = search(grey, min_strength, 1.0, mask)
+        out = _boards(grey, xc, pat, int(min_corners), refine, int(max_boards))
+    return out
+
+
+def detect_board(image: np.ndarray, pattern: tuple[int, int] | None = None, **kwargs) -> Board | None:
+    """The largest board of :func:`detect_boards` (a complete one first when ``pattern`` is given), or None.
+
+    Examples
+    --------
+    >>> detect_board(np.zeros((64, 64))) is None
+    True
+    """
+    boards = detect_boards(image, pattern, **kwargs)
+    if not boards:
+        return None
+    return max(boards, key=lambda b: (b.size is not None, len(b)))

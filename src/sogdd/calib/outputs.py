@@ -1,0 +1,300 @@
+"""A calibration's files: camera.yaml (OpenCV FileStorage), camera.json, views.csv and corners.csv.
+
+Every file is written to a temporary name beside its target and renamed into
+place only once complete (camera.yaml is read back by ``cv2.FileStorage``
+first), so a failed write raises and never leaves a half-written file under
+the final name; a target that is one of the inputs is refused before anything
+is written.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import os
+import tempfile
+from collections.abc import Iterable
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from .._version import __version__
+from .calibration import Calibration
+
+__all__ = [
+    "FILES",
+    "calibration_dict",
+    "read_camera",
+    "write_calibration",
+    "write_camera_json",
+    "write_camera_yaml",
+    "write_corners_csv",
+    "write_views_csv",
+]
+
+#: the files :func:`write_calibration` writes
+FILES = ("camera.yaml", "camera.json", "views.csv", "corners.csv")
+
+
+def _num(v) -> float | None:
+    v = float(v)
+    return v if math.isfinite(v) else None
+
+
+def calibration_dict(cal: Calibration) -> dict:
+    """The calibration as plain JSON-able data (non-finite numbers as None).
+
+    Examples
+    --------
+    >>> from sogdd.calib.calibrate import _demo_calibration
+    >>> d = calibration_dict(_demo_calibration())
+    >>> d["model"], d["image_width"], len(d["camera_matrix"]), sorted(d["distortion"])[:2]
+    ('pinhole', 640, 3, ['k1', 'k2'])
+    """
+    cv = cal.cross_validation
+    return {
+        "model": cal.model,
+        "image_width": int(cal.image_size[0]),
+        "image_height": int(cal.image_size[1]),
+        "camera_matrix": [[float(v) for v in row] for row in cal.K],
+        "distortion_coefficients": [float(v) for v in cal.dist],
+        "distortion": cal.coefficients(),
+        "std": {k: _num(v) for k, v in cal.std.items()},
+        "rms": _num(cal.rms),
+        "square": cal.square,
+        "views_total": len(cal.names),
+        "views_used": cal.n_used,
+        "corners_used": cal.n_corners_used,
+        "cross_validation": None if cv is None else {
+            "mean": _num(cv.mean), "max": _num(cv.max), "mean_within": _num(cv.mean_within),
+            "max_within": _num(cv.max_within), "rms_a": _num(cv.rms_a), "rms_b": _num(cv.rms_b),
+            "views_a": [cal.names[v] for v in cv.views_a], "views_b": [cal.names[v] for v in cv.views_b],
+            "camera_matrix_a": cv.K_a.tolist(), "distortion_a": cv.dist_a.tolist(),
+            "camera_matrix_b": cv.K_b.tolist(), "distortion_b": cv.dist_b.tolist(),
+        },
+        "thresholds": {k: _num(v) for k, v in cal.thresholds.items()},
+        "rejected_views": {n: r for n, r, u in zip(cal.names, cal.reasons, cal.view_used) if not u},
+        "notes": list(cal.notes),
+        "sogdd_version": __version__,
+    }
+
+
+# --------------------------------------------------------------------------------------------------
+# safe writing
+
+
+def _refuse_inputs(paths: Iterable[Path], inputs: Iterable[str | os.PathLike]) -> None:
+    """``ValueError`` if a target is one of the inputs (compared by the file itself, then by path)."""
+    given = [Path(p) for p in inputs]
+    for target in paths:
+        for src in given:
+            same = target.exists() and src.exists() and os.path.samefile(target, src)
+            if same or os.path.abspath(target) == os.path.abspath(src):
+                raise ValueError(f"{target}: would overwrite the input {src}; choose another output folder")
+
+
+def _atomic(path: Path, write) -> None:
+    """Call ``write(tmp_path)`` on a temporary file beside ``path``, then rename it to ``path``."""
+    folder = path.parent if str(path.parent) else Path(".")
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=folder)
+    os.close(fd)
+    try:
+        write(Path(tmp))
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def _write_text(path: Path, text: str) -> None:
+    def write(tmp: Path) -> None:
+        with open(tmp, "w", encoding="utf-8", newline="") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+
+    _atomic(path, write)
+
+
+# --------------------------------------------------------------------------------------------------
+# the four files
+
+
+def write_camera_yaml(cal: Calibration, path: str | os.PathLike) -> Path:
+    """Write the camera as OpenCV FileStorage YAML (``cv2.FileStorage(path, READ)`` reads it).
+
+    Nodes: ``model``, ``image_width``, ``image_height``, ``camera_matrix`` (3x3),
+    ``distortion_coefficients`` (1xN, OpenCV's order for the model),
+    ``distortion_names``, ``std_intrinsics`` (fx, fy, cx, cy, then the
+    coefficients), ``rms``, ``views_used``, ``views_total``, ``corners_used``,
+    ``square``, ``cross_validation_mean``/``_max`` over the image and
+    ``cross_validation_mean_within``/``_max_within`` inside the hull of the
+    used corners (px, -1 without a cross-validation),
+    ``sogdd_version``. The file is read back before it is renamed into place.
+    """
+    path = Path(path)
+
+    def write(tmp: Path) -> None:
+        fs = cv2.FileStorage(str(tmp), cv2.FILE_STORAGE_WRITE)
+        if not fs.isOpened():
+            raise OSError(f"{path}: cannot be written")
+        cv = cal.cross_validation
+        fs.write("model", cal.model)
+        fs.write("image_width", int(cal.image_size[0]))
+        fs.write("image_height", int(cal.image_size[1]))
+        fs.write("camera_matrix", np.asarray(cal.K, dtype=np.float64))
+        fs.write("distortion_coefficients", np.asarray(cal.dist, dtype=np.float64).reshape(1, -1))
+        fs.write("distortion_names", " ".join(cal.coefficients()))
+        fs.write("std_intrinsics", np.array(list(cal.std.values()), dtype=np.float64).reshape(1, -1))
+        fs.write("rms", float(cal.rms))
+        fs.write("views_used", cal.n_used)
+        fs.write("views_total", len(cal.names))
+        fs.write("corners_used", cal.n_corners_used)
+        fs.write("square", float(cal.square))
+        fs.write("cross_validation_mean", -1.0 if cv is None else float(cv.mean))
+        fs.write("cross_validation_max", -1.0 if cv is None else float(cv.max))
+        fs.write("cross_validation_mean_within", -1.0 if cv is None else float(cv.mean_within))
+        fs.write("cross_validation_max_within", -1.0 if cv is None else float(cv.max_within))
+        fs.write("sogdd_version", __version__)
+        fs.release()
+        back = read_camera(tmp)
+        n = len(back["distortion_coefficients"])
+        if not np.allclose(back["camera_matrix"], cal.K) or n != len(cal.dist):
+            raise OSError(f"{path}: the written file does not read back (disk full?)")
+
+    _atomic(path, write)
+    return path
+
+
+def read_camera(path: str | os.PathLike) -> dict:
+    """Read a ``camera.yaml`` (through ``cv2.FileStorage``) or ``camera.json``.
+
+    Returns a dict with ``model``, ``image_width``, ``image_height``,
+    ``camera_matrix`` (3x3 ndarray), ``distortion_coefficients`` (1-D ndarray)
+    and ``rms``. Raises ``ValueError`` for a file that is not such a camera.
+    """
+    p = Path(path)
+    if p.suffix.lower() == ".json":
+        try:
+            d = json.loads(p.read_text(encoding="utf-8"))
+            K, D = np.array(d["camera_matrix"], float), np.array(d["distortion_coefficients"], float)
+            return {"model": d["model"], "image_width": d["image_width"], "image_height": d["image_height"],
+                    "camera_matrix": K, "distortion_coefficients": D, "rms": d.get("rms")}
+        except (KeyError, TypeError, json.JSONDecodeError) as exc:
+            raise ValueError(f"{p}: not a sogdd camera.json ({exc})") from None
+    try:
+        fs = cv2.FileStorage(str(p), cv2.FILE_STORAGE_READ)
+    except cv2.error:
+        raise ValueError(f"{p}: not an OpenCV FileStorage file") from None
+    if not fs.isOpened():
+        raise ValueError(f"{p}: cannot be read")
+    K, D = fs.getNode("camera_matrix").mat(), fs.getNode("distortion_coefficients").mat()
+    if K is None or D is None or K.shape != (3, 3):
+        raise ValueError(f"{p}: no camera_matrix / distortion_coefficients")
+    out = {"model": fs.getNode("model").string() or "pinhole",
+           "image_width": int(fs.getNode("image_width").real()),
+           "image_height": int(fs.getNode("image_height").real()),
+           "camera_matrix": K, "distortion_coefficients": D.ravel(), "rms": fs.getNode("rms").real()}
+    fs.release()
+    return out
+
+
+def write_camera_json(cal: Calibration, path: str | os.PathLike) -> Path:
+    """Write :func:`calibration_dict` as indented JSON."""
+    path = Path(path)
+    _write_text(path, json.dumps(calibration_dict(cal), indent=2) + "\n")
+    return path
+
+
+def _csv(rows: list[list]) -> str:
+    buf = io.StringIO()
+    csv.writer(buf, lineterminator="\n").writerows(rows)
+    return buf.getvalue()
+
+
+def _fmt(v: float, digits: int = 4) -> str:
+    return f"{v:.{digits}f}" if math.isfinite(v) else ""
+
+
+def write_views_csv(cal: Calibration, path: str | os.PathLike) -> Path:
+    """``view,corners_found,corners_used,rms,used,reason``: one row per view.
+
+    ``rms`` is over the used corners (all corners of a rejected view, from its
+    pose re-estimated with the final camera; empty without a pose); ``used`` is
+    1 or 0 and ``reason`` says why a view was rejected.
+    """
+    rows: list[list] = [["view", "corners_found", "corners_used", "rms", "used", "reason"]]
+    for v, name in enumerate(cal.names):
+        b = cal.boards[v]
+        used = cal.corner_used[v]
+        rows.append([name, 0 if b is None else len(b), 0 if used is None else int(used.sum()),
+                     _fmt(cal.view_rms[v]), int(bool(cal.view_used[v])), cal.reasons[v]])
+    path = Path(path)
+    _write_text(path, _csv(rows))
+    return path
+
+
+def write_corners_csv(cal: Calibration, path: str | os.PathLike) -> Path:
+    """``view,i,j,x,y,residual,used``: one row per corner found.
+
+    ``i, j`` the integer board label, ``x, y`` the position (OpenCV's pixel
+    convention: pixel centres at integers), ``residual`` the reprojection
+    error in px (empty without a pose), ``used`` 1 if the calibration used it.
+    """
+    rows: list[list] = [["view", "i", "j", "x", "y", "residual", "used"]]
+    for v, name in enumerate(cal.names):
+        b = cal.boards[v]
+        if b is None:
+            continue
+        res = cal.residuals[v]
+        r = np.full(len(b), np.nan) if res is None else np.hypot(res[:, 0], res[:, 1])
+        for c in range(len(b)):
+            i, j = b.labels[c]
+            x, y = b.image_points[c]
+            rows.append([name, int(i), int(j), _fmt(x), _fmt(y), _fmt(r[c]), int(bool(cal.corner_used[v][c]))])
+    path = Path(path)
+    _write_text(path, _csv(rows))
+    return path
+
+
+def write_calibration(cal: Calibration, out_dir: str | os.PathLike, *,
+                      inputs: Iterable[str | os.PathLike] = ()) -> dict[str, Path]:
+    """Write camera.yaml, camera.json, views.csv and corners.csv into ``out_dir`` (created if needed).
+
+    Parameters
+    ----------
+    cal : Calibration
+    out_dir : path
+    inputs : paths
+        Files that must never be overwritten (the images): a target that is one
+        of them raises ``ValueError`` before anything is written.
+
+    Returns
+    -------
+    dict
+        File name -> path written.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from sogdd.calib.calibrate import _demo_calibration
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     files = write_calibration(_demo_calibration(), d)
+    ...     cam = read_camera(files["camera.yaml"])
+    >>> sorted(files), round(float(cam["camera_matrix"][0, 0]))
+    (['camera.json', 'camera.yaml', 'corners.csv', 'views.csv'], 600)
+    """
+    out = Path(out_dir)
+    targets = {name: out / name for name in FILES}
+    _refuse_inputs(targets.values(), inputs)
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"{out}: exists and is not a folder")
+    out.mkdir(parents=True, exist_ok=True)
+    write_camera_yaml(cal, targets["camera.yaml"])
+    write_camera_json(cal, targets["camera.json"])
+    write_views_csv(cal, targets["views.csv"])
+    write_corners_csv(cal, targets["corners.csv"])
+    return targets

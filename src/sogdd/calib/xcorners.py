@@ -1,0 +1,240 @@
+"""X-corner candidates: saddle points of the smoothed image with their two edge lines.
+
+A chessboard's inner corner is an X-junction: two edge lines cross and the four
+wedges alternate dark and light. Near the junction ``p`` the smoothed image is,
+to second order, ``I(p + d) ~ m + d^T H d / 2`` (the gradient vanishes), with a
+Hessian ``H`` of ``det H < 0``. For a junction of two blurred steps
+``I = m + c s(n1 . d) s(n2 . d)`` (``s`` odd), ``H = c s'(0)^2 (n1 n2^T + n2 n1^T)``,
+so
+
+- the **edge lines** are the two zero-curvature directions ``d^T H d = 0``: with
+  the eigenvalues ``l+ > 0 > l-`` and the eigenvector ``e+`` of ``l+`` they lie at
+  ``alpha +- phi`` with ``alpha`` the angle of ``e+`` and ``tan phi = sqrt(l+ / -l-)``;
+- the **light axis** ``alpha`` bisects the two light wedges (there ``d^T H d > 0``,
+  the image is above its mean); at the next corner along either edge line the
+  wedges' colours swap and the light axis turns by 90 degrees.
+
+The candidates are :func:`sogdd.select.find_saddles`' saddle points (the ``hr``
+machinery: 3 x 3 maxima of the saddle strength ``sigma^2 sqrt(g_xy^2 - g_xx g_yy)``,
+then Newton steps to the saddle, L-corners rejected); the Hessian is measured
+again at the saddle with Gaussian derivatives, and the strength is converted to
+grey levels of contrast (an ideal X-junction of contrast ``c`` has strength ``c``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import cv2
+import numpy as np
+
+__all__ = ["XCorners", "find_xcorners"]
+
+#: the saddle search's scale (the ``hr`` preset's ``sigma2``)
+SIGMA2 = 1.5
+#: images above this many pixels are searched at a reduced scale by default (the refinement works at full scale)
+SEARCH_PIXELS = 2_000_000
+
+
+@dataclass(frozen=True)
+class XCorners:
+    """X-corner candidates of one image.
+
+    Attributes
+    ----------
+    xy : (N, 2) float64
+        Saddle points, ``x`` = column, ``y`` = row, pixel centres at integers.
+    strength : (N,) float64
+        Saddle strength in grey levels of contrast (a sharp junction between
+        levels ``a`` and ``b`` has strength ``|b - a|``; a blur of ``b`` px lowers
+        it by about ``1.5 / (1.5 + b^2)``).
+    light : (N,) float64
+        Angle in ``[0, pi)`` of the axis bisecting the two light wedges.
+    spread : (N,) float64
+        Half-angle ``phi`` between the edge lines and the light axis, in
+        ``(0, pi/2)``; ``pi/4`` for perpendicular edges.
+    """
+
+    xy: np.ndarray
+    strength: np.ndarray
+    light: np.ndarray
+    spread: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.xy)
+
+    @property
+    def edges(self) -> np.ndarray:
+        """(N, 2) angles in ``[0, pi)`` of the two edge lines, ``light - spread`` and ``light + spread``."""
+        return np.mod(np.stack([self.light - self.spread, self.light + self.spread], axis=1), np.pi)
+
+    def subset(self, keep: np.ndarray) -> XCorners:
+        """The candidates selected by a mask or index array."""
+        return XCorners(self.xy[keep], self.strength[keep], self.light[keep], self.spread[keep])
+
+
+def to_grey(image: object) -> np.ndarray:
+    """A grey float64 image on the 0-255 scale.
+
+    Integer images take their dtype's scale (uint8 as it is, uint16 / 257, ...);
+    float images are taken on [0, 1] when no value exceeds 1, else as grey levels
+    already (as OpenCV's float images usually are); colour is converted (RGB order).
+    """
+    from sogdd.image import to_gray255, validate_image
+
+    if not isinstance(image, np.ndarray):
+        raise TypeError(f"image must be a numpy array, got {type(image).__name__}")
+    if image.ndim not in (2, 3) or min(image.shape[:2]) < 8:
+        raise ValueError(f"image must be a grey or colour array of at least 8 x 8 pixels, got {image.shape}")
+    rng = None
+    if image.dtype.kind == "f":
+        if not np.isfinite(image).all():
+            raise ValueError("image has NaN or infinite values")
+        hi = float(image.max())
+        rng = (0.0, 255.0) if hi > 1.0 else (0.0, 1.0)
+        lo = float(image.min())
+        if lo < 0 or hi > 255:
+            rng = (min(lo, 0.0), max(hi, 255.0))
+    img = validate_image(image, value_range=rng)
+    return to_gray255(img, value_range=rng)
+
+
+def _kernels(sigma: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    r = int(np.ceil(3.5 * sigma))
+    t = np.arange(-r, r + 1, dtype=np.float64)
+    g = np.exp(-t * t / (2 * sigma * sigma))
+    g /= g.sum()
+    d1 = -t / sigma**2 * g
+    d2 = (t * t / sigma**4 - 1 / sigma**2) * g
+    d2 -= d2.mean()  # no response to a constant
+    return g, d1, d2
+
+
+def hessian_at(grey: np.ndarray, xy: np.ndarray, sigma: float) -> np.ndarray:
+    """Gaussian-derivative Hessians ``(g_xx, g_xy, g_yy)`` at ``xy``, bilinear between pixels, (N, 3)."""
+    g, d1, d2 = _kernels(sigma)
+    r = (len(g) - 1) // 2
+    pad = np.pad(grey, r + 1, mode="reflect")
+    x = np.clip(xy[:, 0], 0, grey.shape[1] - 1)
+    y = np.clip(xy[:, 1], 0, grey.shape[0] - 1)
+    x0, y0 = np.floor(x).astype(np.int64), np.floor(y).astype(np.int64)
+    fx, fy = x - x0, y - y0
+    o = np.arange(2 * r + 2)
+    patches = pad[(y0[:, None] + o + 1)[:, :, None], (x0[:, None] + o + 1)[:, None, :]]  # pad: pixel + r + 1
+    out = np.zeros((len(xy), 3))
+    for a, b, w in ((0, 0, (1 - fx) * (1 - fy)), (0, 1, fx * (1 - fy)), (1, 0, (1 - fx) * fy), (1, 1, fx * fy)):
+        p = patches[:, a : a + 2 * r + 1, b : b + 2 * r + 1]  # centred on pixel (x0 + b, y0 + a)
+        out[:, 0] += w * np.einsum("nab,a,b->n", p, g, d2)
+        out[:, 1] += w * np.einsum("nab,a,b->n", p, d1, d1)
+        out[:, 2] += w * np.einsum("nab,a,b->n", p, d2, g)
+    return out
+
+
+def edge_geometry(hess: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Light axis, half-angle ``phi`` and ``det H < 0`` mask from Hessians (module doc)."""
+    a, b, c = hess[:, 0], hess[:, 1], hess[:, 2]
+    mean, half = (a + c) / 2, np.hypot((a - c) / 2, b)
+    lp, lm = mean + half, mean - half
+    saddle = (lp > 0) & (lm < 0)
+    light = np.mod(0.5 * np.arctan2(2 * b, a - c), np.pi)  # the eigenvector of the larger eigenvalue
+    with np.errstate(divide="ignore", invalid="ignore"):
+        phi = np.arctan(np.sqrt(np.where(saddle, lp / np.where(saddle, -lm, 1.0), 1.0)))
+    return light, phi, saddle
+
+
+@lru_cache(maxsize=8)
+def _unit(sigma2: float) -> float:
+    """The saddle strength of an ideal X-junction of contrast 1 (levels 0 and 1, 4x4 supersampled)."""
+    from sogdd.select import find_saddles
+
+    n, s = 41, 4
+    t = (np.arange(n * s) + 0.5) / s - 0.5 - 20.3
+    fine = ((t[:, None] > 0) == (t[None, :] - 0.4 > 0)).astype(np.float64)
+    img = 100.0 * fine.reshape(n, s, n, s).mean(axis=(1, 3))
+    _, st = find_saddles(img, sigma2)
+    return float(st.max()) / 100.0
+
+
+def find_xcorners(image: np.ndarray, *, min_strength: float = 8.0, scale: float | None = None,
+                  mask: np.ndarray | None = None) -> XCorners:
+    """X-corner candidates: saddle points, their edge lines and grey-level strength.
+
+    For each saddle ``p`` of ``G_sigma * I`` (``sigma^2 = 1.5``, the ``hr``
+    preset's scale; :func:`sogdd.select.find_saddles`), the Hessian ``H`` at
+    ``p`` gives the light axis ``alpha`` (eigenvector of the positive eigenvalue
+    ``l+``) and the edge lines at ``alpha +- phi``, ``tan phi = sqrt(l+ / -l-)``
+    (the directions with ``d^T H d = 0``). The strength is the saddle strength
+    divided by that of an ideal X-junction of unit contrast.
+
+    Parameters
+    ----------
+    image : ndarray
+        Grey or colour image (any dtype :func:`sogdd.image.validate_image` takes).
+    min_strength : float
+        Candidates below this strength (grey levels of contrast) are not fitted.
+    scale : float or None
+        Search on the image resized by this factor (<= 1) and map the points back
+        (``x = (x' + 0.5) / scale - 0.5``); None: 1 up to
+        :data:`SEARCH_PIXELS` pixels, else the factor that fits that budget.
+        The positions are coarse at a reduced scale: refine them
+        (:func:`sogdd.calib.refine_corners`).
+    mask : ndarray of bool or None
+        Keep only candidates whose nearest pixel is True.
+
+    Returns
+    -------
+    XCorners
+
+    Examples
+    --------
+    >>> t = np.arange(60) - 30.4
+    >>> img = np.where((t[:, None] > 0) == (t[None, :] > 0), 200.0, 40.0)
+    >>> xc = find_xcorners(img)
+    >>> len(xc), np.round(xc.xy[0], 1).tolist()
+    (1, [30.5, 30.5])
+    >>> round(float(np.degrees(xc.light[0]))), round(float(np.degrees(xc.spread[0])))
+    (45, 45)
+    """
+    grey = to_grey(image)
+    if not np.isfinite(min_strength) or min_strength < 0:
+        raise ValueError(f"min_strength must be a finite number >= 0, got {min_strength!r}")
+    if scale is not None and not (0 < scale <= 1):
+        raise ValueError(f"scale must be in (0, 1], got {scale!r}")
+    if mask is not None and np.shape(mask) != grey.shape:
+        raise ValueError(f"mask must have the image's shape {grey.shape}, got {np.shape(mask)}")
+    return search(grey, min_strength, scale, mask)
+
+
+def default_scale(shape: tuple[int, int]) -> float:
+    """The search scale of an image of this shape: 1 up to :data:`SEARCH_PIXELS` pixels, else that budget."""
+    return min(1.0, float(np.sqrt(SEARCH_PIXELS / (shape[0] * shape[1]))))
+
+
+def search(grey: np.ndarray, min_strength: float, scale: float | None, mask: np.ndarray | None) -> XCorners:
+    """:func:`find_xcorners` on a validated grey image (float64, 0-255)."""
+    from sogdd.select import find_saddles
+
+    H, W = grey.shape
+    scale = default_scale(grey.shape) if scale is None else scale
+    work = grey
+    if scale < 1:
+        size = (max(8, round(W * scale)), max(8, round(H * scale)))
+        work = cv2.resize(grey.astype(np.float32), size, interpolation=cv2.INTER_AREA).astype(np.float64)
+    unit = _unit(SIGMA2)
+    xy, st = find_saddles(work, SIGMA2, min_strength=min_strength * unit)
+    st = st / unit
+    hess = hessian_at(work, xy, np.sqrt(SIGMA2))
+    light, phi, saddle = edge_geometry(hess)
+    if scale < 1:
+        fx, fy = W / work.shape[1], H / work.shape[0]
+        xy = np.stack([(xy[:, 0] + 0.5) * fx - 0.5, (xy[:, 1] + 0.5) * fy - 0.5], axis=1)
+    keep = saddle & (st >= min_strength)
+    if mask is not None:
+        m = np.asarray(mask, dtype=bool)
+        ix = np.clip(np.rint(xy[:, 0]).astype(np.int64), 0, W - 1)
+        iy = np.clip(np.rint(xy[:, 1]).astype(np.int64), 0, H - 1)
+        keep &= m[iy, ix]
+    order = np.argsort(-st[keep], kind="stable")
+    sel = np.flatnonzero(keep)[order]
+    return XCorners(xy[sel], st[sel], light[sel], phi[sel])

@@ -1,0 +1,134 @@
+"""``sogdd eval calibration``: calibration targets, rendered through an exactly known camera, and real photos.
+
+Rendered sequences (``--sequences``; all by default): sharp (cells 33-60 px, blur
+0.8, noise 2), dense (cells 7-10 px), 6mp (3000 x 2000, cells ~25 px, blur 1.2,
+noise 3), blur (sigma 2.5 px, noise 4), partial (6 of 15 views cut by the
+frame); a pinhole camera with k1, k2, p1, p2, tilts up to 40 degrees, 4 x 4
+supersampling, illumination falloff. ``--draws N`` noise draws per view. Per
+method and sequence: boards found, corner recall, wrong labels (after each
+view's best label alignment), corner error (mean, RMS, p95, max), and the
+calibration's projection difference to the true camera, focal error and RMS
+reprojection; time per frame. ``--quick``: two small sequences of 3 views.
+
+Real photos (``--data`` or ``$SOGDD_DATA/calibration``, skipped with
+``--no-real``): boards found, label distance after one global offset per set,
+RMS reprojection, fx against BoofCV's calibration.
+
+Methods (``--methods``, comma-separated; all by default): sogdd, opencv-refine, hr-grid,
+opencv, opencv-sb, calib-targets, mrgingham, chess-corners, hr. A comparator
+that is not installed is skipped with a note (``pip install calib-targets
+chess-corners``, ``apt-get install mrgingham``). Protocol:
+:mod:`sogdd.evaluation.calibration`.
+"""
+
+from __future__ import annotations
+
+import shlex
+import time
+from pathlib import Path
+
+from ._common import HelpFormatter, add_output_arguments, print_json, reporter, write_stdout
+
+__all__ = ["register_calibration", "run_calibration"]
+
+
+def _names(text: str | None) -> list[str] | None:
+    if text is None:
+        return None
+    names = [t.strip() for t in text.split(",") if t.strip()]
+    if not names:
+        raise ValueError("--sequences: no sequence names given")
+    return names
+
+
+def evaluate(args, argv_text: str) -> dict:
+    """Run the evaluation that ``args`` asks for; the results as one dict (also what the JSON holds)."""
+    from .._version import __version__
+    from ..evaluation.calibration.comparators import method_names
+    from ..evaluation.calibration.protocol import availability, data_root, run_real, run_sequences
+    from ..evaluation.calibration.sequences import sequences
+
+    if args.no_rendered and args.no_real:
+        raise ValueError("--no-rendered and --no-real leave nothing to run")
+    if args.merge and not args.out:
+        raise ValueError("--merge needs --out")
+    if args.draws < 1:
+        raise ValueError(f"--draws must be >= 1, got {args.draws}")
+    if args.views is not None and args.views < 3:
+        raise ValueError(f"--views must be >= 3 (a calibration needs 3 views), got {args.views}")
+    seqs = [] if args.no_rendered else sequences(_names(args.sequences), quick=args.quick)
+    methods, notes = availability(method_names(args.methods))
+    real_root = None if args.no_real else data_root(args.data)
+    if real_root is not None and not real_root.is_dir():
+        raise ValueError(f"--data: {real_root} is not a folder")
+    if real_root is None and not args.no_real:
+        notes.append("real photos skipped: no $SOGDD_DATA/calibration (pass --data)")
+    say = reporter(args)
+    t0 = time.perf_counter()
+    rows = run_sequences(seqs, methods, draws=args.draws, views=args.views, progress=say)
+    real = run_real(real_root, methods, progress=say) if real_root is not None else []
+    if real_root is not None and "mrgingham" in methods:
+        notes.append("mrgingham reads square grids only: not run on the 6 x 4 real boards")
+    return {"version": __version__, "command": argv_text, "quick": bool(args.quick), "draws": args.draws,
+            "views": args.views,
+            "seconds": round(time.perf_counter() - t0, 1), "methods": methods, "notes": notes,
+            "sequences": {s.name: s.note for s in seqs}, "synthetic": rows, "real": real}
+
+
+def run_calibration(args) -> int:
+    from ..report.calibration_section import results_markdown, write_results
+
+    res = evaluate(args, command_text(args))
+    if args.out:
+        write_results(res, Path(args.out), merge=args.merge)
+    if args.json:
+        print_json(res)
+    else:
+        write_stdout(results_markdown(res).encode())
+    return 0
+
+
+def command_text(args) -> str:
+    """The command line that runs what ``args`` asks for (recorded in the results).
+
+    Examples
+    --------
+    >>> from argparse import Namespace
+    >>> command_text(Namespace(quick=True, sequences="sharp", methods=None, draws=1, views=None, data=None,
+    ...                        no_real=True, no_rendered=False, out="out dir", merge=False))
+    "sogdd eval calibration --quick --sequences sharp --no-real --out 'out dir'"
+    """
+    parts = ["sogdd", "eval", "calibration"] + (["--quick"] if getattr(args, "quick", False) else [])
+    for name in ("sequences", "methods", "draws", "views", "data"):
+        val = getattr(args, name, None)
+        if val is not None and not (name == "draws" and val == 1):
+            parts += [f"--{name}", str(val)]
+    for flag in ("no_real", "no_rendered"):
+        if getattr(args, flag, False):
+            parts.append("--" + flag.replace("_", "-"))
+    if getattr(args, "out", None):
+        parts += ["--out", str(args.out)]
+    if getattr(args, "merge", False):
+        parts.append("--merge")
+    return " ".join(shlex.quote(p) for p in parts)
+
+
+def register_calibration(eval_subparsers) -> None:
+    """Add ``calibration`` to ``sogdd eval``."""
+    c = eval_subparsers.add_parser(
+        "calibration", help="calibration targets: rendered sequences with a known camera, and real photos",
+        description=__doc__, formatter_class=HelpFormatter)
+    c.add_argument("--quick", action="store_true", help="two small sequences of 3 views (tests, CI)")
+    c.add_argument("--sequences", metavar="A,B", help="only these sequences [default: all]")
+    c.add_argument("--methods", metavar="A,B", help="only these methods [default: all]")
+    c.add_argument("--draws", type=int, default=1, help="noise draws per view")
+    c.add_argument("--views", type=int, metavar="N",
+                   help="only the first N views of each sequence (cut views kept in proportion) [default: all]")
+    c.add_argument("--data", metavar="DIR", help="calibration photos [default: $SOGDD_DATA/calibration]")
+    c.add_argument("--no-real", action="store_true", help="skip the real calibration photos")
+    c.add_argument("--no-rendered", action="store_true", help="skip the rendered sequences (real photos only)")
+    add_output_arguments(c, "calibration.json, calibration.md and calibration.png")
+    c.add_argument("--merge", action="store_true",
+                   help="add to the calibration.json already in --out (rows of the same sequence or photo set "
+                        "and method are replaced), so that sequences can run one command each")
+    c.set_defaults(func=run_calibration)

@@ -1,0 +1,121 @@
+"""The named calibration sequences: an exactly known camera, a board, and how its views are made.
+
+Every sequence's camera is a pinhole with ``k1, k2, p1, p2`` (``k3 = 0``), its
+views come from :func:`.render.random_sequence` (tilts up to 40 degrees) and are
+rendered with 4 x 4 supersampling, blur, illumination falloff and noise. The
+boards are square (``n x n`` inner corners) so that mrgingham, which reads only
+square grids, runs on every sequence.
+
+=========  ===========  ===========  ==========  =====  =====  =======  =====
+name       image        board        cells (px)  blur   noise  partial  views
+=========  ===========  ===========  ==========  =====  =====  =======  =====
+sharp      1280 x 960   10 x 10      33-60       0.8    2      0        15
+dense      1280 x 960   20 x 20      7-10        0.8    2      0        15
+6mp        3000 x 2000  20 x 20      22-28       1.2    3      0        12
+blur       1280 x 960   10 x 10      33-60       2.5    4      0        15
+partial    1280 x 960   10 x 10      40-70       1.0    2      0.4      15
+=========  ===========  ===========  ==========  =====  =====  =======  =====
+
+(the ``partial`` sequence's last 6 views are cut by the frame, 30-75 % of their
+corners inside). The quick set (``--quick``) is two small sequences for tests
+and CI: 640 x 480, a 7 x 7 board, 3 views each, one of them partial.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .render import Camera, ChessboardTarget, random_sequence
+
+__all__ = ["Sequence", "SEQUENCES", "QUICK", "sequences", "camera_for"]
+
+_DIST = (-0.22, 0.08, 0.0008, -0.0006)
+
+
+def camera_for(width: int, height: int, hfov_deg: float = 60.0, dist: tuple = _DIST) -> Camera:
+    """A camera of ``width x height`` with a horizontal field of view of ``hfov_deg`` degrees.
+
+    The principal point is a little off the image centre, and ``fy = 0.998 fx``,
+    so that neither is a free guess for a calibration.
+
+    Examples
+    --------
+    >>> cam = camera_for(640, 480)
+    >>> round(cam.fx, 3), cam.size
+    (554.256, (640, 480))
+    """
+    fx = (width / 2) / np.tan(np.radians(hfov_deg) / 2)
+    cx, cy = (width - 1) / 2 + 0.013 * width, (height - 1) / 2 - 0.011 * height
+    K = np.array([[fx, 0.0, cx], [0.0, 0.998 * fx, cy], [0.0, 0.0, 1.0]])
+    return Camera(K, dist, (width, height))
+
+
+@dataclass(frozen=True)
+class Sequence:
+    """One calibration sequence: camera, board, and the views' rendering."""
+
+    name: str
+    camera: Camera
+    target: ChessboardTarget
+    n_views: int
+    cell_px: tuple[float, float]
+    blur: float
+    noise: float
+    falloff: float = 0.3
+    partial: float = 0.0
+    tilt_max: float = 40.0
+    seed: int = 0
+    note: str = ""
+
+    def poses(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """The views' board poses (deterministic in ``seed``)."""
+        return random_sequence(self.camera, self.target, self.n_views, tilt_max=self.tilt_max, seed=self.seed,
+                               partial=self.partial, cell_px=self.cell_px)
+
+
+def _seq(name, size, n, cells, blur, noise, views, partial=0.0, seed=0, note=""):
+    return Sequence(name, camera_for(*size), ChessboardTarget(n, n, 0.02), views, cells, blur, noise,
+                    partial=partial, seed=seed, note=note)
+
+
+#: the full evaluation's sequences, by name
+SEQUENCES: dict[str, Sequence] = {s.name: s for s in (
+    _seq("sharp", (1280, 960), 10, (33.0, 60.0), 0.8, 2.0, 15, seed=11,
+         note="cells 33-60 px, blur 0.8, noise 2"),
+    _seq("dense", (1280, 960), 20, (7.0, 10.0), 0.8, 2.0, 15, seed=12, note="cells 7-10 px"),
+    _seq("6mp", (3000, 2000), 20, (22.0, 28.0), 1.2, 3.0, 12, seed=13,
+         note="3000x2000, cells ~25 px, blur 1.2, noise 3"),
+    _seq("blur", (1280, 960), 10, (33.0, 60.0), 2.5, 4.0, 15, seed=14, note="blur 2.5 px, noise 4"),
+    _seq("partial", (1280, 960), 10, (40.0, 70.0), 1.0, 2.0, 15, partial=0.4, seed=15,
+         note="6 of 15 views cut by the frame"),
+)}
+
+#: the quick set: small, for tests and CI
+QUICK: dict[str, Sequence] = {s.name: s for s in (
+    _seq("sharp", (640, 480), 7, (28.0, 40.0), 0.8, 2.0, 3, seed=21, note="quick: 640x480, cells 28-40 px"),
+    _seq("partial", (640, 480), 7, (30.0, 45.0), 1.0, 2.0, 3, partial=0.34, seed=22,
+         note="quick: 1 of 3 views cut by the frame"),
+)}
+
+
+def sequences(names: list[str] | None = None, *, quick: bool = False) -> list[Sequence]:
+    """The sequences to run: ``names`` of :data:`SEQUENCES` (None: all), or the quick set.
+
+    Raises ``ValueError`` naming the known sequences for an unknown name.
+
+    Examples
+    --------
+    >>> [s.name for s in sequences(["sharp", "blur"])]
+    ['sharp', 'blur']
+    >>> [s.n_views for s in sequences(quick=True)]
+    [3, 3]
+    """
+    table = QUICK if quick else SEQUENCES
+    if names is None:
+        return list(table.values())
+    bad = [n for n in names if n not in table]
+    if bad:
+        raise ValueError(f"unknown sequence(s) {', '.join(bad)}; known: {', '.join(table)}")
+    return [table[n] for n in names]

@@ -1,0 +1,243 @@
+"""calibrate() on boards projected through known cameras: recovery, rejection, cross-validation, errors."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+
+from sogdd.calib.board import Board
+from sogdd.calib.calibrate import (
+    calibrate,
+    distort,
+    project,
+    projection_difference,
+    undistort,
+)
+
+SIZE = (640, 480)
+K_TRUE = np.array([[600.0, 0, 322.0], [0, 598.0, 236.0], [0, 0, 1]])
+D_TRUE = np.array([-0.25, 0.08, 0.001, -0.0005, 0.0])
+COLS, ROWS = 9, 6
+OBJ = np.array([(i, j, 0.0) for j in range(ROWS) for i in range(COLS)])
+LABELS = OBJ[:, :2].astype(int)
+
+
+def _poses(n: int, rng: np.random.Generator, K=K_TRUE, dist=D_TRUE, model="pinhole", size=SIZE,
+           spread: float = 1.0):
+    """``n`` board poses (tilt <= 35 degrees) whose corners all fall inside the frame."""
+    out = []
+    w, h = size
+    while len(out) < n:
+        tilt = np.deg2rad(35) * rng.uniform(0, 1)
+        axis = rng.normal(size=3)
+        axis[2] *= 0.3
+        rvec = axis / np.linalg.norm(axis) * tilt
+        z = rng.uniform(11, 18)
+        centre = np.array([w / 2, h / 2]) + spread * rng.uniform(-0.3, 0.3, 2) * [w, h]
+        ray = np.linalg.solve(K, [centre[0], centre[1], 1.0])
+        R, _ = cv2.Rodrigues(rvec)
+        tvec = ray * z - R @ np.array([(COLS - 1) / 2, (ROWS - 1) / 2, 0.0])
+        p = project(OBJ, K, dist, model, rvec, tvec)
+        if np.all((p > 5) & (p < [w - 6, h - 6])):
+            out.append((rvec, tvec, p))
+    return out
+
+
+def _boards(n=14, noise=0.05, seed=1, **kw):
+    rng = np.random.default_rng(seed)
+    poses = _poses(n, rng, **kw)
+    return [Board(p + rng.normal(0, noise, p.shape), LABELS) for _, _, p in poses]
+
+
+def test_distort_and_project_match_opencv():
+    rng = np.random.default_rng(0)
+    pts = np.c_[rng.uniform(-0.5, 0.5, (50, 2)), np.ones(50)] * rng.uniform(1, 3, (50, 1))
+    rv, tv = np.array([0.1, -0.2, 0.05]), np.array([0.1, 0.2, 0.5])
+    for model, d in (("pinhole", D_TRUE), ("rational", np.r_[D_TRUE, 0.01, -0.02, 0.003])):
+        ref, _ = cv2.projectPoints(pts, rv, tv, K_TRUE, d)
+        np.testing.assert_allclose(project(pts, K_TRUE, d, model, rv, tv), ref.reshape(-1, 2), atol=1e-9)
+    fd = np.array([0.05, -0.01, 0.002, -0.0004])
+    ref, _ = cv2.fisheye.projectPoints(pts.reshape(-1, 1, 3), rv, tv, K_TRUE, fd)
+    np.testing.assert_allclose(project(pts, K_TRUE, fd, "fisheye", rv, tv), ref.reshape(-1, 2), atol=1e-9)
+
+
+@pytest.mark.parametrize("model,dist", [("pinhole", D_TRUE), ("fisheye", np.array([0.05, -0.01, 0.002, 0.0]))])
+def test_undistort_inverts_the_model(model, dist):
+    gx, gy = np.meshgrid(np.linspace(0, 639, 20), np.linspace(0, 479, 15))
+    px = np.c_[gx.ravel(), gy.ravel()]
+    xy, ok = undistort(px, K_TRUE, dist, model)
+    assert ok.all()
+    np.testing.assert_allclose(project(np.c_[xy, np.ones(len(xy))], K_TRUE, dist, model), px, atol=1e-6)
+    assert distort(xy, dist, model).shape == xy.shape
+
+
+def test_projection_difference_of_known_shifts():
+    same = projection_difference((K_TRUE, D_TRUE), (K_TRUE, D_TRUE), SIZE)
+    assert same.mean < 1e-6 and same.valid_fraction == 1.0
+    K2 = K_TRUE.copy()
+    K2[0, 2] += 0.5
+    K2[1, 2] -= 1.2
+    d = projection_difference((K_TRUE, D_TRUE), (K2, D_TRUE), SIZE)
+    assert d.mean == pytest.approx(1.3, abs=1e-6) and d.max == pytest.approx(1.3, abs=1e-6)
+    # a focal error grows with the distance from the principal point
+    K3 = K_TRUE.copy()
+    K3[0, 0] *= 1.01
+    K3[1, 1] *= 1.01
+    d3 = projection_difference((K_TRUE, np.zeros(5)), (K3, np.zeros(5)), SIZE)
+    assert d3.max > 3.5 > d3.mean > 1.0
+    assert np.nanargmin(d3.distance) != 0
+    with pytest.raises(ValueError, match="not a camera"):
+        projection_difference("cam", (K_TRUE, D_TRUE), SIZE)
+
+
+def test_recovers_the_known_camera():
+    boards = _boards(14, noise=0.05)
+    cal = calibrate(boards, SIZE, square=1.0)
+    assert cal.n_used == 14 and all(r == "" for r in cal.reasons)
+    assert abs(cal.K[0, 0] - 600.0) < 1.0 and abs(cal.K[1, 1] - 598.0) < 1.0
+    np.testing.assert_allclose(cal.K[:2, 2], [322.0, 236.0], atol=1.5)
+    assert abs(cal.dist[0] - D_TRUE[0]) < 0.01
+    assert 0.05 < cal.rms < 0.1  # 0.05 px per axis: sqrt(2) * 0.05
+    # a principal point ~0.3 px off, traded against the poses' rotation: small once that rotation is fitted
+    assert projection_difference(cal, (K_TRUE, D_TRUE), SIZE).mean < 0.5
+    assert projection_difference(cal, (K_TRUE, D_TRUE), SIZE, fit_rotation=True).mean < 0.2
+    # the standard deviations are OpenCV's, and of the right size for 0.05 px noise
+    assert 0 < cal.std["fx"] < 1.0 and 0 < cal.std["k1"] < 0.01
+    assert len(cal.residuals) == 14 and cal.residuals[0].shape == (COLS * ROWS, 2)
+    assert np.all(np.isfinite(cal.rvecs)) and cal.tvecs[:, 2].min() > 10
+    assert np.allclose(cal.view_rms, cal.view_rms.mean(), rtol=0.5)
+    # almost no good corner is rejected
+    assert cal.n_corners_used >= 14 * COLS * ROWS - 2
+    cv = cal.cross_validation
+    assert cv is not None and cv.mean < 1.0 and len(cv.views_a) == len(cv.views_b) == 7
+
+
+def test_rejects_planted_outlier_corners():
+    boards = _boards(12, noise=0.05, seed=3)
+    planted = {(2, 5): (3.0, -2.0), (7, 20): (-4.0, 0.0), (9, 40): (0.0, 2.5)}
+    for (v, c), shift in planted.items():
+        pts = boards[v].image_points.copy()
+        pts[c] += shift
+        boards[v] = Board(pts, LABELS)
+    cal = calibrate(boards, SIZE)
+    for v, c in planted:
+        assert not cal.corner_used[v][c], (v, c)
+        assert "residual" in cal.corner_reasons[v][c]
+        assert np.hypot(*cal.residuals[v][c]) > 2.0
+    assert cal.n_used == 12
+    assert cal.n_corners_used >= 12 * COLS * ROWS - 3 - 3
+    assert abs(cal.K[0, 0] - 600.0) < 1.5
+    # without rejection, the planted corners are used and inflate the RMS
+    raw = calibrate(boards, SIZE, reject=False)
+    assert raw.n_corners_used == 12 * COLS * ROWS and raw.rms > 2 * cal.rms
+
+
+def test_rejects_an_outlier_view_with_its_reason():
+    boards = _boards(12, noise=0.05, seed=4)
+    rng = np.random.default_rng(9)
+    bad = boards[5].image_points + rng.normal(0, 1.5, (COLS * ROWS, 2))
+    boards[5] = Board(bad, LABELS)
+    cal = calibrate(boards, SIZE, names=[f"f{i}.png" for i in range(12)])
+    assert not cal.view_used[5] and cal.reasons[5]
+    assert ("most corners" in cal.reasons[5]) or ("RMS" in cal.reasons[5])
+    assert cal.view_used.sum() == 11
+    assert not cal.corner_used[5].any()
+    assert cal.residuals[5] is not None and cal.view_rms[5] > 1.0  # its pose from solvePnP
+    assert abs(cal.K[0, 0] - 600.0) < 1.5
+
+
+def test_views_without_board_or_with_too_few_corners_are_reported():
+    boards = _boards(8, seed=5)
+    boards[1] = None
+    boards[3] = Board(boards[3].image_points[:4], LABELS[:4])
+    boards[6] = Board(boards[6].image_points[:9], LABELS[:9])  # one row of the board
+    cal = calibrate(boards, SIZE)
+    assert cal.reasons[1] == "no board" and cal.residuals[1] is None and cal.corner_used[1] is None
+    assert cal.reasons[3].startswith("too few corners")
+    assert "one line" in cal.reasons[6]
+    assert cal.n_used == 5
+
+
+def test_cross_validation_exposes_a_wrong_model():
+    """Heavy distortion fitted without distortion terms: the halves disagree far more."""
+    d = np.array([-0.4, 0.15, 0.0, 0.0, 0.0])
+    boards = _boards(16, noise=0.05, seed=6, dist=d, spread=1.6)
+    right = calibrate(boards, SIZE)
+    wrong = calibrate(boards, SIZE, reject=False, flags=cv2.CALIB_FIX_K1 | cv2.CALIB_FIX_K2
+                      | cv2.CALIB_FIX_K3 | cv2.CALIB_ZERO_TANGENT_DIST)
+    assert right.cross_validation.mean < 1.0
+    assert wrong.cross_validation.mean > 20 * right.cross_validation.mean
+    assert wrong.rms > 10 * right.rms
+
+
+def test_rational_and_fisheye_models():
+    boards = _boards(12, noise=0.03, seed=7)
+    rat = calibrate(boards, SIZE, model="rational")
+    assert len(rat.dist) == 8 and rat.model == "rational"
+    assert projection_difference(rat, (K_TRUE, D_TRUE), SIZE, margin=40, fit_rotation=True).mean < 0.3
+    fd = np.array([0.08, -0.02, 0.01, 0.0])
+    fb = _boards(12, noise=0.03, seed=8, dist=fd, model="fisheye")
+    fish = calibrate(fb, SIZE, model="fisheye")
+    assert len(fish.dist) == 4 and abs(fish.K[0, 0] - 600.0) < 2.0
+    assert projection_difference(fish, (K_TRUE, fd, "fisheye"), SIZE, fit_rotation=True).mean < 0.1
+    assert np.isnan(fish.std["fx"])
+
+
+def test_partial_boards_with_relative_labels():
+    """Labels of a partial board start anywhere: only their consistency within a view matters."""
+    boards = _boards(10, noise=0.03, seed=10)
+    keep = (LABELS[:, 0] >= 2) & (LABELS[:, 1] >= 1)
+    boards = [Board(b.image_points[keep], LABELS[keep] - [2, 1] + [v, -v]) for v, b in enumerate(boards)]
+    cal = calibrate(boards, SIZE)
+    assert cal.n_used == 10 and abs(cal.K[0, 0] - 600.0) < 2.0
+
+
+@pytest.mark.parametrize("call,match", [
+    (lambda b: calibrate(b[:2], SIZE), r"too few views: 2 usable view\(s\), calibration needs 3 \(1 more\)"),
+    (lambda b: calibrate([None, None], SIZE), "no corners"),
+    (lambda b: calibrate(b, (480, 640)), "outside the 480x640 image"),
+    (lambda b: calibrate(b, SIZE, names=["a"]), "boards but 1 view names"),
+    (lambda b: calibrate(b, SIZE, model="kb8"), "unknown camera model"),
+    (lambda b: calibrate(b, SIZE, square=0), "square must be"),
+    (lambda b: calibrate(b, "640x480"), "image_size"),
+    (lambda b: calibrate([*b, "x"], SIZE), "expected a Board"),
+])
+def test_errors_are_one_line(call, match):
+    boards = _boards(5, seed=11)
+    with pytest.raises(ValueError, match=match) as exc:
+        call(boards)
+    assert "\n" not in str(exc.value)
+
+
+def test_too_few_views_says_why_the_others_were_left_out():
+    boards = _boards(3, seed=12)
+    boards[2] = Board(boards[2].image_points[:5], LABELS[:5])
+    with pytest.raises(ValueError, match=r"1 more\); rejected: too few corners: 1"):
+        calibrate(boards + [None], SIZE)
+
+
+def test_rejection_never_leaves_a_view_with_too_few_corners():
+    """At the fewest views, a small view's outliers stay rather than leave it under min_corners."""
+    boards = _boards(3, noise=0.03, seed=13)
+    keep = (LABELS[:, 0] < 4) & (LABELS[:, 1] < 2)  # 8 corners
+    pts = boards[2].image_points[keep].copy()
+    pts[[0, 3, 5]] += [[3.0, 0.0], [0.0, -3.0], [2.5, 2.5]]
+    boards[2] = Board(pts, LABELS[keep])
+    cal = calibrate(boards, SIZE, min_views=3)
+    assert cal.view_used.all() and cal.corner_used[2].sum() >= 6
+    more = _boards(5, noise=0.03, seed=14)
+    cal = calibrate(boards + more, SIZE, min_views=3)
+    assert not cal.view_used[2] and cal.reasons[2]  # with views to spare, the view goes as a whole
+
+
+def test_projection_difference_within_a_polygon():
+    """Cameras that differ in k3 agree near the centre and part far from it."""
+    d3 = D_TRUE + [0, 0, 0, 0, 0.5]
+    poly = np.array([[200, 150], [440, 150], [440, 330], [200, 330]], float)
+    d = projection_difference((K_TRUE, D_TRUE), (K_TRUE, d3), SIZE, within=poly)
+    assert 0.1 < d.within.mean() < 0.3
+    assert d.mean_within < 0.1 * d.mean and d.max_within < 0.1 * d.max
+    assert np.all(d.distance[d.within] <= d.max_within)
+    with pytest.raises(ValueError, match="polygon of at least 3 points"):
+        projection_difference((K_TRUE, D_TRUE), (K_TRUE, d3), SIZE, within=poly[:2])

@@ -1,0 +1,41 @@
+"""ChArUco: OpenCV's IDs, sogdd's corners, on a rendered board with known corners."""
+
+import cv2
+import numpy as np
+import pytest
+
+from sogdd.calib.charuco import detect_charuco
+from sogdd.evaluation.calibration.render import Camera, render_charuco
+
+DICT = cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_4X4_50)
+BOARD = cv2.aruco.CharucoBoard((7, 5), 0.04, 0.02, DICT)
+CAM = Camera(np.array([[700.0, 0, 319.5], [0, 700.0, 239.5], [0, 0, 1]]), (0.0, 0, 0, 0), (640, 480))
+
+
+def view(blur=1.0, roll=0.2):
+    R = np.array([0.3, -0.2, roll])
+    Rm, _ = cv2.Rodrigues(R)
+    t = np.array([0.0, 0.0, 0.5]) - Rm @ np.array([0.14, 0.10, 0.0])
+    return render_charuco(CAM, BOARD, R, t, blur=blur, noise=2.0, rng=3)
+
+
+def test_ids_labels_and_accuracy_better_than_opencvs():
+    v = view()
+    b = detect_charuco(v.image, BOARD)
+    assert b is not None and len(b) >= 20 and set(b.ids.tolist()) <= set(range(24))
+    assert (b.size == (6, 4)) == (len(b) == 24)
+    truth = dict(zip(v.ids.tolist(), v.corners))
+    assert np.array_equal(b.labels, v.labels[np.searchsorted(v.ids, b.ids)])
+    ours = np.hypot(*(b.image_points - np.array([truth[k] for k in b.ids])).T)
+    raw = detect_charuco(v.image, BOARD, refine=False)
+    theirs = np.hypot(*(raw.image_points - np.array([truth[k] for k in raw.ids])).T)
+    assert ours.mean() < 0.05 and ours.max() < 0.2
+    assert ours.mean() < theirs.mean()
+
+
+def test_no_board_and_bad_arguments():
+    assert detect_charuco(np.full((200, 200), 128, np.uint8), BOARD) is None
+    with pytest.raises(TypeError, match="CharucoBoard"):
+        detect_charuco(np.zeros((20, 20), np.uint8), "board")
+    with pytest.raises(ValueError, match="min_corners"):
+        detect_charuco(np.zeros((20, 20), np.uint8), BOARD, min_corners=0)

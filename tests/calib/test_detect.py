@@ -1,0 +1,190 @@
+"""Chessboard detection on rendered boards with known corners: labels, partial views, no false boards."""
+
+from functools import cache
+
+import numpy as np
+import pytest
+from scipy.spatial import cKDTree
+
+from sogdd.calib.detect import detect_board, detect_boards
+from sogdd.evaluation.calibration.render import Camera, ChessboardTarget, render_view
+
+CAM = Camera(np.array([[500.0, 0, 239.5], [0, 500.0, 179.5], [0, 0, 1]]), (0.0, 0, 0, 0), (480, 360))
+
+
+@cache
+def view(cols=9, rows=6, square=0.03, roll=0.1, tilt=(0.3, -0.2), shift=(0.0, 0.0), dist=0.8, blur=1.0,
+         noise=2.0, cam=CAM):
+    R = np.array([tilt[0], tilt[1], roll])
+    import cv2
+
+    Rm, _ = cv2.Rodrigues(R)
+    centre = np.array([(cols - 1) * square / 2, (rows - 1) * square / 2, 0.0])
+    t = np.array([shift[0], shift[1], dist]) - Rm @ centre
+    return render_view(cam, ChessboardTarget(cols, rows, square), R, t, blur=blur, noise=noise, rng=1)
+
+
+def match(board, v):
+    """Distances to the true corners and the integer map label -> true label (A, t): true = A @ label + t."""
+    d, k = cKDTree(v.corners).query(board.image_points)
+    truth = v.labels[k]
+    X = np.c_[board.labels, np.ones(len(board))]
+    sol = np.rint(np.linalg.lstsq(X, truth, rcond=None)[0])
+    wrong = int(np.count_nonzero(np.abs(X @ sol - truth).sum(axis=1)))
+    return d, sol[:2].T, sol[2], wrong
+
+
+def handed(board):
+    """The sign of a_i x a_j (image directions of +i and +j): +1 right-handed."""
+    pos = {tuple(q): p for q, p in zip(board.labels.tolist(), board.image_points)}
+    ai = np.mean([pos[(i + 1, j)] - p for (i, j), p in pos.items() if (i + 1, j) in pos], axis=0)
+    aj = np.mean([pos[(i, j + 1)] - p for (i, j), p in pos.items() if (i, j + 1) in pos], axis=0)
+    return np.sign(ai[0] * aj[1] - ai[1] * aj[0])
+
+
+@pytest.mark.parametrize("roll", [0.1, 0.1 + np.pi / 2, 0.1 + np.pi])
+def test_full_board_labels_are_the_boards_own_at_any_roll(roll):
+    # 9 x 6: cols + rows odd, so the dark outer square fixes (0, 0) on the same physical corner
+    v = view(roll=roll)
+    b = detect_board(v.image, (9, 6))
+    assert b is not None and b.size == (9, 6) and len(b) == 54
+    d, A, t, wrong = match(b, v)
+    assert wrong == 0
+    assert np.array_equal(A, np.eye(2)) and np.array_equal(t, [0, 0])
+    assert d.mean() < 0.03 and d.max() < 0.1
+    assert handed(b) == 1
+
+
+def test_symmetric_board_turned_half_keeps_i_left_to_right():
+    # 8 x 6: a half turn maps the board onto itself; (0, 0) goes to the end that puts +i to the right
+    v = view(cols=8, rows=6, roll=np.pi + 0.1)
+    b = detect_board(v.image, (8, 6))
+    assert b is not None and b.size == (8, 6)
+    d, A, t, wrong = match(b, v)
+    assert wrong == 0 and np.array_equal(A, -np.eye(2)) and np.array_equal(t, [7, 5])
+    assert handed(b) == 1
+    labs = b.labels.tolist()
+    first, last = b.image_points[labs.index([0, 0])], b.image_points[labs.index([7, 0])]
+    assert first[0] < last[0]
+
+
+def test_unknown_size_gives_relative_right_handed_labels():
+    v = view(roll=0.1 + np.pi / 2)
+    b = detect_board(v.image)
+    assert b is not None and b.size is None and len(b) == 54
+    assert b.labels.min(axis=0).tolist() == [0, 0]
+    d, A, t, wrong = match(b, v)
+    assert wrong == 0 and round(np.linalg.det(A)) == 1
+    assert handed(b) == 1
+
+
+def test_partial_board_cut_by_the_frame():
+    v = view(cols=11, rows=8, square=0.03, shift=(0.3, 0.1), tilt=(0.2, 0.3))
+    inside = int(v.inside.sum())
+    assert 20 < inside < 88  # the view really is cut
+    b = detect_board(v.image, (11, 8))
+    assert b is not None and b.size is None
+    d, A, t, wrong = match(b, v)
+    assert wrong == 0 and round(np.linalg.det(A)) == 1
+    assert len(b) >= inside - 4 and d.max() < 0.1
+
+
+def test_two_boards_in_one_image():
+    a, c = view(roll=0.2), view(cols=7, rows=5, roll=-0.4, tilt=(-0.3, 0.2))
+    img = np.concatenate([a.image, c.image], axis=1)
+    boards = detect_boards(img)
+    assert len(boards) == 2
+    found = sorted(len(b) for b in boards)
+    assert found == [35, 54]
+    for b in boards:
+        v, off = (a, 0) if b.image_points[:, 0].mean() < 480 else (c, 480)
+        shifted = type(v)(v.image, v.corners + [off, 0], v.labels, v.inside)
+        d, A, t, wrong = match(b, shifted)
+        assert wrong == 0 and d.max() < 0.1
+
+
+def test_occluded_corners_are_dropped_not_mislabelled():
+    v = view()
+    img = v.image.copy()
+    x, y = v.corners[22]
+    img[int(y) - 12 : int(y) + 13, int(x) - 12 : int(x) + 13] = 128  # a blob over a few corners
+    b = detect_board(img, (9, 6))
+    assert b is not None
+    d, A, t, wrong = match(b, v)
+    assert wrong == 0 and d.max() < 0.1
+    assert 40 <= len(b) < 54
+
+
+def test_strong_blur_keeps_every_corner_near():
+    v = view(blur=2.5, noise=4.0, dist=0.55)  # cells of about 27 px, blurred over 5 px
+    b = detect_board(v.image, (9, 6))
+    assert b is not None and len(b) >= 50
+    d, A, t, wrong = match(b, v)
+    assert wrong == 0
+    assert d.mean() < 0.05 and d.max() < 0.5
+
+
+def test_tiny_cells():
+    v = view(dist=2.5, blur=0.8)  # cells of about 6 px
+    cell = np.median(np.hypot(*np.diff(v.corners[:9], axis=0).T))
+    assert cell < 6.5
+    b = detect_board(v.image, (9, 6))
+    assert b is not None and b.size == (9, 6)
+    d, A, t, wrong = match(b, v)
+    assert wrong == 0 and d.mean() < 0.06
+
+
+def test_pattern_that_does_not_fit_gives_no_board():
+    v = view()
+    assert detect_boards(v.image, (5, 4)) == []
+
+
+def test_noise_gives_no_board():
+    rng = np.random.default_rng(3)
+    for sigma in (10.0, 40.0):
+        img = np.clip(rng.normal(128, sigma, (360, 480)), 0, 255).astype(np.uint8)
+        assert detect_boards(img) == []
+
+
+def test_photo_without_a_board_gives_no_board(data_dir):
+    import cv2
+
+    from sogdd import read_image
+
+    path = data_dir / "multiview" / "fountain-P11" / "images" / "0000.jpg"
+    if not path.exists():
+        pytest.skip(f"{path} not available")
+    img = read_image(path)
+    small = cv2.resize(img, (img.shape[1] // 2, img.shape[0] // 2), interpolation=cv2.INTER_AREA)
+    assert detect_boards(small) == []
+
+
+@pytest.mark.parametrize("bad, message", [
+    (dict(pattern=(9,)), "pattern"), (dict(pattern=(1, 5)), "pattern"), (dict(pattern=(9.0, 6)), "pattern"),
+    (dict(min_corners=4), "min_corners"), (dict(scale=2.0), "scale"), (dict(min_strength=-1.0), "min_strength"),
+    (dict(mask=np.ones((5, 5), bool)), "mask"),
+])
+def test_bad_arguments_are_one_line_errors(bad, message):
+    img = np.zeros((40, 40), np.uint8)
+    with pytest.raises(ValueError, match=message):
+        detect_boards(img, **bad)
+
+
+def test_not_an_array_is_a_type_error():
+    with pytest.raises(TypeError, match="numpy array"):
+        detect_boards([[0, 1], [1, 0]])
+
+
+def test_dense_board_blurred_beyond_recognition_gives_no_wrong_labels():
+    # cells of 6-8 px under a blur of 2.5 px: the edge lines blur away, and a lattice of knight's
+    # moves over the true corners once passed every local check
+    from sogdd.evaluation.calibration.render import random_sequence
+
+    cam = Camera(np.array([[700.0, 0, 319.5], [0, 700.0, 239.5], [0, 0, 1]]), (-0.12, 0.03, 0.001, -0.001),
+                 (640, 480))
+    target = ChessboardTarget(20, 14, 0.01)
+    r, t = random_sequence(cam, target, 3, seed=1, cell_px=(6, 8), tilt_max=40.0)[2]
+    v = render_view(cam, target, r, t, blur=2.5, noise=4.0, rng=2)
+    for b in detect_boards(v.image, (20, 14)):
+        d, A, t, wrong = match(b, v)
+        assert wrong == 0 and round(abs(np.linalg.det(A))) == 1

@@ -1,0 +1,42 @@
+"""The lattice's pieces: homographies, the leave-one-out check, ray neighbours."""
+
+import numpy as np
+
+from sogdd.calib.lattice import apply, check, homography, ray_neighbours
+from sogdd.calib.xcorners import XCorners
+
+
+def grid(n=5, cell=20.0):
+    lab = np.array([(i, j) for j in range(n) for i in range(n)], float)
+    H = np.array([[cell, 2.0, 30.0], [1.0, cell * 0.9, 40.0], [0.004, 0.002, 1.0]])
+    return lab, apply(H, lab), H
+
+
+def test_homography_recovers_a_perspective_map():
+    lab, xy, H = grid()
+    G = homography(lab, xy)
+    assert np.allclose(G / G[2, 2], H, atol=1e-8)
+    assert homography(lab[:5:1][:3], xy[:3]) is None  # too few points
+    line = np.c_[np.arange(6.0), np.zeros(6)]
+    assert homography(line, line * 3) is None  # all on one line
+
+
+def test_check_flags_only_the_displaced_corner():
+    lab, xy, _ = grid()
+    assert check(xy, lab.astype(int)).all()
+    xy[12] += [3.0, 0.0]  # the centre, about 0.15 cell off
+    ok = check(xy, lab.astype(int))
+    assert not ok[12] and ok.sum() == len(ok) - 1
+
+
+def test_ray_neighbours_link_a_grid_of_x_corners():
+    lab, xy, _ = grid(cell=30.0)
+    parity = lab.sum(axis=1) % 2
+    light = np.where(parity == 0, np.pi / 4, 3 * np.pi / 4)
+    xc = XCorners(xy, np.full(len(xy), 100.0), light, np.full(len(xy), np.pi / 4))
+    nb, dist = ray_neighbours(xc)
+    inner = (lab.min(axis=1) > 0) & (lab.max(axis=1) < 4)
+    assert (nb[inner] >= 0).all()
+    # the same light axis on both sides: no polarity flip, no neighbours
+    same = XCorners(xy, np.full(len(xy), 100.0), np.full(len(xy), np.pi / 4), np.full(len(xy), np.pi / 4))
+    assert (ray_neighbours(same)[0] < 0).all()
