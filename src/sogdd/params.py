@@ -183,8 +183,11 @@ class Params:
         unknown = sorted(set(changes) - _NAMES)
         if unknown:
             raise ValueError(f"unknown parameter(s): {', '.join(map(str, unknown))}")
+        if not changes:
+            return self
+        new = _replace(self, **changes)  # each value, and the options together
         _check_kept(self, changes, origin)
-        return _replace(self, **changes) if changes else self
+        return new
 
     def measure_spec(self) -> MeasureSpec:
         """The resolved :class:`~sogdd.measure.soddc.MeasureSpec` of these parameters."""
