@@ -116,7 +116,8 @@ def test_the_table_changes_with_a_preset(monkeypatch):
 def test_threshold_units_without_a_threshold_in_those_units(image):
     _one_line_error(lambda: sogdd.detect_corners(image, threshold_units="grey"),
                     "threshold=1e+09", "'paper' preset", "give threshold= in grey levels")
-    _one_line_error(lambda: sogdd.detect_corners(image, preset="hr", threshold_units="measure"),
+    _one_line_error(lambda: sogdd.detect_corners(image, preset="hr", threshold_units="measure",
+                                                 x_junctions=False),
                     "threshold=20", "give threshold= on Upsilon")
     # given together, or without an absolute threshold, it means what it says
     assert len(sogdd.detect_corners(image, threshold_units="grey", threshold=20.0)) > 0
