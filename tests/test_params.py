@@ -211,3 +211,34 @@ def test_levels_beyond_the_image_are_refused():
 def test_none_is_not_an_image():
     _one_line_error(lambda: sogdd.detect_corners(None), "got None")
     _one_line_error(lambda: sogdd.corner_response(None), "got None")
+
+
+def test_x_junctions_at_a_scale_they_cannot_be_calibrated_at(image):
+    _one_line_error(lambda: sogdd.detect_corners(image, preset="hr", sigma2=0.5),
+                    "x_junctions cannot be calibrated", "x_junctions=False")
+    assert len(sogdd.detect_corners(image, preset="hr", sigma2=0.5, x_junctions=False)) > 0
+
+
+def test_the_gpu_gets_the_resolved_parameters(image, monkeypatch):
+    """device="cuda" hands the GPU module the Params the door resolved (and checked)."""
+    from sogdd import detector
+
+    seen = {}
+
+    class FakeGPU:
+        @staticmethod
+        def detect_corners(img, *, preset, mask):
+            seen["detect"] = resolve_params(preset)
+            return sogdd.Corners.empty()
+
+        @staticmethod
+        def corner_response(img, *, preset):
+            seen["response"] = resolve_params(preset)
+            return np.zeros(img.shape[:2])
+
+    monkeypatch.setattr(detector, "_gpu", lambda device: FakeGPU if device == "cuda" else None)
+    sogdd.detect_corners(image, "hr", device="cuda", window=5)
+    sogdd.corner_response(image, Params.preset("authors"), device="cuda", sigma2=2.0)
+    assert seen == {"detect": resolve_params("hr", window=5), "response": resolve_params("authors", sigma2=2.0)}
+    _one_line_error(lambda: sogdd.detect_corners(np.zeros((64, 64)), device="cuda", levels=4),
+                    "use levels <= 2")

@@ -23,7 +23,7 @@ from .select.peaks import select_peaks
 from .select.pyramid import merge_levels, pyramid_levels
 from .select.relative_floor import relative_floor
 from .select.subpixel import refine_quadratic
-from .select.x_junctions import SaddleCandidates
+from .select.x_junctions import SaddleCandidates, saddle_unit
 
 __all__ = ["corner_response", "detect_corners"]
 
@@ -222,6 +222,19 @@ def _detect_level(grey: np.ndarray, p: Params, mask: np.ndarray | None) -> Corne
                     saddles=None if saddles is None else saddles.result(grey))
 
 
+def _check_x_junctions(p: Params) -> None:
+    """X-junctions are calibrated on an ideal junction (:mod:`sogdd.measure.units`): refuse where that fails."""
+    if not p.x_junctions:
+        return
+    spec = p.measure_spec()
+    try:
+        saddle_unit(spec.sigma2, spec.radius)  # cached: the detection reads it again
+    except ValueError:  # no saddle found in the calibration junction
+        raise ValueError(f"x_junctions cannot be calibrated at sigma2={p.sigma2!r}: the saddle search finds no "
+                         "saddle in the ideal X-junction at this scale; use sigma2 >= 0.75 or "
+                         "x_junctions=False") from None
+
+
 def _gpu(device: str):
     """The GPU module for ``device="cuda"``; ``device="cpu"`` gives None."""
     if device == "cpu":
@@ -334,6 +347,7 @@ def detect_corners(
     True
     """
     p = resolve_params(preset, **given(locals()))  # the keywords the caller set; the rest from the preset
+    _check_x_junctions(p)
     if (gpu := _gpu(device)) is not None:
         if len(getattr(image, "shape", ())) >= 2:
             check_levels(p, tuple(image.shape[:2]))
