@@ -166,3 +166,10 @@ def test_compute_keypoints_checks_its_input(bgr):
         compute_keypoints(bgr, [(1, 2)])
     with pytest.raises(ValueError, match="unknown descriptor method"):
         compute_keypoints(bgr, [], "sosnet")
+
+
+def test_orientation_needs_positive_sizes(bgr):
+    from sogdd.descriptors import assign_orientations
+
+    with pytest.raises(ValueError, match="positive finite diameter"):
+        assign_orientations(bgr[:, :, 0], np.array([[10.0, 10.0]]), np.array([0.0]))

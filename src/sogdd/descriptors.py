@@ -155,6 +155,8 @@ def assign_orientations(
     """
     xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
     size = np.asarray(size, dtype=np.float64).reshape(-1)
+    if len(size) != len(xy) or not (np.isfinite(size) & (size > 0)).all():
+        raise ValueError("size must hold one positive finite diameter per point")
     out = np.zeros(len(xy))
     if len(xy) == 0:
         return out
