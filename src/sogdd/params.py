@@ -1,18 +1,11 @@
 """Detector parameters: the :class:`Params` object, the presets and their validation.
 
-Every parameter of the detector lives in :class:`Params`, a frozen dataclass
-whose ``repr`` shows every value. A preset is a ``Params`` value
-(:data:`PRESETS`); ``Params.preset("hr")`` gives one, ``.replace(...)``
-changes it. Every ``Params`` is validated when it is made, so the rest of the
-pipeline can trust it; :func:`resolve_params` (a preset's name plus keyword
-overrides) is the same thing in one call.
-
-Changes (``Params.preset(name, **changes)``, ``replace``, the keywords of
-:func:`sogdd.detect_corners`) are also checked against the values they keep:
-a change that would silently give a kept value another meaning is an error
-that says what to give instead (a new ``threshold_units`` without a threshold
-in those units; a relative threshold on top of a kept absolute one, or the
-reverse).
+Every parameter lives in :class:`Params`, a frozen dataclass whose ``repr`` shows every value,
+validated when made. A preset is a ``Params`` (:data:`PRESETS`): ``Params.preset("hr")`` gives
+one, ``.replace(...)`` changes it, :func:`resolve_params` does both in one call. Changes are also
+checked against the values they keep: one that would silently give a kept value another meaning
+(``threshold_units`` without a threshold in those units; a relative threshold on top of a kept
+absolute one, or the reverse) is an error that says what to give instead.
 """
 
 from __future__ import annotations
@@ -31,7 +24,7 @@ from .measure.soddc import MeasureSpec
 from .measure.window import window_halfwidths
 
 __all__ = ["CHOICES", "DETECT_FIELDS", "MEASURE_FIELDS", "PRESET", "PRESETS", "SIGMA2_RANGE", "Params",
-           "check_levels", "given", "max_levels", "min_level_side", "preset_table", "resolve_params"]
+           "check_levels", "given", "max_levels", "preset_table", "resolve_params"]
 
 _SUBPIXEL = ("gradient", "quadratic", "none", "adaptive")
 #: the values of each text-valued parameter (one list: validation, the CLI's choices, spec parsing)
@@ -88,20 +81,17 @@ def given(arguments: dict) -> dict:
 class Params:
     """Every detector parameter, validated when made; the ``repr`` shows every value.
 
-    Make one from a preset and change it with :meth:`replace` (both validate);
-    pass it to :func:`sogdd.detect_corners`, :func:`sogdd.corner_response` or
-    :class:`sogdd.SOGDD` in place of a preset's name. The meaning of each field
-    is in :func:`sogdd.detect_corners`' docstring, with its value in every preset.
-
-    ``subpixel=True`` / ``False`` are stored as ``"gradient"`` / ``"none"``.
+    Make one from a preset, change it with :meth:`replace` (both validate), pass it to
+    :func:`sogdd.detect_corners`, :func:`sogdd.corner_response` or :class:`sogdd.SOGDD` in place
+    of a preset's name. :func:`sogdd.detect_corners` documents each field, with its value in every
+    preset. ``subpixel=True`` / ``False`` are stored as ``"gradient"`` / ``"none"``.
 
     Raises
     ------
     ValueError
-        One line naming the parameter: a value out of range, or options that
-        contradict each other (``x_junctions`` needs ``threshold_units="grey"``;
-        ``window_shape="gaussian"`` needs ``padding="response"``;
-        ``threshold_rel`` and ``quantile`` are alternatives).
+        One line naming the parameter: a value out of range, or options that contradict each other
+        (``x_junctions`` needs ``threshold_units="grey"``; ``window_shape="gaussian"`` needs
+        ``padding="response"``; ``threshold_rel`` and ``quantile`` are alternatives).
 
     Examples
     --------
@@ -384,9 +374,12 @@ def resolve_params(preset: str | Params = "paper", **params) -> Params:
 
 
 def max_levels(p: Params, shape: tuple[int, int]) -> int:
-    """The most pyramid levels an image of ``shape`` holds: each level at least :func:`min_level_side` px.
+    """The most pyramid levels an image of ``shape`` holds (level ``l``: resized by ``1 / scale_factor ** l``).
 
-    Level ``l`` is the image resized by ``1 / scale_factor ** l`` (:mod:`sogdd.select.pyramid`).
+    A level's shorter side must span one corner's measure, ``window + 2 r`` px
+    (:meth:`Params.keypoint_size`), and leave pixels inside ``border``: on a narrower level every
+    response reads the padding beyond its edge, and its "corners", reported at the level's scale,
+    are hundreds of pixels of padding.
 
     Examples
     --------
@@ -394,21 +387,14 @@ def max_levels(p: Params, shape: tuple[int, int]) -> int:
     5
     """
     h, w = shape
-    need = min_level_side(p)
+    need = _level_side(p)
     n = 1
     while n < 64 and min(round(w / p.scale_factor**n), round(h / p.scale_factor**n)) >= need:
         n += 1
     return n
 
 
-def min_level_side(p: Params) -> int:
-    """The shortest side of a pyramid level that can hold a corner: the span of one corner's measure.
-
-    A corner's response reads ``window + 2 r`` pixels across (:meth:`Params.keypoint_size`); on a
-    level narrower than that, every response reads the padding beyond the level's edge, so its
-    "corners" are artefacts of the padding, reported at the level's scale (hundreds of pixels).
-    A level must also leave pixels inside ``border``.
-    """
+def _level_side(p: Params) -> int:
     return max(math.ceil(p.keypoint_size()), 2 * int(p.border) + 3)
 
 
@@ -418,7 +404,7 @@ def check_levels(p: Params, shape: tuple[int, int]) -> None:
     if p.levels > most:
         raise ValueError(
             f"levels={p.levels} is more than this {shape[0]} x {shape[1]} image holds: level l is "
-            f"1/{p.scale_factor:g}^l of its size and needs at least {min_level_side(p)} px on its shorter side "
+            f"1/{p.scale_factor:g}^l of its size and needs at least {_level_side(p)} px on its shorter side "
             f"(the span of one corner's measure, or 2 border + 3); use levels <= {most}")
 
 
