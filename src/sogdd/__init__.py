@@ -42,6 +42,7 @@ _EXPORTS = {
     "load_features": "formats.features",
     "read_image": "image.files",
     "PRESETS": "params",
+    "Params": "params",
     "resolve_params": "params",
 }
 
@@ -49,6 +50,7 @@ __all__ = [
     "__version__",
     "PRESETS",
     "SOGDD",
+    "Params",
     "Corners",
     "corner_response",
     "describe",
@@ -65,7 +67,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs
     from .feature2d import SOGDD
     from .formats.features import load_features
     from .image.files import read_image
-    from .params import PRESETS, resolve_params
+    from .params import PRESETS, Params, resolve_params
 
 
 def __getattr__(name: str):

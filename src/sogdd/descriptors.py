@@ -23,6 +23,15 @@ Each point gets a SIFT-style scale and orientation before it is described:
 
 Angles follow ``cv2.KeyPoint``: degrees in [0, 360), measured in image
 coordinates (y down), as OpenCV's SIFT writes them.
+
+**Which points have a descriptor** (:func:`describable`): those inside the
+image, ``-0.5 <= x <= W - 0.5`` and ``-0.5 <= y <= H - 0.5`` (the pixels'
+extent, centres at integers), with a positive finite size. A point inside it
+is described from the pixels around it that exist (as OpenCV's SIFT does, near
+the border too). A point outside it is not a point of that image: OpenCV's SIFT
+gives it a row of zeros, which matches anything. :func:`describe` refuses such
+points (one line, with the count); :func:`compute_keypoints` drops them and
+returns the keypoints it kept, as ``cv2.Feature2D.compute`` documents.
 """
 
 from __future__ import annotations
@@ -41,6 +50,7 @@ __all__ = [
     "METHODS",
     "assign_orientations",
     "compute_keypoints",
+    "describable",
     "describe",
     "descriptor_sizes",
     "keypoint_octaves",
@@ -145,6 +155,8 @@ def assign_orientations(
     """
     xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
     size = np.asarray(size, dtype=np.float64).reshape(-1)
+    if len(size) != len(xy) or not (np.isfinite(size) & (size > 0)).all():
+        raise ValueError("size must hold one positive finite diameter per point")
     out = np.zeros(len(xy))
     if len(xy) == 0:
         return out
@@ -205,9 +217,30 @@ def rootsift(desc: np.ndarray, eps: float = 1e-12) -> np.ndarray:
 def _sizes(corners: Corners, size: float | None, scale_factor: float) -> np.ndarray:
     if size is None:
         return corners.size.astype(np.float64)
-    if not (math.isfinite(size) and size > 0):
-        raise ValueError(f"size must be a positive number, got {size!r}")
+    for name, v in (("size", size), ("scale_factor", scale_factor)):
+        if not (isinstance(v, (int, float, np.number)) and math.isfinite(v) and v > 0):
+            raise ValueError(f"{name} must be a positive number, got {v!r}")
     return float(size) * float(scale_factor) ** corners.level.astype(np.float64)
+
+
+def describable(shape: tuple[int, ...], xy: np.ndarray, size: np.ndarray) -> np.ndarray:
+    """Mask of the points that have a descriptor in an image of ``shape`` (module doc).
+
+    Inside the pixels' extent ``[-0.5, W - 0.5] x [-0.5, H - 0.5]`` (pixel centres
+    at integers), with a positive finite diameter ``size``.
+
+    Examples
+    --------
+    >>> describable((100, 100), np.array([[5.0, 5.0], [99.5, 0.0], [120.0, 5.0], [5.0, 5.0]]),
+    ...             np.array([8.0, 8.0, 8.0, 0.0])).tolist()
+    [True, True, False, False]
+    """
+    h, w = shape[:2]
+    xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    size = np.asarray(size, dtype=np.float64).reshape(-1)
+    with np.errstate(invalid="ignore"):  # NaN compares False: not describable
+        inside = (xy[:, 0] >= -0.5) & (xy[:, 0] <= w - 0.5) & (xy[:, 1] >= -0.5) & (xy[:, 1] <= h - 0.5)
+        return inside & np.isfinite(size) & (size > 0)
 
 
 def _sift_compute(grey_u8: np.ndarray, xy, size, angle) -> np.ndarray:
@@ -270,6 +303,27 @@ def describe(
         Row ``i`` describes ``corners.xy[i]``.
     angles : (N,) float64
         Only with ``return_angles=True``.
+
+    Raises
+    ------
+    ValueError
+        One line: a bad method, image or size, or points that have no
+        descriptor in this image (outside it, or of size <= 0; see
+        :func:`describable`), with their count; describe
+        ``corners.subset(describable(image.shape, corners.xy, sizes))`` instead.
+
+    Examples
+    --------
+    >>> from sogdd.synthetic import pattern_image
+    >>> import sogdd
+    >>> img, _ = pattern_image((120, 160))
+    >>> c = sogdd.detect_corners(img)
+    >>> describe(img, c).shape == (len(c), 128)
+    True
+    >>> describe(img[:60, :80], c)
+    Traceback (most recent call last):
+    ...
+    ValueError: ... of ... points have no descriptor in this 60 x 80 image (outside it, or of size <= 0); ...
     """
     if method not in METHODS:
         raise ValueError(f"unknown descriptor method {method!r}; choose from {', '.join(METHODS)}")
@@ -277,11 +331,26 @@ def describe(
         raise ValueError(f"corners must be a sogdd.Corners, got {type(corners).__name__}")
     grey = to_uint8_grey(image, channel_order)
     sizes = _sizes(corners, size, scale_factor)
-    angles = np.zeros(len(corners)) if upright else assign_orientations(grey, corners.xy, sizes)
-    desc = _sift_compute(grey, corners.xy, sizes, angles)
+    ok = describable(grey.shape, corners.xy, sizes)
+    if not ok.all():
+        h, w = grey.shape[:2]
+        raise ValueError(
+            f"{int((~ok).sum())} of {len(ok)} points have no descriptor in this {h} x {w} image (outside "
+            "it, or of size <= 0); describe the others: corners.subset(sogdd.descriptors.describable("
+            "image.shape, corners.xy, corners.size))")
+    desc, angles = _describe(grey, corners.xy, sizes, None if not upright else np.zeros(len(corners)))
     if method == "rootsift":
         desc = rootsift(desc)
     return (desc, angles) if return_angles else desc
+
+
+def _describe(grey: np.ndarray, xy: np.ndarray, sizes: np.ndarray, angles: np.ndarray | None):
+    """SIFT descriptors and angles of describable points; ``angles`` None: assigned (negative ones too)."""
+    todo = np.ones(len(xy), bool) if angles is None else np.asarray(angles) < 0
+    angles = np.zeros(len(xy)) if angles is None else np.asarray(angles, dtype=np.float64).copy()
+    if todo.any():
+        angles[todo] = assign_orientations(grey, xy[todo], sizes[todo])
+    return _sift_compute(grey, xy, sizes, angles), angles
 
 
 def compute_keypoints(
@@ -295,30 +364,43 @@ def compute_keypoints(
     image : ndarray
         Grey or colour image; colour is BGR by default, as ``cv2.imread`` returns it.
     keypoints : sequence of cv2.KeyPoint
-        Points to describe. Each keeps its position, size, response, octave and
-        class id; its angle is set by SIFT orientation assignment (0 with
-        ``upright=True``).
+        Points to describe, each at its own ``size`` (the descriptor's diameter,
+        as OpenCV's SIFT reads it) and its own ``angle``; a negative angle
+        (-1: not assigned, as detectors leave it) gets SIFT's orientation
+        assignment, or 0 with ``upright=True``. Points without a descriptor in
+        this image (:func:`describable`: outside it, or of size <= 0) are
+        dropped, as ``cv2.Feature2D.compute`` documents.
     method : {"sift", "rootsift"}
+    upright : bool
+        Angle 0 for every point (no orientation assignment, given angles ignored).
     size : float, optional
-        Descriptor diameter at pyramid level 0, multiplied by
+        Describe at this diameter at pyramid level 0 instead, multiplied by
         ``scale_factor ** octave`` (the octave read as the pyramid level, as
-        SOGDD's keypoints carry it). Default: each keypoint's own ``size``, as
-        OpenCV's ``compute`` does; pass 8 for SOGDD keypoints (see
-        :data:`DESC_SIZE`).
+        SOGDD's keypoints carry it).
 
     Returns
     -------
     keypoints : tuple of cv2.KeyPoint
-        The input points with their angles set (and their size when ``size`` is given).
+        The points described, in input order, with their angles (and sizes,
+        with ``size``) as described; the dropped ones are left out.
     descriptors : (N, 128) float32
+        Row ``i`` describes ``keypoints[i]``; (0, 128) when there are none, as
+        OpenCV 5's SIFT returns.
     """
+    if method not in METHODS:
+        raise ValueError(f"unknown descriptor method {method!r}; choose from {', '.join(METHODS)}")
     kps = tuple(keypoints)
+    if not all(isinstance(k, cv2.KeyPoint) for k in kps):
+        raise ValueError("keypoints must be cv2.KeyPoint objects")
+    grey = to_uint8_grey(image, channel_order)
     corners = Corners.from_keypoints(kps)
-    desc, angles = describe(
-        image, corners, method, upright=upright, channel_order=channel_order, return_angles=True,
-        size=size, scale_factor=scale_factor,
-    )
     sizes = _sizes(corners, size, scale_factor)
+    keep = np.flatnonzero(describable(grey.shape, corners.xy, sizes))
+    kps, sizes = tuple(kps[i] for i in keep), sizes[keep]
+    given = np.zeros(len(kps)) if upright else np.array([k.angle for k in kps], dtype=np.float64)
+    desc, angles = _describe(grey, corners.xy[keep], sizes, given)
+    if method == "rootsift":
+        desc = rootsift(desc)
     out = tuple(
         cv2.KeyPoint(k.pt[0], k.pt[1], float(s), float(a), k.response, k.octave, k.class_id)
         for k, a, s in zip(kps, angles, sizes)

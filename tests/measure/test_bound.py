@@ -105,7 +105,7 @@ def test_detection_is_that_of_the_full_map(pattern, rng, monkeypatch, params):
 
 
 def test_relative_and_quantile_thresholds_use_the_full_map():
-    p = sogdd.resolve_params("paper", threshold_rel=0.01)
+    p = sogdd.resolve_params("paper", threshold=1e9, threshold_rel=0.01)
     assert detector._floor(p, p.measure_spec(), p.threshold) is None
     p = sogdd.resolve_params("authors")
     assert detector._floor(p, p.measure_spec(), p.threshold) is None
@@ -178,8 +178,9 @@ def test_peak_scan_equals_the_dilation_definition(h, w, radius, border, levels, 
         assert any(max(abs(r - r2), abs(c - c2)) <= radius and resp[r2, c2] == resp[r, c] for r2, c2 in got)
 
 
-@pytest.mark.parametrize("params", [{"threshold_rel": 0.05}, {"threshold_rel": 0.02, "threshold": None},
-                                    {"threshold_rel": 0.01, "border": 20}])
+@pytest.mark.parametrize("params", [{"threshold_rel": 0.05, "threshold": 1e9},
+                                    {"threshold_rel": 0.02, "threshold": None},
+                                    {"threshold_rel": 0.01, "threshold": 1e9, "border": 20}])
 def test_relative_threshold_prunes_and_detects_as_the_full_map(pattern, rng, monkeypatch, params):
     from sogdd.select import relative_floor as _relative_floor
 

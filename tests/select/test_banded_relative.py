@@ -164,7 +164,7 @@ def _colour(rng, shape=(300, 420)):
 
 
 @pytest.mark.parametrize("kw", [{"preset": "authors"}, {"preset": "authors", "subpixel": "quadratic"},
-                                {"preset": "paper", "threshold_rel": 0.001},
+                                {"preset": "paper", "threshold": 1e9, "threshold_rel": 0.001},
                                 {"preset": "paper", "threshold": None, "quantile": 0.9},
                                 {"preset": "authors", "threshold_rel": 0.0, "quantile": None}])
 def test_detect_corners_equals_the_whole_map_path(rng, monkeypatch, kw):

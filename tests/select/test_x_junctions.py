@@ -16,7 +16,7 @@ GREY = dict(n_orientations=4, threshold_units="grey")
 
 
 def test_grey_units_round_trip():
-    spec = resolve_params("paper", **GREY).measure_spec()
+    spec = resolve_params("paper", threshold=None, **GREY).measure_spec()
     for t in (1.0, 17.0, 100.0):
         assert grey_strength(np.array([measure_threshold(t, spec)]), spec)[0] == pytest.approx(t, rel=1e-12)
 
@@ -25,7 +25,7 @@ def test_corner_unit_is_the_l_corner_peak_by_the_definition():
     """The calibration constant against the direct eq. 22-25 computation (sogdd.measure.oracle)."""
     from sogdd.measure.units import calibration_images
 
-    spec = resolve_params("paper", **GREY).measure_spec()
+    spec = resolve_params("paper", threshold=None, **GREY).measure_spec()
     L, _ = calibration_images()
     assert corner_unit(spec) == pytest.approx(float(reference_measure(L, spec).max()), rel=1e-9)
 

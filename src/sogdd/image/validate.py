@@ -99,6 +99,8 @@ def _dtype_message(given: object, dtype: np.dtype) -> str:
 def _as_array(image: object) -> np.ndarray:
     if isinstance(image, np.ndarray):
         return image
+    if image is None:
+        raise ValueError("expected an image array, got None (did reading the image fail?)")
     if isinstance(image, (str, os.PathLike)):
         raise ValueError("expected an image array; use sogdd.read_image(path) to load a file")
     try:
