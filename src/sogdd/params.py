@@ -137,7 +137,7 @@ PRESETS: dict[str, Params] = {
         gray_weights=MATLAB_RGB2GRAY,
         gray_round=True,
     ),
-    # The best corners the family gives, chosen by the declared study of docs/hr.md (issue 13);
+    # The best corners the family gives, chosen by the declared study of docs/hr.md;
     # the values and the study row each comes from are in the README's preset table.
     "hr": Params(
         sigma2=1.5,
