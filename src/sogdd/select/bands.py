@@ -138,7 +138,9 @@ def peaks_in_bands(
     vmax = -np.inf  # the largest positive value in the valid area
     raw, big, nan = False, 0.0, False  # the authors' raw bands: max|det| over the image, whether a det is NaN
     cand: list[tuple[np.ndarray, ...]] = []
-    for b, m in zip(plan, bands, strict=True):
+    stream = iter(bands)
+    for b in plan:
+        m = next(stream)  # not zip(): its reused tuple keeps the last band alive while the next is measured
         if m.det is not None:
             raw, big, nan = True, max(big, m.abs_det_max), nan or m.det_nan
         if relative:
