@@ -1,6 +1,6 @@
 """The GPU path against the CPU path and against plain PyTorch, on one CUDA device, in one run.
 
-One prepared script for a session that is lent a GPU (issue 14): first the
+One prepared script for a session that is lent a GPU: first the
 agreement of ``device="cuda"`` with the CPU path on a 1 MP image (the map's
 relative error where it is well conditioned, the corners), then timings at 1, 6
 and 24 MP:

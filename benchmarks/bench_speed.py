@@ -169,7 +169,7 @@ print(hwm(), base, len(c))
 def _detect_full_map(img: np.ndarray):
     """The paper preset's detection on the full Upsilon map (no pruning), for comparison."""
     from sogdd.select.peaks import select_peaks
-    from sogdd.select.subpixel import refine_gradient, refine_quadratic
+    from sogdd.select.refine import refine_gradient, refine_quadratic
 
     resp = sogdd.corner_response(img)
     rows, cols = select_peaks(resp, threshold=1e9)

@@ -5,7 +5,7 @@ from scipy.spatial import cKDTree
 
 import sogdd
 from sogdd.image.grey import to_gray255
-from sogdd.select.subpixel import refine_gradient, refine_quadratic
+from sogdd.select.refine import refine_gradient, refine_quadratic
 from sogdd.synthetic import Polygon, render_polygons
 from sogdd.synthetic import pattern_image as make_pattern
 

@@ -1,4 +1,4 @@
-"""The ``hr`` preset (issue 13): the study's winner, grey-level threshold, X-junctions on their saddle."""
+"""The ``hr`` preset: the study's winner, grey-level threshold, X-junctions on their saddle."""
 
 from __future__ import annotations
 
@@ -146,26 +146,26 @@ def test_hr_reports_one_point_per_corner(monkeypatch):
 @pytest.mark.parametrize("threads,band_rows", [("1", 1024), ("2", 1024), ("2", 37)])
 def test_saddles_from_the_measures_responses_equal_the_search(monkeypatch, threads, band_rows):
     """Detection takes the X-junction candidates from the measure's tiles: saddle_search's result exactly."""
-    from sogdd import detector
-    from sogdd.select import banded as _banded
+    from sogdd.select import bands as _bands
+    from sogdd.select import stage
 
     img, _ = checkerboard(9.0, shape=(120, 140))
     img = np.clip(img + np.random.default_rng(3).normal(0, 2, img.shape), 0, 255).astype(np.uint8)
     monkeypatch.setenv("SOGDD_NUM_THREADS", threads)
-    banded = _banded.peaks_in_bands
-    monkeypatch.setattr(detector, "peaks_in_bands", lambda *a, **k: banded(*a, band_rows=band_rows, **k))
+    banded = _bands.stream_peaks
+    monkeypatch.setattr(stage, "stream_peaks", lambda *a, **k: banded(*a, band_rows=band_rows, **k))
     tiles = []
-    cls = detector.SaddleCandidates
+    cls = stage.SaddleCandidates
 
     class Spy(cls):
         def __call__(self, top, lo, hi, planes):
             tiles.append(hi - lo)
             return super().__call__(top, lo, hi, planes)
 
-    monkeypatch.setattr(detector, "SaddleCandidates", Spy)
+    monkeypatch.setattr(stage, "SaddleCandidates", Spy)
     shared = sogdd.detect_corners(img, preset="hr")
     assert sum(tiles) == img.shape[0]  # every row's candidates, from one tile each
-    monkeypatch.setattr(detector, "SaddleCandidates", lambda *a: None)  # add_x_junctions searches itself
+    monkeypatch.setattr(stage, "SaddleCandidates", lambda *a: None)  # add_x_junctions searches itself
     searched = sogdd.detect_corners(img, preset="hr")
     assert len(shared) > 20
     np.testing.assert_array_equal(shared.xy, searched.xy)

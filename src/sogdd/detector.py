@@ -1,9 +1,10 @@
 """The public detection API: the corner measure map and the corner detector.
 
-The pipeline is io -> filters -> response -> peaks: an image is validated and
-brought to grey on the 0-255 scale (:mod:`sogdd.image.validate`), filtered and measured
-(:mod:`sogdd.measure.soddc`), and its peaks selected and refined (:mod:`sogdd.select.peaks`);
-:func:`detect_corners` adds the image pyramid.
+The pipeline is image -> measure -> select: an image is validated and brought to
+grey on the 0-255 scale (:mod:`sogdd.image`), measured (:mod:`sogdd.measure`), and
+the peaks of the measure selected and refined by the selection stage's one entry
+point (:func:`sogdd.select.stage.select_corners`), which reads the measure band by
+band or whole; :func:`detect_corners` adds the image pyramid (:mod:`sogdd.image.pyramid`).
 """
 
 from __future__ import annotations
@@ -12,18 +13,14 @@ import numpy as np
 
 from .corners import Corners
 from .image.grey import to_gray255
+from .image.pyramid import pyramid_levels
 from .image.rows import GreyRows
 from .image.validate import check_mask, validate_image
-from .measure.soddc import MeasureSpec, soddc_measure, supports_floor
+from .measure.soddc import soddc_measure
 from .params import PRESET, Params, check_levels, given, resolve_params
-from .select.assemble import assemble, peak_limit, peak_threshold
-from .select.banded import peaks_in_bands
-from .select.banded_relative import peaks_relative_in_bands
-from .select.peaks import select_peaks
-from .select.pyramid import merge_levels, pyramid_levels
-from .select.relative_floor import relative_floor
-from .select.subpixel import refine_quadratic
-from .select.x_junctions import SaddleCandidates, saddle_unit
+from .select.assemble import merge_levels
+from .select.stage import select_corners
+from .select.x_junctions import saddle_unit
 
 __all__ = ["corner_response", "detect_corners"]
 
@@ -180,48 +177,6 @@ def corner_response(
     return soddc_measure(grey.exact_rows(0, grey.shape[0]), p.measure_spec())
 
 
-def _floor(p: Params, spec: MeasureSpec, threshold: float | None) -> float | None:
-    """The absolute threshold, when it alone decides which peaks pass (no relative or quantile one)."""
-    if threshold is None or threshold <= 0 or p.threshold_rel is not None or p.quantile is not None:
-        return None
-    return float(threshold) if supports_floor(spec) else None
-
-
-def _detect_level(grey: np.ndarray, p: Params, mask: np.ndarray | None) -> Corners:
-    spec = p.measure_spec()
-    # Exact wherever a peak above the threshold or the 3x3 patch of one can be, -inf
-    # where a bound proves the measure below it: the same corners as the full map.
-    thr = peak_threshold(p, spec)
-    floor = _floor(p, spec, thr)
-    top = peak_limit(p)
-    saddles = None
-    if floor is not None:  # absolute threshold: band by band, no H x W map (sogdd.select.banded)
-        # hr's X-junction candidates from the measure's own filter responses (not filtered twice)
-        if p.x_junctions and not spec.zero_mean:
-            saddles = SaddleCandidates(grey.shape, spec, p.threshold)
-        rows, cols, values, qoff = peaks_in_bands(grey, spec, threshold=thr, floor=floor, border=p.border,
-                                                  nms_radius=p.nms_radius, mask=mask, max_corners=top,
-                                                  on_planes=saddles)
-    else:  # a relative threshold prunes too (sogdd.select.relative_floor)
-        floor = relative_floor(grey, p, spec, mask, threshold=thr)
-        # one pass over bands, no H x W map (select.banded_relative); None where only the full map can tell
-        got = peaks_relative_in_bands(
-            grey, spec, threshold=thr, threshold_rel=p.threshold_rel, quantile=p.quantile, floor=floor,
-            nms_radius=p.nms_radius, border=p.border, mask=mask, max_corners=top,
-            quadratic=p.subpixel != "none")
-        if got is not None:
-            rows, cols, values, qoff = got
-        else:
-            resp = soddc_measure(np.asarray(grey), spec, floor=floor)
-            rows, cols = select_peaks(resp, threshold=thr, threshold_rel=p.threshold_rel, quantile=p.quantile,
-                                      nms_radius=p.nms_radius, border=p.border, mask=mask, max_corners=top)
-            values = resp[rows, cols]
-            qoff = refine_quadratic(resp, rows, cols) if p.subpixel != "none" else None
-            del resp
-    return assemble(grey, p, spec, rows, cols, values, qoff, mask,
-                    saddles=None if saddles is None else saddles.result(grey))
-
-
 def _check_x_junctions(p: Params) -> None:
     """X-junctions are calibrated on an ideal junction (:mod:`sogdd.measure.units`): refuse where that fails."""
     if not p.x_junctions:
@@ -356,5 +311,6 @@ def detect_corners(
     grey = _prepare(image, p, lazy=p.levels == 1)
     check_levels(p, grey.shape)
     mask = check_mask(mask, grey.shape)
-    found = [(level, _detect_level(level.grey, p, level.mask)) for level in pyramid_levels(grey, p, mask)]
+    levels = pyramid_levels(grey, p.levels, p.scale_factor, border=p.border, mask=mask)
+    found = [(level, select_corners(level.grey, p, level.mask)) for level in levels]
     return merge_levels(found, p, mask, grey.shape)

@@ -1,6 +1,6 @@
 """A flexible numpy/OpenCV prototype of the SOGDD family, for the hr study only.
 
-Every variant of issue 13 is one :class:`Cfg`. The response is computed the
+Every variant of the study is one :class:`Cfg`. The response is computed the
 slow, obvious way, so that any combination can be tried:
 
 1. the steerable basis ``g_xx, g_xy, g_yy`` of :mod:`sogdd.measure.filters` (separable,
@@ -36,7 +36,7 @@ import numpy as np
 from sogdd.corners import Corners
 from sogdd.measure.filters import kernel_radius, steerable_basis
 from sogdd.select.peaks import select_peaks
-from sogdd.select.subpixel import refine_quadratic
+from sogdd.select.refine import refine_quadratic
 
 VARSIGMA = 2.22e-16
 _B = cv2.BORDER_REFLECT  # half-sample symmetric = scipy "reflect"
@@ -342,7 +342,7 @@ def _refine(grey: np.ndarray, xy: np.ndarray, is_x: np.ndarray, cfg: Cfg) -> np.
     xy = xy.copy()
     c = ~is_x
     if cfg.subpix == "grad" and c.any():
-        from sogdd.select.subpixel import refine_gradient
+        from sogdd.select.refine import refine_gradient
 
         xy[c] = refine_gradient(grey, xy[c])
     elif cfg.subpix == "grad_adapt" and c.any():

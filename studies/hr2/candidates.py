@@ -38,7 +38,7 @@ detection in this order:
     admitted by ``hr``'s threshold stay the same).
 ``budget=N`` (none) and ``select=top|anms|bucket`` (top)
     keep ``N`` points: the strongest, adaptive non-maximal suppression or
-    bucketing (:mod:`sogdd.select.budget`).
+    bucketing (``point_budget.py`` beside this file).
 
 Import this module to register ``hr2`` (``import candidates``).
 """
@@ -51,6 +51,7 @@ from typing import Any, ClassVar
 
 import cv2
 import numpy as np
+from point_budget import anms_order, bucket_order  # beside this file: the study's folder is on sys.path
 
 from sogdd.baselines.registry import BaselineDetector, register, registered
 from sogdd.corners import Corners
@@ -60,7 +61,6 @@ from sogdd.image.grey import to_uint8_grey
 from sogdd.image.validate import validate_image
 from sogdd.measure.units import grey_strength
 from sogdd.params import PRESETS, resolve_params
-from sogdd.select.budget import anms_order, bucket_order
 
 __all__ = ["HR2", "contrast_strength", "merge_scales", "scale_strengths"]
 

@@ -1,5 +1,5 @@
 """A file name that is not valid UTF-8 fails that image alone, named with its bad bytes escaped; every
-other image of the batch is written (issue 22, item 6)."""
+other image of the batch is written."""
 
 import os
 import sys

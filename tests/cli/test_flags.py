@@ -1,4 +1,4 @@
-"""Every parameter has a flag, and --help lists every value a text parameter takes (issue 22, item 9)."""
+"""Every parameter has a flag, and --help lists every value a text parameter takes."""
 
 import dataclasses
 

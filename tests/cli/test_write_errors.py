@@ -1,4 +1,4 @@
-"""Every write error is an error (issue 22, items 5 and 11): a full disk on stdout is one line and exit
+"""Every write error is an error: a full disk on stdout is one line and exit
 2, never exit 0 with a truncated CSV; a reader that stops early ends the command quietly; an output
 that is a folder is refused before any detection, and write errors name the file, not its temporary."""
 

@@ -1,4 +1,4 @@
-"""Batches keep every good result (issue 11, items 7-10): names, dying workers, signals, resume."""
+"""Batches keep every good result : names, dying workers, signals, resume."""
 
 import os
 import signal

@@ -1,5 +1,5 @@
 """--resume redoes a file when any parameter changed or the source image was edited, even in place with
-its size and modification time kept; it skips only what would come out the same (issue 22, Resume)."""
+its size and modification time kept; it skips only what would come out the same."""
 
 import os
 

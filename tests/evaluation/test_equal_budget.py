@@ -1,4 +1,4 @@
-"""Fair protocols (issue 21): an equal feature budget, detectors in processes, matching at the budget."""
+"""Fair protocols: an equal feature budget, detectors in processes, matching at the budget."""
 
 import json
 from operator import attrgetter

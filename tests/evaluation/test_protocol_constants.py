@@ -1,4 +1,4 @@
-"""The evaluation protocols' constants and definitions, pinned (issue 22).
+"""The evaluation protocols' constants and definitions, pinned.
 
 Le (eq. 26) is a root mean square; the GT match radius delta is 2 px; the
 repeatability radius is 4 px; the chessboard benchmark counts a hit within 1 px

@@ -1,4 +1,4 @@
-"""SfM over several seeds and at an equal budget (issue 21): summary, pipeline, CLI, table."""
+"""SfM over several seeds and at an equal budget: summary, pipeline, CLI, table."""
 
 import json
 

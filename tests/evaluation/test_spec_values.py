@@ -1,4 +1,4 @@
-"""Spec values keep the text where it is a documented value (issue 22, item 10)."""
+"""Spec values keep the text where it is a documented value."""
 
 import pytest
 

@@ -1,5 +1,5 @@
 """The CSV feature file is plain rows that every reader loads with no options; the provenance is in a
-sidecar ``<file>.json`` bound to the CSV's bytes (issue 22, item 2)."""
+sidecar ``<file>.json`` bound to the CSV's bytes."""
 
 import csv
 import json

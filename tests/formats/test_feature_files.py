@@ -1,4 +1,4 @@
-"""Results keep their promises (issue 11, items 11-15): one schema, colmap export, option checks,
+"""Results keep their promises: one schema, colmap export, option checks,
 mask strictness, messages."""
 
 import csv
@@ -10,7 +10,7 @@ import pytest
 import sogdd
 from sogdd.cli.main import main
 from sogdd.formats.features import read_features
-from sogdd.select import pyramid
+from sogdd.select import assemble as pyramid_merge
 from sogdd.synthetic import pattern_image
 
 
@@ -153,7 +153,7 @@ def test_mask_and_border_hold_after_refinement_at_every_level(monkeypatch):
     c = sogdd.detect_corners(img, mask=mask, levels=3, border=7)
     assert len(c) > 10 and set(c.level.tolist()) >= {0, 1}
     assert outside(c) == 0
-    monkeypatch.setattr(pyramid, "inside_allowed", lambda xy, *a: np.ones(len(xy), bool))
+    monkeypatch.setattr(pyramid_merge, "inside_allowed", lambda xy, *a: np.ones(len(xy), bool))
     assert outside(sogdd.detect_corners(img, mask=mask, levels=3, border=7)) > 0  # the scene does test it
 
 

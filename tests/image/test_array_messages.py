@@ -1,5 +1,5 @@
 """Arrays the detector does not take say what to do; a big-endian array is taken as it is
-(issue 22, item 11)."""
+(not byte-swapped into a copy)."""
 
 import numpy as np
 import pytest

@@ -1,4 +1,4 @@
-"""Reading images (issue 11, items 1-6): bombs, corrupt data, orientation, frames, folders, ranges."""
+"""Reading images: bombs, corrupt data, orientation, frames, folders, ranges."""
 
 import struct
 import zlib

@@ -12,11 +12,11 @@ from hypothesis import strategies as st
 from scipy import ndimage
 
 import sogdd
-from sogdd import detector
 from sogdd.measure import soddc
 from sogdd.measure.filters import basis_tile, kernel_radius, steerable_basis
 from sogdd.measure.soddc import soddc_measure
 from sogdd.measure.window import reflect_index
+from sogdd.select import stage
 from sogdd.synthetic import pattern_image
 
 REAL_MIN_PIXELS = soddc.PRUNE_MIN_PIXELS  # read at import, before tests/conftest.py's fixture sets it to 0
@@ -97,7 +97,7 @@ def test_floor_needs_a_square_window_and_a_positive_value():
 def test_detection_is_that_of_the_full_map(pattern, rng, monkeypatch, params):
     img = np.clip(pattern[0] + rng.normal(0, 4, pattern[0].shape), 0, 255).astype(np.uint8)
     pruned = sogdd.detect_corners(img, **params)
-    monkeypatch.setattr(detector, "_floor", lambda *a, **k: None)
+    monkeypatch.setattr(stage, "_absolute_floor", lambda *a, **k: None)
     full = sogdd.detect_corners(img, **params)
     assert len(pruned) > 10
     np.testing.assert_array_equal(pruned.xy, full.xy)
@@ -106,11 +106,11 @@ def test_detection_is_that_of_the_full_map(pattern, rng, monkeypatch, params):
 
 def test_relative_and_quantile_thresholds_use_the_full_map():
     p = sogdd.resolve_params("paper", threshold=1e9, threshold_rel=0.01)
-    assert detector._floor(p, p.measure_spec(), p.threshold) is None
+    assert stage._absolute_floor(p, p.measure_spec(), p.threshold) is None
     p = sogdd.resolve_params("authors")
-    assert detector._floor(p, p.measure_spec(), p.threshold) is None
+    assert stage._absolute_floor(p, p.measure_spec(), p.threshold) is None
     p = sogdd.resolve_params("paper")
-    assert detector._floor(p, p.measure_spec(), p.threshold) == 1e9
+    assert stage._absolute_floor(p, p.measure_spec(), p.threshold) == 1e9
 
 
 @pytest.mark.parametrize("reflect_image", [False, True])
@@ -166,7 +166,7 @@ def test_peak_scan_equals_the_dilation_definition(h, w, radius, border, levels, 
     got = set(zip(rows.tolist(), cols.tolist()))
     assert got <= set(zip(*np.nonzero(cand)))
     # the scan of the few pixels above the threshold and the dilation give the same maxima
-    from sogdd.select.nms_scan import count_above, maxima_scan_sparse
+    from sogdd.select.peaks import count_above, maxima_scan_sparse
 
     scan = maxima_scan_sparse(resp, thr, radius)
     assert count_above(resp, thr, resp.size + 1) == np.count_nonzero(resp > thr)
@@ -182,7 +182,7 @@ def test_peak_scan_equals_the_dilation_definition(h, w, radius, border, levels, 
                                     {"threshold_rel": 0.02, "threshold": None},
                                     {"threshold_rel": 0.01, "threshold": 1e9, "border": 20}])
 def test_relative_threshold_prunes_and_detects_as_the_full_map(pattern, rng, monkeypatch, params):
-    from sogdd.select import relative_floor as _relative_floor
+    from sogdd.measure import relative_floor as _relative_floor
 
     img = np.clip(pattern[0] + rng.normal(0, 4, pattern[0].shape), 0, 255).astype(np.uint8)
     p = sogdd.resolve_params("paper", **params)
@@ -196,7 +196,7 @@ def test_relative_threshold_prunes_and_detects_as_the_full_map(pattern, rng, mon
     assert floor is not None and floor >= p.threshold_rel * lo * 0.999
     assert np.isinf(soddc_measure(grey, spec, floor=floor)).any()  # it prunes (PRUNE_MIN_PIXELS = 0 here)
     pruned = sogdd.detect_corners(img, **params)
-    monkeypatch.setattr(detector, "relative_floor", lambda *a, **k: None)
+    monkeypatch.setattr(stage, "relative_floor", lambda *a, **k: None)
     unpruned = sogdd.detect_corners(img, **params)
     assert len(pruned) > 5
     np.testing.assert_array_equal(pruned.xy, unpruned.xy)
@@ -209,7 +209,7 @@ def test_max_lower_bound_respects_mask_and_border(rng):
     full = soddc_measure(img, spec)
     mask = np.zeros(img.shape, bool)
     mask[40:70, 50:100] = True
-    from sogdd.select.relative_floor import max_lower_bound
+    from sogdd.measure.relative_floor import max_lower_bound
 
     lo = max_lower_bound(img, spec, 5, mask)
     assert lo <= full[mask].max()

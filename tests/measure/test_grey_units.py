@@ -1,4 +1,4 @@
-"""An independent anchor for the grey-level unit of ``hr`` (issue 22).
+"""An independent anchor for the grey-level unit of ``hr``.
 
 The unit is defined by a rendered right-angle corner: "a corner of contrast T has
 strength T" (:mod:`sogdd.measure.units`). These tests render their own corners

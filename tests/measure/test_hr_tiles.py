@@ -12,17 +12,16 @@ import pytest
 from scipy import ndimage
 
 import sogdd
-from sogdd.image.grey import exact_grey
+from sogdd.image.rows import exact_grey
 from sogdd.measure.filters import basis_tile, kernel_radius, steerable_basis
 from sogdd.measure.gaussian_window import gaussian_window_reference, gaussian_window_spec
 from sogdd.measure.soddc import soddc_measure
 from sogdd.measure.units import measure_threshold
 from sogdd.select import x_junctions as saddles
-from sogdd.select.banded import peaks_in_bands
+from sogdd.select.bands import stream_peaks
 from sogdd.select.peaks import select_peaks
-from sogdd.select.saddle_steps import _derivatives, strength_maxima
-from sogdd.select.subpixel import refine_quadratic
-from sogdd.select.x_junctions import _rows_of, find_saddles
+from sogdd.select.refine import refine_quadratic
+from sogdd.select.x_junctions import _derivatives, _rows_of, find_saddles, strength_maxima
 
 
 def second_derivatives(grey, sigma2, radius):
@@ -42,7 +41,7 @@ def bilinear_rows(maps, off, H, W, x, y):
 
 
 def derivatives_bilinear(img, off, H, W, x, y, gauss, d1, d2):
-    """The compiled derivatives at points (saddle_steps._derivatives, the Newton steps' own evaluation)."""
+    """The compiled derivatives at points (x_junctions._derivatives, the Newton steps' own evaluation)."""
     out = np.empty((5, len(x)))
     xs, ys = np.ascontiguousarray(x, np.float64), np.ascontiguousarray(y, np.float64)
     _derivatives(exact_grey(img), off, H, W, xs, ys, gauss, d1, d2, out)
@@ -106,7 +105,7 @@ def test_banded_hr_peaks_equal_the_full_map(band_rows):
     thr = measure_threshold(p.threshold, HR)
     full = soddc_measure(img, HR)
     rows, cols = select_peaks(full, threshold=thr, nms_radius=1, border=2)
-    got = peaks_in_bands(img, HR, threshold=thr, floor=thr, border=2, band_rows=band_rows)
+    got = stream_peaks(img, HR, threshold=thr, floor=thr, border=2, band_rows=band_rows, quadratic=True)
     assert len(rows) > 10
     np.testing.assert_array_equal(got[0], rows)
     np.testing.assert_array_equal(got[1], cols)
@@ -195,7 +194,7 @@ def test_saddle_candidates_from_measured_bands_equal_the_search(band_rows, thres
     img = _photo_like(64, 90)
     thr = measure_threshold(20.0, HR)
     found = saddles.SaddleCandidates(img.shape, HR, threshold)
-    peaks_in_bands(img, HR, threshold=thr, floor=thr, band_rows=band_rows, on_planes=found)
+    stream_peaks(img, HR, threshold=thr, floor=thr, band_rows=band_rows, on_planes=found)
     want = saddles.saddle_search(img, HR, threshold)
     got = found.result(img)
     assert sum(len(p[0]) for p in found.parts) > 20 and len(want[0]) > 5

@@ -1,4 +1,4 @@
-"""The report's matching at an equal budget beside the defaults, with MMA@1 (issue 21)."""
+"""The report's matching at an equal budget beside the defaults, with MMA@1."""
 
 import json
 from pathlib import Path

@@ -59,7 +59,7 @@ def test_report_includes_downstream_runs(tmp_path):
     assert "# SfM" not in text
 
 
-# ------------------------------------------------------------------ issue 12: new sections
+# ------------------------------------------------------------------ the results page's sections
 def _page(tmp_path):
     from sogdd.report.results_page import Page
 

@@ -1,4 +1,4 @@
-"""``hr``'s point quality pinned with literals (issue 22): noisy patterns, adjacent corners, X neighbours.
+"""``hr``'s point quality pinned with literals: noisy patterns, adjacent corners, X neighbours.
 
 Each test names the setting it guards: the saddle fit's 1 px acceptance
 (:mod:`sogdd.select.x_junctions`), the adaptive window of half the distance to
@@ -17,8 +17,8 @@ from scipy.spatial import cKDTree
 
 import sogdd
 from sogdd.select import assemble as assemble_module
-from sogdd.select import subpixel
-from sogdd.select.subpixel import refine_gradient_adaptive
+from sogdd.select import refine
+from sogdd.select.refine import refine_gradient_adaptive
 from sogdd.synthetic import Polygon, pattern_image, render_polygons
 
 #: the gaps (px) between the facing corners of two squares in :func:`slit_pairs`
@@ -104,7 +104,7 @@ def test_adaptive_half_window_is_half_the_distance():
     xy = np.array([[20.0, 30.0], [22.5, 30.0], [40.0, 30.0], [43.9, 30.0], [60.0, 30.0]])
     nb = np.array([[40.0, 26.0], [60.0, 36.5]])
     seen: dict[int, list] = {}
-    real = subpixel.refine_gradient
+    real = refine.refine_gradient
 
     def spy(grey, pts, *, half_window, max_shift):
         seen.setdefault(half_window, []).extend(map(tuple, pts))
@@ -112,7 +112,7 @@ def test_adaptive_half_window_is_half_the_distance():
         return real(grey, pts, half_window=half_window, max_shift=max_shift)
 
     mp = pytest.MonkeyPatch()
-    mp.setattr(subpixel, "refine_gradient", spy)
+    mp.setattr(refine, "refine_gradient", spy)
     try:
         refine_gradient_adaptive(img, xy, nb)
     finally:
@@ -121,7 +121,7 @@ def test_adaptive_half_window_is_half_the_distance():
     assert {k: sorted(v) for k, v in seen.items()} == {
         1: sorted(map(tuple, xy[:4])), 3: [tuple(xy[4])]}
     seen.clear()
-    mp.setattr(subpixel, "refine_gradient", spy)
+    mp.setattr(refine, "refine_gradient", spy)
     try:
         refine_gradient_adaptive(img, xy[[0, 2, 4]], None)  # d = 20, 20, 20: the largest window
     finally:

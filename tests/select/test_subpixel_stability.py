@@ -1,4 +1,4 @@
-"""Sub-pixel stability (issue 22, item 8): the refinement is a continuous function of its input.
+"""Sub-pixel stability: the refinement is a continuous function of its input.
 
 ``img`` and ``img.astype(np.float32) / 255`` differ by ~7.6e-6 grey levels once
 converted back to the 0-255 scale, yet ``hr`` (0.2.0) moved one corner of
@@ -10,7 +10,7 @@ and it stopped at a squared step of 1e-3 (0.03 px) elsewhere, so its last iterat
 was a chaotic function of the input's last bits; the refusal of moves over 1 px
 turned that into a jump (kept at 0.996, refused at 1.064). The refinement now
 iterates the same step to its fixed point, damped where it overshoots
-(:mod:`sogdd.select.forstner`). The photo test and the tiny-change test of ``hr`` fail on
+(:mod:`sogdd.select.refine`). The photo test and the tiny-change test of ``hr`` fail on
 0.2.0 (its cornerSubPix loop moved these rendered corners by up to 1.6 px).
 """
 
@@ -21,7 +21,7 @@ import pytest
 from scipy.spatial import cKDTree
 
 import sogdd
-from sogdd.select.forstner import forstner_points
+from sogdd.select.refine import forstner_points
 from sogdd.synthetic import pattern_image
 
 

@@ -63,7 +63,7 @@ def test_x_junctions_need_grey_units():
 
 def test_one_per_point_keeps_the_strongest_greedily():
     """Points that converged together are one; a chain keeps what the strongest leaves."""
-    from sogdd.select.subpixel import one_per_point
+    from sogdd.select.refine import one_per_point
 
     xy = np.array([[10.0, 10.0], [10.06, 10.0], [10.12, 10.0], [30.0, 5.0], [30.0, 5.05]])
     s = np.array([2.0, 3.0, 1.0, 5.0, 5.0])

@@ -70,7 +70,7 @@ def test_transcription_at_hand_computed_points(theta0):
 
 
 def test_eq12_transcription_and_known_discrepancy():
-    # the fact stated in the issue: theta = 0, sigma^2 = 1.2, alpha = pi/8, T1 = 50, T2 = 100
+    # the fact stated: theta = 0, sigma^2 = 1.2, alpha = pi/8, T1 = 50, T2 = 100
     s = sqrt(1.2)
     printed = paper_l_corner(ZERO, s, 3.0, pi / 8)[0]
     assert printed == pytest.approx(-2.0778, abs=5e-5)

@@ -89,5 +89,5 @@ class SOGDDHR(_SOGDDEntry):
     )
     source: ClassVar[str] = (
         "this package, 'hr' preset: the configuration chosen by the declared study of docs/hr.md "
-        "(issue 13); X-junctions reported on their saddle point"
+        "(a declared search on dev images); X-junctions reported on their saddle point"
     )

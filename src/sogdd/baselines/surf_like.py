@@ -32,7 +32,7 @@ import numpy as np
 
 from ..corners import Corners
 from ..select.peaks import local_maxima
-from ..select.subpixel import refine_quadratic
+from ..select.refine import refine_quadratic
 from .registry import BaselineDetector, check_int, check_number, register, sort_strongest_first
 
 __all__ = ["SURFLike", "surf_filter_size"]

@@ -13,13 +13,14 @@ varsigma)``, in float64, by one fused kernel per image tile
 (:mod:`sogdd.gpu.device_code`); it agrees with the CPU map to rounding (the sums
 are taken in another order). Peaks above an absolute threshold are found on the
 device and only they come back, with their 3 x 3 neighbourhoods; they are
-finished on the host as on the CPU (:mod:`sogdd.select.assemble`): quadratic and
+finished on the host by the CPU's own selection stage (:func:`sogdd.select.stage.select_corners`,
+which reads the device's maxima or its map instead of measuring): quadratic and
 gradient refinement on those few points, and for ``hr`` the X-junction stage and
 the adaptive refinement, which read the whole grey image (copied back from the
 device for a device input).
 ``threshold_rel`` and ``quantile`` need the whole map: it is copied back and
 peaks are selected on the host. With ``levels > 1`` the pyramid's levels are
-resized on the host (:mod:`sogdd.select.pyramid`, as on the CPU) and each is detected
+resized on the host (:mod:`sogdd.image.pyramid`, as on the CPU) and each is detected
 on the device. Not supported here (``ValueError``): settings whose tile does not
 fit in 48 KiB of shared memory (very large sigma2, windows or K).
 
@@ -40,14 +41,15 @@ import numpy as np
 from numba import cuda
 
 from ..corners import Corners
+from ..image.pyramid import pyramid_levels
 from ..image.validate import check_mask
 from ..measure.filters import steerable_basis
 from ..measure.soddc import AUTHORS_EPS
 from ..params import Params, resolve_params
-from ..select.assemble import assemble, peak_limit, peak_threshold
-from ..select.peaks import inside_allowed, rank_peaks, select_peaks
-from ..select.pyramid import merge_levels, pyramid_levels
-from ..select.subpixel import refine_gradient, refine_quadratic
+from ..select.assemble import merge_levels
+from ..select.peaks import inside_allowed
+from ..select.refine import refine_gradient
+from ..select.stage import select_corners
 from . import device_code as ck
 from .input import GreyStack, cuda_runtime_available, require_cuda, to_grey_stacks
 
@@ -131,29 +133,8 @@ def _device_peaks(resp, thr: float, radius: int, border: int):
     return found
 
 
-def _select(rows, cols, vals, patches, shape, p: Params, mask):
-    """What :func:`~sogdd.select.peaks.select_peaks` does after the maxima: border, mask, rank, ties, top-k."""
-    h, w, b = shape[0], shape[1], p.border
-    inside = (rows >= b) & (rows < h - b) & (cols >= b) & (cols < w - b)
-    if mask is not None:
-        inside &= mask[rows, cols]
-    rows, cols, vals, patches = rows[inside], cols[inside], vals[inside], patches[inside]
-    sel = rank_peaks(vals, rows, cols, p.nms_radius, peak_limit(p))
-    return rows[sel], cols[sel], vals[sel], patches[sel]
-
-
-def _quadratic(patches, rows, cols, shape) -> np.ndarray:
-    """:func:`sogdd.select.subpixel.refine_quadratic` on the gathered 3 x 3 patches (laid side by side)."""
-    n = len(rows)
-    strip = np.ascontiguousarray(patches.transpose(1, 0, 2).reshape(3, 3 * n))
-    off = refine_quadratic(strip, np.ones(n, np.int64), 3 * np.arange(n, dtype=np.int64) + 1)
-    h, w = shape
-    off[(rows != np.clip(rows, 1, h - 2)) | (cols != np.clip(cols, 1, w - 2))] = 0.0
-    return off
-
-
 def _gradient_on_device(dev, j: int, rows, cols, xy) -> np.ndarray:
-    """:func:`sogdd.select.subpixel.refine_gradient` from image patches gathered on the device.
+    """:func:`sogdd.select.refine.refine_gradient` from image patches gathered on the device.
 
     The patches (edges replicated, as OpenCV reads past the image) are laid out in
     a mosaic on the host; a refinement that stays within ``_PATCH - 5`` px of its
@@ -177,39 +158,53 @@ def _gradient_on_device(dev, j: int, rows, cols, xy) -> np.ndarray:
     return refine_gradient(mosaic, xy + shift) - shift
 
 
-def _detect_map(resp: np.ndarray, grey: np.ndarray, p: Params, thr: float | None, mask) -> Corners:
-    """Host selection on a copied map (relative and quantile thresholds, tiny images): as the CPU path."""
-    rows, cols = select_peaks(resp, threshold=thr, threshold_rel=p.threshold_rel, quantile=p.quantile,
-                              nms_radius=p.nms_radius, border=p.border, mask=mask, max_corners=peak_limit(p))
-    qoff = refine_quadratic(resp, rows, cols) if p.subpixel != "none" and len(rows) else None
-    return assemble(grey, p, p.measure_spec(), rows, cols, resp[rows, cols], qoff, mask)
+class _StackMeasure:
+    """The measure of a device stack: its maxima found on the device once, for every image."""
+
+    def __init__(self, resp) -> None:
+        self.resp = resp
+        self._peaks: dict = {}
+
+    def peaks(self, j: int, threshold: float, radius: int, border: int):
+        key = (threshold, radius, border)
+        if key not in self._peaks:
+            self._peaks[key] = _device_peaks(self.resp, threshold, radius, border)
+        return self._peaks[key][j]
+
+
+class _DeviceMeasure:
+    """One image of a device stack, read by :func:`sogdd.select.stage.select_corners`."""
+
+    def __init__(self, stack: _StackMeasure, j: int, dev, on_device_gradient: bool) -> None:
+        self.stack, self.j, self.dev, self.on_device_gradient = stack, j, dev, on_device_gradient
+        self.shape = tuple(stack.resp.shape[1:])
+
+    def peaks(self, threshold: float, nms_radius: int, border: int):
+        if min(self.shape) < 3:  # no 3 x 3 patches: the map is read on the host
+            return None
+        return self.stack.peaks(self.j, threshold, nms_radius, border)
+
+    def whole(self) -> np.ndarray:
+        return self.stack.resp[self.j].copy_to_host()
+
+    def gradient(self, rows, cols):
+        return partial(_gradient_on_device, self.dev, self.j, rows, cols) if self.on_device_gradient else None
 
 
 def _detect_stack(s: GreyStack, p: Params, masks: list, clip: bool = True) -> list[Corners]:
     """Corners of every image of one device stack; ``clip``: drop those that refinement moved out of the
     mask or border (the pyramid does it at full resolution instead)."""
-    spec = p.measure_spec()
-    resp = _measure(s.dev, spec)
+    resp = _measure(s.dev, p.measure_spec())
     N, H, W = resp.shape
-    thr = peak_threshold(p, spec)
-    # the host grey image: refinement reads it where it is at hand; X-junctions and the adaptive
-    # refinement need it whole (copied back for a device input)
+    # the host grey image: refinement reads it where it is at hand; X-junctions, the adaptive
+    # refinement and the host's selection on the whole map need it whole (copied back for a device input)
     whole = p.threshold_rel is not None or p.quantile is not None or H < 3 or W < 3
     grey = s.host
     if grey is None and (whole or p.x_junctions or p.subpixel == "adaptive"):
         grey = s.dev.copy_to_host()
-    if whole:
-        out = [_detect_map(resp[j].copy_to_host(), grey[j], p, thr, masks[j]) for j in range(N)]
-        return [c.subset(inside_allowed(c.xy, masks[j], p.border, (H, W))) if clip else c
-                for j, c in enumerate(out)]
-    out = []
-    peaks = _device_peaks(resp, 0.0 if thr is None else float(thr), int(p.nms_radius), int(p.border))
-    for j, (rows, cols, vals, patches) in enumerate(peaks):  # thr None: as sogdd.select.peaks.resolve_threshold
-        rows, cols, vals, patches = _select(rows, cols, vals, patches, (H, W), p, masks[j])
-        qoff = _quadratic(patches, rows, cols, (H, W)) if p.subpixel != "none" and len(rows) else None
-        on_device = None if grey is not None else partial(_gradient_on_device, s.dev, j, rows, cols)
-        out.append(assemble(None if grey is None else grey[j], p, spec, rows, cols, vals, qoff, masks[j],
-                            gradient=on_device))
+    stack = _StackMeasure(resp)
+    out = [select_corners(None if grey is None else grey[j], p, masks[j],
+                          device=_DeviceMeasure(stack, j, s.dev, grey is None)) for j in range(N)]
     return [c.subset(inside_allowed(c.xy, masks[j], p.border, (H, W))) if clip else c
             for j, c in enumerate(out)]
 
@@ -306,7 +301,7 @@ def _detect(images, preset: str, masks, params: dict, *, batch: bool) -> list[Co
 
 
 def _detect_levels(s: GreyStack, p: Params, masks: list) -> list[Corners]:
-    """The image pyramid (:mod:`sogdd.select.pyramid`): levels resized on the host, detected on the device."""
+    """The image pyramid (:mod:`sogdd.image.pyramid`): levels resized on the host, detected on the device."""
     grey = s.host if s.host is not None else s.dev.copy_to_host()
 
     def level(g: np.ndarray, mk) -> Corners:
@@ -316,6 +311,7 @@ def _detect_levels(s: GreyStack, p: Params, masks: list) -> list[Corners]:
 
     out = []
     for j in range(len(s.index)):
-        found = [(lv, level(lv.grey, lv.mask)) for lv in pyramid_levels(grey[j], p, masks[j])]
+        levels = pyramid_levels(grey[j], p.levels, p.scale_factor, border=p.border, mask=masks[j])
+        found = [(lv, level(lv.grey, lv.mask)) for lv in levels]
         out.append(merge_levels(found, p, masks[j], grey[j].shape))
     return out

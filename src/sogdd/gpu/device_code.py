@@ -313,7 +313,7 @@ def peaks_kernel(resp, thr, radius, border, count, rows, cols, vals, patches):  
     (``border`` px excluded on every side, as :func:`sogdd.select.peaks.select_peaks`
     does when ``2 border`` is less than both sides). Each peak is appended (order
     arbitrary) with its value and the 3 x 3 patch around it, centred on the pixel
-    moved one step inwards at the image edge, as :func:`sogdd.select.subpixel.refine_quadratic` reads it.
+    moved one step inwards at the image edge, as :func:`sogdd.select.refine.refine_quadratic` reads it.
     """
     x, y, n = cuda.grid(3)
     H = resp.shape[1]

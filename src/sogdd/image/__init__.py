@@ -11,16 +11,17 @@ module                    what it does
                           orientation, frames, folder listing
 :mod:`.header`            pixel counts from PNG/JPEG/GIF/BMP/WebP/TIFF/PNM headers
 :mod:`.validate`          validation at the door: dtype, shape, NaN/inf, value range, mask
-:mod:`.grey`              grey conversion, the one home (luma weights, the 0-255 scale,
-                          the exact grey the compiled filters read)
-:mod:`.rows`              band-wise grey rows: a colour or uint16 image converted only in
-                          the crops the measure reads
+:mod:`.grey`              grey conversion, the one home (luma weights, the 0-255 scale)
+:mod:`.rows`              reading the grey image: band-wise grey rows (a colour or uint16
+                          image converted only in the crops the measure reads), and the
+                          exact grey the compiled filters read
+:mod:`.pyramid`           the image pyramid: the grey image resized level by level
 ========================  ==============================================================
 """
 
 from .files import DEFAULT_MAX_PIXELS, IMAGE_SUFFIXES, list_images, read_image
-from .grey import BT601, MATLAB_RGB2GRAY, exact_grey, to_gray255, to_uint8_grey
-from .rows import GreyRows
+from .grey import BT601, MATLAB_RGB2GRAY, to_gray255, to_uint8_grey
+from .rows import GreyRows, exact_grey
 from .validate import check_mask, check_value_range, validate_image
 
 __all__ = [

@@ -19,7 +19,7 @@ luma weights: ITU-R BT.601 (0.299, 0.587, 0.114) by default, or MATLAB's
 dtype first, as MATLAB does). Arrays are RGB unless ``channel_order="bgr"``
 (what ``cv2.imread`` returns); :func:`sogdd.image.read_image` always returns RGB.
 
-The compiled filters read :func:`exact_grey`: uint8 as it is, anything else as float64.
+The compiled filters read :func:`sogdd.image.rows.exact_grey`: uint8 as it is, anything else as float64.
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ import numpy as np
 
 from .validate import check_value_range, validate_image
 
-__all__ = ["BT601", "MATLAB_RGB2GRAY", "exact_grey", "to_gray255", "to_uint8_grey"]
+__all__ = ["BT601", "MATLAB_RGB2GRAY", "to_gray255", "to_uint8_grey"]
 
 #: ITU-R BT.601 luma weights (R, G, B), the default
 BT601 = (0.299, 0.587, 0.114)
@@ -102,10 +102,4 @@ def to_uint8_grey(image, channel_order: str = "rgb") -> np.ndarray:
     return np.clip(np.round(grey), 0, 255).astype(np.uint8)
 
 
-
-def exact_grey(image: np.ndarray) -> np.ndarray:
-    """A C-contiguous image the compiled filters read: uint8 as it is (each value exact), else float64."""
-    if isinstance(image, np.ndarray) and image.dtype == np.uint8:
-        return np.ascontiguousarray(image)
-    return np.ascontiguousarray(image, dtype=np.float64)
 

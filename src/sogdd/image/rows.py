@@ -2,7 +2,7 @@
 
 :func:`sogdd.image.grey.to_gray255` is a per-pixel formula (weights, optional rounding,
 scale), so converting a crop of the input gives the crop of the converted image
-bit for bit. Banded detection (:mod:`sogdd.select.banded`) reads the grey image in
+bit for bit. Banded detection (:mod:`sogdd.select.bands`) reads the grey image in
 crops, so with :class:`GreyRows` no H x W float64 grey image exists (192 MB at
 24 MP); whoever needs the whole image gets it from ``np.asarray(grey, dtype)``,
 built band by band in that dtype (float32 for sub-pixel refinement: half the size).
@@ -14,7 +14,7 @@ import numpy as np
 
 from .grey import to_gray255
 
-__all__ = ["GreyRows", "measure_rows"]
+__all__ = ["GreyRows", "exact_grey", "measure_rows"]
 
 _BLOCK = 512  # rows per block when the whole image is asked for
 
@@ -85,3 +85,15 @@ def measure_rows(grey, r0: int, r1: int) -> np.ndarray:
     """
     return grey.exact_rows(r0, r1) if isinstance(grey, GreyRows) else grey[r0:r1]
 
+
+def exact_grey(image: np.ndarray) -> np.ndarray:
+    """A C-contiguous image the compiled filters read: uint8 as it is (each value exact), else float64.
+
+    Examples
+    --------
+    >>> exact_grey(np.zeros((2, 3), np.uint8)).dtype, exact_grey(np.zeros((2, 3), np.float32)).dtype
+    (dtype('uint8'), dtype('float64'))
+    """
+    if isinstance(image, np.ndarray) and image.dtype == np.uint8:
+        return np.ascontiguousarray(image)
+    return np.ascontiguousarray(image, dtype=np.float64)

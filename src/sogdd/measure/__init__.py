@@ -2,8 +2,8 @@
 
 In: a grey image on the 0-255 scale (:mod:`sogdd.image`) and a
 :class:`MeasureSpec` (sigma^2, K, window, kernel support, measure variant).
-Out: Upsilon = det(Lambda) / (tr(Lambda) + varsigma) as a float64 map, or band
-by band to :mod:`sogdd.select`; exact wherever a peak can be, ``-inf`` where a
+Out: Upsilon = det(Lambda) / (tr(Lambda) + varsigma) as a float64 map, or a
+stream of bands that :mod:`sogdd.select` pulls (:mod:`.bands`); exact wherever a peak can be, ``-inf`` where a
 bound proves it below the threshold.
 
 Vocabulary: the *response* is Upsilon, the measure's value; a *strength* is a
@@ -29,6 +29,10 @@ module                     what it does
 :mod:`.window_sums`        compiled weighted window sums (Gaussian window)
 :mod:`.det_unrolled`       det/trace unrolled for K = 4, 6, 8 (generated, tools/)
 :mod:`.bound`              the Fischer bound that proves pixels below the threshold
+:mod:`.relative_floor`     a pruning floor under a relative threshold, from a few exact
+                           values
+:mod:`.bands`              the measure handed on band by band (crops with their margins),
+                           as the selection stage reads it
 =========================  ==============================================================
 """
 

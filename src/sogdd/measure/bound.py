@@ -123,7 +123,7 @@ def need_from_keep(keep, need):  # pragma: no cover - jit
 def neighbour_need(out, floor, r0, H, need):  # pragma: no cover - jit
     """need = pixels not yet evaluated (-inf) in the 3 x 3 patch of a pixel at or above ``floor``.
 
-    The patch is the one :func:`sogdd.select.subpixel.refine_quadratic` reads: centred on
+    The patch is the one :func:`sogdd.select.refine.refine_quadratic` reads: centred on
     the pixel, moved inside the image at its edges (image rows ``r0 + y``, ``H``
     rows; needs H, W >= 3 and tiles of >= 3 rows, so an edge patch lies in its
     tile). Returns the range ``lo, hi`` of tile rows with a needed pixel (``lo

@@ -29,7 +29,7 @@ import numba
 import numpy as np
 
 from .._jit import JIT, ROW_PAD
-from ..image.grey import exact_grey
+from ..image.rows import exact_grey
 from .window import reflect1
 
 __all__ = [

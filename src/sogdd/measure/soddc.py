@@ -35,7 +35,7 @@ import numba
 import numpy as np
 
 from .._jit import JIT, elimination, thread_count, window_rows
-from ..image.grey import exact_grey
+from ..image.rows import exact_grey
 from .bound import bound_mask, bound_tables, need_from_keep, neighbour_need, spread_masks
 from .filters import basis_tile, kernel_radius, orientations, steerable_basis, steering_coefficients
 from .general_tiles import tile_general
@@ -264,7 +264,7 @@ def soddc_measure(
     peak selection above ``floor`` needs is computed: Upsilon is exact, bit for
     bit as without ``floor``, at every pixel where a Fischer bound on
     det(Lambda) reaches ``floor`` (so at every pixel at or above it), in the
-    3 x 3 patch that :func:`sogdd.select.subpixel.refine_quadratic` reads around each
+    3 x 3 patch that :func:`sogdd.select.refine.refine_quadratic` reads around each
     pixel at or above ``floor``, and at a few more (where nearby runs are
     merged); every pixel that holds ``-inf`` is provably below ``floor``. Local
     maxima above ``floor`` (any radius: a pixel left out is below every peak),
@@ -398,7 +398,7 @@ def authors_apply(det: np.ndarray, tr: np.ndarray, lim: float, out: np.ndarray |
     """``det`` in ``[lim, 0)`` -> 0, then ``det / (tr + eps)``, ``-inf`` where not finite.
 
     The second half of :func:`authors_measure`, for a ``lim`` known from elsewhere
-    (:mod:`sogdd.select.banded_relative` takes ``max|det|`` over bands of the image).
+    (:mod:`sogdd.select.bands` takes ``max|det|`` over bands of the image).
     """
     d = np.ascontiguousarray(det, dtype=np.float64)
     if out is None or out.shape != d.shape or out.dtype != np.float64 or not out.flags.c_contiguous:

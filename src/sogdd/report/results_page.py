@@ -56,7 +56,7 @@ from .tables import (
 __all__ = ["Page", "build_report", "chessboard_stage", "downstream_stage", "fig1_stage", "gt_stage", "hr_names",
            "rank_of", "repeatability_stage", "resolution_stage"]
 
-#: N of the fixed-count repeatability mode (issue 12: the usual practice since Oxford / SuperPoint)
+#: N of the fixed-count repeatability mode (the usual practice since Oxford / SuperPoint)
 REPEATABILITY_TOP_N = 500
 
 
@@ -77,7 +77,7 @@ class Page:
 
 
 def hr_names() -> list[str]:
-    """``["sogdd-hr"]`` where the registry has that detector (issue 13's preset), else ``[]``."""
+    """``["sogdd-hr"]`` where the registry has that detector (the high-resolution preset), else ``[]``."""
     return [n for n in ("sogdd-hr",) if n in registry_names()]
 
 

@@ -11,7 +11,11 @@ them here, so a setting means the same on both:
    grey levels, the X-junction stage (:func:`sogdd.select.x_junctions.add_x_junctions`) and
    the adaptive gradient refinement, which needs the final neighbours; after it,
    corners it brought within :data:`COINCIDENT` px of a stronger one are merged
-   into it (one point per corner).
+   into it (one point per corner);
+3. :func:`merge_levels`: with an image pyramid (:mod:`sogdd.image.pyramid`), every level's
+   corners mapped back to full resolution with pixel centres at integers,
+   ``x_full = (x_level + 0.5) s - 0.5``, their size scaled by ``s`` and tagged with the
+   level, then ranked together and cut to ``max_corners``.
 """
 
 from __future__ import annotations
@@ -21,13 +25,15 @@ from collections.abc import Callable
 import numpy as np
 
 from ..corners import Corners
+from ..image.pyramid import Level
 from ..measure.soddc import MeasureSpec
 from ..measure.units import grey_strength, measure_threshold
 from ..params import Params
-from .subpixel import one_per_point, refine_gradient, refine_gradient_adaptive
+from .peaks import inside_allowed
+from .refine import one_per_point, refine_gradient, refine_gradient_adaptive
 from .x_junctions import X_RING_RADIUS, add_x_junctions
 
-__all__ = ["COINCIDENT", "assemble", "peak_limit", "peak_threshold"]
+__all__ = ["COINCIDENT", "assemble", "merge_levels", "peak_limit", "peak_threshold"]
 
 #: with ``subpixel="adaptive"``, corners that refinement brings within this many px of a stronger
 #: one are that corner (two peaks of Upsilon around one vertex converge to ~0.005 px of each other)
@@ -64,7 +70,7 @@ def assemble(grey, p: Params, spec: MeasureSpec, rows: np.ndarray, cols: np.ndar
     ``grey``: the grey 0-255 image (an array or a :class:`sogdd.image.rows.GreyRows`),
     read by the X-junction stage, the gradient and the adaptive refinements.
     ``gradient``: ``subpixel="gradient"`` refinement of an (N, 2) array of points
-    (default :func:`sogdd.select.subpixel.refine_gradient` on ``grey``). Strengths are in
+    (default :func:`sogdd.select.refine.refine_gradient` on ``grey``). Strengths are in
     grey levels with ``threshold_units="grey"``. ``saddles``: the X-junction
     stage's :func:`sogdd.select.x_junctions.saddle_search`, if already computed.
     """
@@ -89,4 +95,38 @@ def assemble(grey, p: Params, spec: MeasureSpec, rows: np.ndarray, cols: np.ndar
         out = Corners(xy, out.response, out.size, out.level)
         # two peaks of one corner that the refinement brought together are one corner
         out = out.subset(one_per_point(out.xy, out.response, COINCIDENT))
+    return out
+
+
+def _to_full(level: Level, c: Corners) -> Corners:
+    """A level's corners at full resolution: ``x_full = (x + 0.5) s - 0.5``, size x s, tagged."""
+    xy = np.stack([(c.xy[:, 0] + 0.5) * level.sx - 0.5, (c.xy[:, 1] + 0.5) * level.sy - 0.5], axis=1)
+    return Corners(xy, c.response, c.size * (level.sx + level.sy) / 2, np.full(len(c), level.index))
+
+
+def merge_levels(found: list[tuple[Level, Corners]], p: Params, mask: np.ndarray | None,
+                 shape: tuple[int, int]) -> Corners:
+    """Every level's corners at full resolution, inside border and mask, strongest first, top-k.
+
+    Examples
+    --------
+    >>> import sogdd
+    >>> from sogdd.image.pyramid import pyramid_levels
+    >>> from sogdd.synthetic import pattern_image
+    >>> img = pattern_image((240, 320))[0]
+    >>> p = sogdd.resolve_params("paper", levels=2)
+    >>> found = [(lv, sogdd.detect_corners(lv.grey)) for lv in pyramid_levels(img, p.levels)]
+    >>> sorted(set(merge_levels(found, p, None, img.shape).level.tolist()))
+    [0, 1]
+    """
+    parts = []
+    for level, c in found:
+        c = _to_full(level, c)
+        parts.append(c.subset(inside_allowed(c.xy, mask, p.border, shape)))
+    out = Corners.concatenate(parts)
+    if p.levels > 1:
+        order = np.argsort(-out.response, kind="stable")
+        if p.max_corners is not None:
+            order = order[: p.max_corners]
+        out = out.subset(order)
     return out

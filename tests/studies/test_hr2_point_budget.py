@@ -1,8 +1,17 @@
-"""A budget spread over the image: ANMS and bucketing (sogdd.select.budget)."""
+"""The hr2 study's point budget spread over the image: ANMS and bucketing (studies/hr2/point_budget.py)."""
+
+import sys
+from pathlib import Path
 
 import numpy as np
+import pytest
 
-from sogdd.select.budget import anms_order, bucket_order, suppression_radii
+HR2 = Path(__file__).resolve().parents[2] / "studies" / "hr2"
+if not HR2.is_dir():  # pragma: no cover - an installed package without the repository
+    pytest.skip("needs the repository checkout (studies/hr2)", allow_module_level=True)
+sys.path.insert(0, str(HR2))
+
+from point_budget import anms_order, bucket_order, suppression_radii  # noqa: E402
 
 
 def _brute_radii(xy, resp, robust):

@@ -15,7 +15,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from ..measure.soddc import MeasureSpec, prune_pays, soddc_measure, supports_floor
+from .soddc import MeasureSpec, prune_pays, soddc_measure, supports_floor
 
 __all__ = ["max_lower_bound", "relative_floor"]
 

@@ -1,13 +1,13 @@
-"""Detection in bands of rows (sogdd.select.banded) against selection on the whole map."""
+"""Detection in bands of rows (sogdd.select.bands) against selection on the whole map."""
 
 import numpy as np
 import pytest
 
 import sogdd
 from sogdd.measure.soddc import soddc_measure
-from sogdd.select.banded import peaks_in_bands
+from sogdd.select.bands import stream_peaks
 from sogdd.select.peaks import select_peaks
-from sogdd.select.subpixel import refine_quadratic
+from sogdd.select.refine import refine_quadratic
 
 
 @pytest.mark.parametrize("band_rows", [1, 5, 17, 1024])
@@ -20,7 +20,8 @@ def test_bands_give_the_peaks_of_the_whole_map(pattern, rng, band_rows, kw):
     thr = 1e8
     full = soddc_measure(img, spec)
     rows, cols = select_peaks(full, threshold=thr, mask=mask, **kw)
-    r, c, v, off = peaks_in_bands(img, spec, threshold=thr, floor=thr, mask=mask, band_rows=band_rows, **kw)
+    r, c, v, off = stream_peaks(img, spec, threshold=thr, floor=thr, mask=mask, band_rows=band_rows,
+                                quadratic=True, **kw)
     if kw.get("border") != 200:
         assert len(rows) > 10
     np.testing.assert_array_equal(r, rows)
@@ -40,7 +41,7 @@ def test_bands_find_peaks_on_the_first_and_last_rows():
     thr = float(np.quantile(full[full > 0], 0.5))
     rows, cols = select_peaks(full, threshold=thr)
     for band_rows in (2, 3, 11):
-        r, c, v, off = peaks_in_bands(img, spec, threshold=thr, floor=thr, band_rows=band_rows)
+        r, c, v, off = stream_peaks(img, spec, threshold=thr, floor=thr, band_rows=band_rows, quadratic=True)
         np.testing.assert_array_equal(np.stack([r, c]), np.stack([rows, cols]))
         np.testing.assert_array_equal(off, refine_quadratic(full, rows, cols))
 

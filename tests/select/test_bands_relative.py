@@ -1,4 +1,4 @@
-"""Relative and quantile thresholds in bands (sogdd.select.banded_relative), the streaming quantile and the
+"""Relative and quantile thresholds in bands (sogdd.select.bands), the streaming quantile and the
 crop-by-crop grey image, each against the whole-map computation it replaces."""
 
 import numpy as np
@@ -9,10 +9,11 @@ from sogdd import detector
 from sogdd.image.grey import to_gray255
 from sogdd.image.rows import GreyRows
 from sogdd.measure.soddc import authors_measure, soddc_measure
-from sogdd.select.banded_relative import peaks_relative_in_bands, positives
+from sogdd.select import stage
+from sogdd.select.bands import positives, stream_peaks
 from sogdd.select.peaks import select_peaks
+from sogdd.select.refine import refine_quadratic
 from sogdd.select.stream_quantile import StreamQuantile, quantile_from_order_stats, rank_floor
-from sogdd.select.subpixel import refine_quadratic
 
 
 def _image(pattern, rng):
@@ -102,7 +103,7 @@ def test_authors_bands_give_the_peaks_of_the_whole_map(pattern, rng, band_rows, 
     mask = rng.random(img.shape) < 0.9 if band_rows == 7 else None
     quadratic = kw.pop("quadratic", False)
     rows, cols = select_peaks(full, mask=mask, **kw)
-    got = peaks_relative_in_bands(img, spec, mask=mask, band_rows=band_rows, quadratic=quadratic, **kw)
+    got = stream_peaks(img, spec, mask=mask, band_rows=band_rows, quadratic=quadratic, **kw)
     assert got is not None
     r, c, v, off = got
     if kw.get("border") != 300:
@@ -124,7 +125,7 @@ def test_quadratic_patches_see_the_final_clamp(pattern, rng):
     dy, dx = np.mgrid[-1:2, -1:2]
     iy, ix = r[:, None, None] + dy, c[:, None, None] + dx
     assert np.any(full[iy, ix] != raw[iy, ix])
-    *_, off = peaks_relative_in_bands(img, spec, quantile=0.0, quadratic=True, band_rows=50)
+    *_, off = stream_peaks(img, spec, quantile=0.0, quadratic=True, band_rows=50)
     np.testing.assert_array_equal(off, refine_quadratic(full, rows, cols))
 
 
@@ -136,10 +137,10 @@ def test_paper_measure_bands_with_a_relative_floor(pattern, rng, kw):
     spec = sogdd.resolve_params("paper").measure_spec()
     full = soddc_measure(img, spec)
     floor = None
-    if "quantile" not in kw:  # a floor below the final threshold, as sogdd.select.relative_floor gives
+    if "quantile" not in kw:  # a floor below the final threshold, as sogdd.measure.relative_floor gives
         floor = kw["threshold_rel"] * full.max() * 0.5
     rows, cols = select_peaks(full, **kw)
-    r, c, v, off = peaks_relative_in_bands(img, spec, floor=floor, band_rows=33, quadratic=True, **kw)
+    r, c, v, off = stream_peaks(img, spec, floor=floor, band_rows=33, quadratic=True, **kw)
     assert len(rows) > 10
     np.testing.assert_array_equal(r, rows)
     np.testing.assert_array_equal(c, cols)
@@ -150,9 +151,9 @@ def test_paper_measure_bands_with_a_relative_floor(pattern, rng, kw):
 def test_no_answer_where_the_threshold_could_be_negative():
     flat = np.zeros((60, 70))  # det 0 everywhere: no positive value
     spec = sogdd.resolve_params("authors").measure_spec()
-    assert peaks_relative_in_bands(flat, spec, threshold_rel=0.5) is None
-    assert peaks_relative_in_bands(flat, spec, threshold=-1.0, quantile=0.5) is None
-    r, *_ = peaks_relative_in_bands(flat, spec, quantile=0.5)  # no positive value: no peak above 0
+    assert stream_peaks(flat, spec, threshold_rel=0.5) is None
+    assert stream_peaks(flat, spec, threshold=-1.0, quantile=0.5) is None
+    r, *_ = stream_peaks(flat, spec, quantile=0.5)  # no positive value: no peak above 0
     assert len(r) == 0
 
 
@@ -170,7 +171,7 @@ def _colour(rng, shape=(300, 420)):
 def test_detect_corners_equals_the_whole_map_path(rng, monkeypatch, kw):
     col = _colour(rng)
     a = sogdd.detect_corners(col, **kw)
-    monkeypatch.setattr(detector, "peaks_relative_in_bands", lambda *args, **kws: None)
+    monkeypatch.setattr(stage, "stream_peaks", lambda *args, **kws: None)
     monkeypatch.setattr(detector, "GreyRows", lambda img, **gray: to_gray255(img, **gray))
     b = sogdd.detect_corners(col, **kw)
     assert len(a) > 20
