@@ -29,6 +29,7 @@ extensions = [
 ]
 
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
+templates_path = ["_templates"]  # the class page documents its methods (autosummary/class.rst)
 root_doc = "index"
 # figures/ holds the cached runs' figures and their notes (read by the pages, not pages themselves);
 # pending/ holds pages and examples for code that has not landed yet
@@ -44,7 +45,6 @@ myst_heading_anchors = 4
 autosummary_generate = True
 autosummary_imported_members = False
 autodoc_typehints = "none"  # numpydoc shows the types; the signatures keep their defaults
-autodoc_default_options = {"members": False}
 numpydoc_show_class_members = False
 numpydoc_class_members_toctree = False
 numpydoc_xref_param_type = False
