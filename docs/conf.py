@@ -75,7 +75,10 @@ html_theme_options = {
     "footer_end": ["sphinx-version"],
     "secondary_sidebar_items": ["page-toc"],
 }
-html_static_path: list[str] = []
+html_static_path = ["_static"]
+html_css_files = ["sogdd.css"]
+# pages without sub-pages need no section navigation
+html_sidebars = {page: [] for page in ("index", "getting-started", "performance", "changelog", "contributing")}
 html_show_sourcelink = False
 # the gallery's figures and the pages' own figures are enough; no external fonts or analytics
 html_context = {"default_mode": "light"}
