@@ -5,7 +5,6 @@ Build (offline, from a clean clone): ``pip install '.[docs]' && sphinx-build -W 
 
 from __future__ import annotations
 
-import os
 from dataclasses import fields
 from pathlib import Path
 
@@ -62,7 +61,6 @@ sphinx_gallery_conf = {
     "reference_url": {},  # offline: no links to other projects' docs
     "capture_repr": (),
     "show_memory": False,
-    "plot_gallery": os.environ.get("SOGDD_DOCS_PLOT", "True"),
 }
 
 html_theme = "pydata_sphinx_theme"
