@@ -84,7 +84,9 @@ html_context = {"default_mode": "light"}
 
 def _value(v) -> str:
     if isinstance(v, tuple):
-        return "(" + ", ".join(f"{x:g}" if isinstance(x, float) else str(x) for x in v) + ")"
+        return "(" + ", ".join(_value(x) for x in v) + ")"
+    if isinstance(v, float):  # 1.2 and 2.0 as written, 1e9 and the MATLAB grey weights short
+        return repr(v) if len(repr(v)) <= 6 else f"{v:.6g}"
     return repr(v)
 
 
