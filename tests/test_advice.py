@@ -97,3 +97,62 @@ def test_a_relative_threshold_of_one_percent_is_not_advice(photos):
     n = len(sogdd.detect_corners(photos[MOST], threshold=None, threshold_rel=0.01))
     assert n < 100
     assert all(kw.get("threshold_rel") != 0.01 for kw in advised_calls())
+
+
+# ----------------------------------------------------------------------------- the figures beside the advice
+
+RESULTS = REPO / "docs" / "results.md"
+
+
+def _table_row(section: str, first_cell: str) -> list[str]:
+    """The cells of the row starting with ``first_cell`` in the first table after the heading ``section``."""
+    text = RESULTS.read_text()
+    start = text.index(f"\n### {section}\n")
+    for line in text[start:].splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if line.startswith("|") and cells[0] == first_cell:
+            return cells
+    raise AssertionError(f"{first_cell} not in {section}")
+
+
+def _use_when_row(job: str) -> str:
+    text = (REPO / "README.md").read_text()
+    return next(line for line in text.splitlines() if line.startswith(f"| {job} |"))
+
+
+@pytest.mark.skipif(not RESULTS.is_file(), reason="needs the repository checkout")
+def test_the_use_when_table_quotes_the_results_page():
+    """Each figure of the README's matching and SfM advice is the generated results page's, rounded."""
+    row = _use_when_row("matching, structure from motion")
+    mma3 = {d: float(_table_row("matching hpatches budget2000", f"`{d}:top_k=2000`")[3])
+            for d in ("sogdd", "sogdd-hr", "sift", "akaze")}
+    native = "`{}:top_k=2000:desc=native`"
+    mma3 |= {d: float(_table_row(f"matching hpatches budget2000 learned{s}", native.format(d))[3])
+             for d, s in (("aliked", ""), ("disk", " disk"))}
+    assert (f"MMA@3 is {mma3['sogdd']:.3f} (`paper`) and {mma3['sogdd-hr']:.3f} (`hr`) against SIFT's "
+            f"{mma3['sift']:.3f}, AKAZE's {mma3['akaze']:.3f}") in row
+    assert f"{min(mma3['aliked'], mma3['disk']):.3f}–{max(mma3['aliked'], mma3['disk']):.3f}" in row
+    # the learned detectors are the better choice there: the advice and the figures agree
+    assert max(mma3["aliked"], mma3["disk"]) > mma3["sift"] > max(mma3["sogdd"], mma3["sogdd-hr"])
+    hr, sift = (_table_row("sfm fountain-P11 budget2000", f"`{d}:top_k=2000`") for d in ("sogdd-hr", "sift"))
+    reproj = [float(r[6].split()[0]) for r in (hr, sift)]
+    rot = [float(r[9].split()[0]) for r in (hr, sift)]
+    assert f"reprojection error is {reproj[0]:.2f} px against SIFT's {reproj[1]:.2f}" in row
+    assert f"rotation error {rot[0]:.3f}° against {rot[1]:.3f}°" in row
+    assert reproj[0] > reproj[1] and rot[0] > rot[1]
+
+
+@pytest.mark.skipif(not RESULTS.is_file(), reason="needs the repository checkout")
+def test_the_use_when_table_quotes_the_ground_truth_block():
+    from sogdd.report.readme_sync import readme_blocks
+
+    gt = readme_blocks((REPO / "docs" / "reproducing" / "index.md").read_text())["gt"]
+    f1 = {}
+    for line in gt.splitlines():
+        cells = [c.strip().strip("*") for c in line.strip().strip("|").split("|")]
+        if len(cells) == 6 and cells[0] in ("sogdd", "sogdd-hr"):
+            f1[cells[0]] = (float(cells[2]), float(cells[5]))  # default F1, one-threshold F1
+    rank = re.search(r"sogdd ranks (\d+ of \d+) with one threshold", gt).group(1)
+    assert f"ranks {rank} detectors with one threshold (F1 {f1['sogdd'][1]:.3f})" in _use_when_row(
+        "reproducing the paper")
+    assert f"(F1 {f1['sogdd-hr'][0]:.3f} there)" in _use_when_row("the most accurate corners")
