@@ -1,8 +1,9 @@
-"""The settings the README and the getting-started page recommend give sensible corners on real photos.
+"""The README's advice agrees with the numbers: its settings on real photos, its figures with the results.
 
-Every ``detect_corners`` call in their Python blocks whose keywords are literals is run on 6 MP photos of
-the shared data (Fountain-P11): it must give a usable number of corners, and the counts the README quotes
-for the presets must be what they give.
+Every ``detect_corners`` call in the Python blocks of the README and the getting-started page whose
+keywords are literals is run on 6 MP photos of the shared data (Fountain-P11): it must give a usable
+number of corners, and the counts the README quotes for the presets must be what they give. The
+figures of its "use when" table must be those of the generated results pages.
 """
 
 from __future__ import annotations
