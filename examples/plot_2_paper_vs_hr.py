@@ -32,8 +32,8 @@ for preset in ("paper", "hr"):
     c = sogdd.detect_corners(img, preset=preset)
     results[preset] = c
     recall, err, other = score(c.xy)
-    print(f"{preset:6s}: {len(c):3d} points; inner corners found within 1 px: {recall:.2f}, "
-          f"mean error {err:.3f} px;\n        {other} points farther than 1 px from every inner corner")
+    print(f"{preset}: {len(c)} points; inner corners found within 1 px: {recall:.2f}, mean error {err:.3f} px")
+    print(f"    {other} points farther than 1 px from every inner corner")
 
 # %%
 # The ``hr`` points sit on the corners; ``paper``'s are spread around them. The other points of
@@ -52,9 +52,8 @@ fig.tight_layout()
 # %%
 # A close look at four cells in the middle of the board: each true corner (green circle) and the
 # detections (red crosses).
-#
-# sphinx_gallery_thumbnail_number = 2
 
+# sphinx_gallery_thumbnail_number = 2
 x0, y0 = truth[np.argmin(np.linalg.norm(truth - truth.mean(axis=0), axis=1))]
 fig, axes = plt.subplots(1, 2, figsize=(10, 4.6))
 for ax, (preset, c) in zip(axes, results.items()):

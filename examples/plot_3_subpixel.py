@@ -32,9 +32,8 @@ for mode in ("none", "quadratic", "gradient"):
 
 # %%
 # The distribution of the distance to the true vertex.
-#
-# sphinx_gallery_thumbnail_number = 2
 
+# sphinx_gallery_thumbnail_number = 2
 fig, ax = plt.subplots(figsize=(7, 4))
 bins = np.linspace(0, 2, 41)
 for mode, e in errors.items():
