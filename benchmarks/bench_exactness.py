@@ -4,8 +4,8 @@ For each image and preset: the largest relative difference of Upsilon over the
 pixels with Upsilon >= 1e6, over those of them whose SODDC matrix has a
 condition number <= 1e8, and over the pixels above the paper's T_h = 1e9.
 
-Run: ``python benchmarks/bench_exactness.py [--data ../shared/data] [--readme README.md]``
-(``--readme`` writes the table into the README's ``exactness`` block).
+Run: ``python benchmarks/bench_exactness.py [--data ../shared/data] [--readme docs/explanations/exactness.md]``
+(``--readme`` writes the table into that page's ``exactness`` block).
 """
 
 from __future__ import annotations
@@ -34,7 +34,8 @@ def _max_rel(fast: np.ndarray, ref: np.ndarray, mask: np.ndarray) -> str:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", default=os.environ.get("SOGDD_DATA", "../shared/data"))
-    ap.add_argument("--readme", metavar="PATH", help="write the table into this README's 'exactness' block")
+    ap.add_argument("--readme", metavar="PATH",
+                    help="write the table into this page's 'exactness' block (docs/explanations/exactness.md)")
     args = ap.parse_args()
     images = {"rendered pattern 240×320": pattern_image((240, 320), seed=1)[0]}
     geo = sorted((Path(args.data) / "corners_gt" / "geometric").glob("image.*"))
@@ -58,7 +59,7 @@ def main() -> None:
     if args.readme:
         header = ["image", "preset", "all pixels with Υ ≥ 1e6", "those with cond(Λ) ≤ 1e8", "Υ ≥ T_h = 1e9"]
         table = markdown_table(header, rows, "ll" + "r" * 3)
-        print("README blocks changed:", sync_readme(args.readme, {"exactness": table}))
+        print("blocks changed:", sync_readme(args.readme, {"exactness": table}))
 
 
 if __name__ == "__main__":

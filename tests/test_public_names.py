@@ -14,11 +14,16 @@ import pytest
 import sogdd
 
 REPO = Path(__file__).resolve().parents[1]
-TEXTS = [REPO / "README.md", *sorted((REPO / "docs").glob("*.md"))]
+# the README, the changelog, the contributors' guide and every page of the documentation site
+TEXTS = [REPO / "README.md", REPO / "CHANGELOG.md", REPO / "CONTRIBUTING.md",
+         *sorted(p for p in (REPO / "docs").rglob("*.md") if "_build" not in p.parts)]
+TEXTS = [p for p in TEXTS if p.is_file()]
+# a client documented before its code lands: its names are checked as soon as it imports
+PLANNED = ("sogdd.calib",)
 # a dotted sogdd name not inside a path (src/sogdd/x.py) or a file name (sogdd.egg-info)
 DOTTED = re.compile(r"(?<![\w/.-])sogdd(?:\.[A-Za-z_]\w*)+(?![\w-])")
 FROM_IMPORT = re.compile(r"from (sogdd[\w.]*) import ([\w, ]+)")
-# the README's table of what 0.2.0 renamed: its left column names what no longer exists
+# the changelog's table of what 0.2.0 renamed: its left column names what no longer exists
 RENAMED = re.compile(r"<!-- renamed-in-0.2 -->\n(.*?)<!-- /renamed-in-0.2 -->", re.S)
 
 
@@ -55,14 +60,24 @@ def test_every_name_in_the_readme_and_docs_imports():
         try:
             resolve(n)
         except (ImportError, AttributeError):
-            missing.append(n)
+            planned = [m for m in PLANNED if n == m or n.startswith(m + ".")]
+            if not planned or _importable(planned[0]):
+                missing.append(n)
     assert missing == []
 
 
-@pytest.mark.skipif(not (REPO / "README.md").is_file(), reason="needs the repository checkout")
+def _importable(module: str) -> bool:
+    try:
+        importlib.import_module(module)
+    except ImportError:
+        return False
+    return True
+
+
+@pytest.mark.skipif(not (REPO / "CHANGELOG.md").is_file(), reason="needs the repository checkout")
 def test_the_renamed_table_is_honest():
-    """Every 0.1 name the table lists as renamed is gone, and every 0.2.0 name it gives imports."""
-    table = RENAMED.search((REPO / "README.md").read_text())
+    """Every 0.1 name the changelog lists as renamed is gone, and every 0.2.0 name it gives imports."""
+    table = RENAMED.search((REPO / "CHANGELOG.md").read_text())
     assert table is not None
     rows = [r.split("|")[1:3] for r in table.group(1).splitlines()[2:]]
     assert len(rows) >= 10

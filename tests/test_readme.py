@@ -60,3 +60,16 @@ def test_readme_block_runs_as_pasted(index, tmp_path):
     out = subprocess.run([sys.executable, "-c", block], cwd=tmp_path, env=env, capture_output=True,
                          text=True, timeout=600)
     assert out.returncode == 0, f"README block {index} failed:\n{block}\n{out.stderr[-3000:]}"
+
+
+@pytest.mark.skipif(not README.is_file(), reason="needs the repository checkout")
+def test_the_readme_is_a_short_page_with_the_quick_start_and_the_paper():
+    text = README.read_text()
+    assert len(text.splitlines()) <= 200  # a first read; the rest is on the documentation site
+    assert "pip install . && sogdd demo" in text
+    assert "pip install '.[test]' && pytest" in text
+    assert "pip install '.[docs]' && sphinx-build -W -b html docs docs/_build/html" in text
+    assert ("Second-order Gaussian directional derivative representations for image high-resolution corner "
+            "detection") in " ".join(text.replace("\n> ", "\n").split())  # the citation is a block quote
+    for part in ("LICENSE", "CITATION.cff", "CONTRIBUTING.md", "CHANGELOG.md"):
+        assert f"]({part})" in text and (README.parent / part).is_file(), part

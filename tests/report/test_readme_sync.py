@@ -1,4 +1,4 @@
-"""README figures come from the commands that make the results page (report.readme_sync)."""
+"""Generated figures on the documentation pages come from the commands that make them (report.readme_sync)."""
 
 from pathlib import Path
 
@@ -11,15 +11,29 @@ from sogdd.report.readme_sync import readme_blocks, sync_readme
 from sogdd.report.tables import gt_readme_table
 from sogdd.synthetic import pattern_image
 
-README = Path(__file__).resolve().parents[2] / "README.md"
+DOCS = Path(__file__).resolve().parents[2] / "docs"
+# the pages that hold the generated blocks, as CONTRIBUTING.md's commands write them
+GT_PAGE = DOCS / "reproducing" / "index.md"
+EXACTNESS_PAGE = DOCS / "explanations" / "exactness.md"
 
 
-@pytest.mark.skipif(not README.is_file(), reason="needs the repository checkout")
-def test_the_readme_s_figures_are_generated_blocks():
-    blocks = readme_blocks(README.read_text())
-    assert {"gt", "exactness"} <= set(blocks)
-    assert blocks["gt"].startswith("| detector | default M+F |")
-    assert "sogdd ranks" in blocks["gt"]
+@pytest.mark.skipif(not DOCS.is_dir(), reason="needs the repository checkout")
+def test_the_docs_figures_are_generated_blocks():
+    gt = readme_blocks(GT_PAGE.read_text())
+    assert set(gt) == {"gt"}
+    assert gt["gt"].startswith("| detector | default M+F |")
+    assert "sogdd ranks" in gt["gt"]
+    exact = readme_blocks(EXACTNESS_PAGE.read_text())
+    assert set(exact) == {"exactness"}
+    assert exact["exactness"].startswith("| image | preset |")
+
+
+@pytest.mark.skipif(not DOCS.is_dir(), reason="needs the repository checkout")
+def test_the_commands_that_write_the_blocks_name_those_pages():
+    """CONTRIBUTING.md's regeneration commands point at the pages that hold the blocks."""
+    text = (DOCS.parent / "CONTRIBUTING.md").read_text()
+    assert "sogdd report --out docs/results.md --readme docs/reproducing/index.md" in text
+    assert "bench_exactness.py --readme docs/explanations/exactness.md" in text
 
 
 def test_a_missing_block_is_an_error_and_the_file_is_untouched(tmp_path):

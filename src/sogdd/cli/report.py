@@ -62,8 +62,8 @@ def configure(p: argparse.ArgumentParser) -> None:
                    "[default: figures/repeatability_learned next to the page]")
     p.add_argument("--chessboard-quick", action="store_true", help="the checkerboards' quick grid")
     p.add_argument("--readme", metavar="PATH",
-                   help="also rewrite this README's result blocks from the same run "
-                   "(<!-- results:NAME --> ... <!-- /results:NAME -->)")
+                   help="also rewrite this page's result blocks from the same run "
+                   "(<!-- results:NAME --> ... <!-- /results:NAME -->; docs/reproducing/index.md)")
     p.add_argument("--jobs", type=int, default=min(2, os.cpu_count() or 1), help="worker processes")
     p.add_argument("--quiet", "--no-progress", dest="quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=run)

@@ -69,8 +69,8 @@ def chessboard_stage(page, data: Path, *, extra: list[str] | None = None, cells=
         "GFTT + cornerSubPix (5, 5) is the practitioner's pipeline; findChessboardCornersSB needs the "
         "pattern size and returns all corners or none.\n",
         "**What differs from the paper:** nothing to compare; the paper has no checkerboard experiment. "
-        "Dense X-corners are where 'high-resolution' corners matter most in practice (at an X-corner, "
-        "a saddle point, SOGDD's Υ has a local minimum ringed by maxima about "
+        "Dense X-corners are where 'high-resolution' corners matter most in practice (an earlier study "
+        "found that at an X-corner, a saddle point, SOGDD's Υ has a local minimum ringed by maxima about "
         "2 px away). sogdd's recall at 1 px here: "
         + ", ".join(f"{(sog.get(f'{c:g}') or {}).get('recall', float('nan')):.2f} at {c:g} px" for c in small)
         + ".\n",

@@ -1,9 +1,11 @@
-"""README figures from the commands that make the results page: blocks between markers, rewritten.
+"""Figures on a page from the commands that make them: blocks between markers, rewritten.
 
-A README block is the text between ``<!-- results:NAME -->`` and
-``<!-- /results:NAME -->``. The command that computes a figure (``sogdd report
---readme README.md``, ``benchmarks/bench_exactness.py --readme README.md``)
-writes the block from the same run as its own page, so the two never drift apart.
+A block is the text between ``<!-- results:NAME -->`` and
+``<!-- /results:NAME -->`` in a Markdown page (the README or a page of the
+documentation). The command that computes a figure (``sogdd report --readme
+docs/reproducing/index.md``, ``benchmarks/bench_exactness.py --readme
+docs/explanations/exactness.md``) writes the block from the same run as its own
+results, so the two never drift apart.
 """
 
 from __future__ import annotations

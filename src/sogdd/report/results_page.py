@@ -310,7 +310,8 @@ def build_report(
     ``resolution_runs`` is the folder of cached full-grid resolution runs
     (default: ``figures/resolution_full`` next to the page, used when it holds
     them and ``full`` is false); ``chessboard_quick`` runs the checkerboards'
-    quick grid instead of the full one. ``readme``: a README whose result blocks
+    quick grid instead of the full one. ``readme``: a page (the README or, as
+    the project does, ``docs/reproducing/index.md``) whose result blocks
     (:mod:`sogdd.report.readme_sync`) are rewritten from this run.
     ``learned_runs``: the folder of the learned detectors' cached repeatability
     runs (default: ``figures/repeatability_learned`` next to the page).
