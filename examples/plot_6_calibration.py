@@ -11,6 +11,7 @@ tangential distortion) to every labelled view and cross-validates it. The comman
 
 import matplotlib.pyplot as plt
 import numpy as np
+
 from sogdd.calib import calibrate, detect_board
 from sogdd.evaluation.calibration.render import Camera, ChessboardTarget, random_sequence, render_view
 
