@@ -13,7 +13,7 @@ import sogdd
 
 PKG = Path(sogdd.__file__).resolve().parent
 REPO = PKG.parents[1]
-CORE_EXCLUDED = ("theory", "baselines", "evaluation", "report", "cli")
+CORE_EXCLUDED = ("theory", "baselines", "evaluation", "report", "cli", "collection", "calib")
 
 
 def _modules() -> dict[str, Path]:

@@ -11,7 +11,8 @@ The core is a pipeline of stages, each a folder, called in this order by
 1. :mod:`sogdd.image`: files and arrays to validated grey levels on 0-255;
 2. :mod:`sogdd.measure`: SOGDD filters, the SODDC matrix and Upsilon, grey-level units;
 3. :mod:`sogdd.select`: thresholds, non-maximum suppression, sub-pixel refinement,
-   X-junctions, assembly into :class:`Corners`, the image pyramid;
+   X-junctions, assembly into :class:`Corners` (one entry point,
+   :func:`sogdd.select.stage.select_corners`);
 4. :mod:`sogdd.detector`: :func:`corner_response` and :func:`detect_corners`
    (:mod:`sogdd.params` resolves the presets; :mod:`sogdd.gpu` mirrors the stages
    on a CUDA device).
@@ -19,8 +20,9 @@ The core is a pipeline of stages, each a folder, called in this order by
 Around them: :mod:`sogdd.descriptors` (SIFT descriptors at corners),
 :mod:`sogdd.feature2d` (OpenCV's vocabulary), :mod:`sogdd.formats` (feature
 files, COLMAP). Everything else (theory, baselines, evaluation, report, cli,
-:mod:`sogdd.collection` for batches over many images) is a client of the core
-and is never imported by it.
+:mod:`sogdd.collection` for batches over many images, :mod:`sogdd.calib` for
+calibration boards and camera calibration) is a client of the core and is never
+imported by it.
 """
 
 from __future__ import annotations
