@@ -80,7 +80,8 @@ _SCRIPT = textwrap.dedent(
     for key, im in (("hr", xim), ("hr_dev", cuda.to_device(xim))):  # X-junctions and refinement on the host
         c = gpu.detect_corners(im, preset="hr")
         out[key + "_xy"], out[key + "_resp"] = c.xy, c.response
-    c = gpu.detect_corners(cuda.to_device(u8), threshold=1e7, levels=2, border=3)  # the pyramid
+    u8p = np.round(shapes_image((40, 50)) * 255).astype(np.uint8)  # level 1 holds a keypoint (17 px)
+    c = gpu.detect_corners(cuda.to_device(u8p), threshold=1e7, levels=2, border=3)  # the pyramid
     out["lev_xy"], out["lev_resp"], out["lev_level"] = c.xy, c.response, c.level
     np.savez(sys.argv[1], **out)
     """
@@ -165,7 +166,7 @@ def test_hr_detection_matches_cpu(sim):
 
 
 def test_pyramid_matches_cpu(sim):
-    u8 = np.round(shapes_image((24, 31)) * 255).astype(np.uint8)
+    u8 = np.round(shapes_image((40, 50)) * 255).astype(np.uint8)  # level 1 holds a keypoint (17 px)
     cpu = sogdd.detect_corners(u8, threshold=1e7, levels=2, border=3)
     assert len(cpu) >= 3 and set(cpu.level.tolist()) == {0, 1}
     np.testing.assert_array_equal(sim["lev_level"], cpu.level)
