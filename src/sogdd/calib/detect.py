@@ -54,7 +54,7 @@ from scipy.spatial import cKDTree
 from .board import Board
 from .lattice import Lattice, check, grow, ray_neighbours, seeds
 from .refine import half_widths, refine_grey
-from .xcorners import XCorners, default_scale, search, to_grey
+from .xcorners import XCorners, check_search, default_scale, search, to_grey
 
 __all__ = ["detect_board", "detect_boards"]
 
@@ -345,12 +345,7 @@ def detect_boards(image: np.ndarray, pattern: tuple[int, int] | None = None, *, 
         raise ValueError(f"min_corners must be an integer >= 9, got {min_corners!r}")
     if not isinstance(max_boards, (int, np.integer)) or isinstance(max_boards, bool) or max_boards < 1:
         raise ValueError(f"max_boards must be a positive integer, got {max_boards!r}")
-    if not np.isfinite(min_strength) or min_strength < 0:
-        raise ValueError(f"min_strength must be a finite number >= 0, got {min_strength!r}")
-    if scale is not None and not (0 < scale <= 1):
-        raise ValueError(f"scale must be in (0, 1], got {scale!r}")
-    if mask is not None and np.shape(mask) != grey.shape:
-        raise ValueError(f"mask must have the image's shape {grey.shape}, got {np.shape(mask)}")
+    check_search(grey, min_strength, scale, mask)
     xc = search(grey, min_strength, scale, mask)
     out = _boards(grey, xc, pat, int(min_corners), refine, int(max_boards))
     if not out and scale is None and default_scale(grey.shape) < 1:

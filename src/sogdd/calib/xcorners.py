@@ -156,6 +156,16 @@ def _unit(sigma2: float) -> float:
     return float(st.max()) / 100.0
 
 
+def check_search(grey: np.ndarray, min_strength: float, scale: float | None, mask) -> None:
+    """The X-corner search's arguments, checked at the door (one-line ``ValueError``)."""
+    if not np.isfinite(min_strength) or min_strength < 0:
+        raise ValueError(f"min_strength must be a finite number >= 0, got {min_strength!r}")
+    if scale is not None and not (0 < scale <= 1):
+        raise ValueError(f"scale must be in (0, 1], got {scale!r}")
+    if mask is not None and np.shape(mask) != grey.shape:
+        raise ValueError(f"mask must have the image's shape {grey.shape}, got {np.shape(mask)}")
+
+
 def find_xcorners(image: np.ndarray, *, min_strength: float = 8.0, scale: float | None = None,
                   mask: np.ndarray | None = None) -> XCorners:
     """X-corner candidates: saddle points, their edge lines and grey-level strength.
@@ -197,12 +207,7 @@ def find_xcorners(image: np.ndarray, *, min_strength: float = 8.0, scale: float 
     (45, 45)
     """
     grey = to_grey(image)
-    if not np.isfinite(min_strength) or min_strength < 0:
-        raise ValueError(f"min_strength must be a finite number >= 0, got {min_strength!r}")
-    if scale is not None and not (0 < scale <= 1):
-        raise ValueError(f"scale must be in (0, 1], got {scale!r}")
-    if mask is not None and np.shape(mask) != grey.shape:
-        raise ValueError(f"mask must have the image's shape {grey.shape}, got {np.shape(mask)}")
+    check_search(grey, min_strength, scale, mask)
     return search(grey, min_strength, scale, mask)
 
 
