@@ -95,7 +95,7 @@ def photos(root: str) -> None:
 
     from scipy.spatial import cKDTree
 
-    from sogdd.calib.detect import detect_board
+    from sogdd.calib.targets.chessboard import detect_board
 
     lab = np.array([(i, j) for j in range(4) for i in range(6)])
     sb = cv2.CALIB_CB_EXHAUSTIVE | cv2.CALIB_CB_ACCURACY
@@ -136,8 +136,8 @@ def accuracy(n_views: int, fractions: list[float], compare: bool = False) -> Non
     """Corner error of detect_boards on rendered views (calib-eval's renderer): per cell size and blur."""
     from scipy.spatial import cKDTree
 
-    import sogdd.calib.refine as refine
-    from sogdd.calib.detect import detect_boards
+    import sogdd.calib.targets.refine as refine
+    from sogdd.calib.targets.chessboard import detect_boards
     from sogdd.evaluation.calibration.render import Camera, ChessboardTarget, random_sequence, render_view
 
     cam = Camera(np.array([[700.0, 0, 319.5], [0, 700.0, 239.5], [0, 0, 1]]), (-0.12, 0.03, 0.001, -0.001),
@@ -182,7 +182,7 @@ def main() -> None:
                     help="window fractions (of the cell) to compare in --accuracy; default: the library's")
     a = ap.parse_args()
     if a.accuracy:
-        import sogdd.calib.refine as refine
+        import sogdd.calib.targets.refine as refine
 
         accuracy(a.accuracy, a.fractions or [refine.WINDOW_FRACTION], a.compare)
         return
@@ -191,8 +191,8 @@ def main() -> None:
         return
     from scipy.spatial import cKDTree
 
-    from sogdd.calib.detect import detect_boards
-    from sogdd.calib.xcorners import find_xcorners
+    from sogdd.calib.targets.chessboard import detect_boards
+    from sogdd.calib.targets.xcorners import find_xcorners
 
     img, truth = frame(a.width, a.height, a.corners)
     detect_boards(frame(800, 600, 6)[0])  # compile

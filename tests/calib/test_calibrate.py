@@ -6,14 +6,9 @@ import cv2
 import numpy as np
 import pytest
 
-from sogdd.calib.board import Board
-from sogdd.calib.calibrate import (
-    calibrate,
-    distort,
-    project,
-    projection_difference,
-    undistort,
-)
+from sogdd.calib.cameras import distort, project, projection_difference, undistort
+from sogdd.calib.fit import calibrate
+from sogdd.calib.targets.board import Board
 
 SIZE = (640, 480)
 K_TRUE = np.array([[600.0, 0, 322.0], [0, 598.0, 236.0], [0, 0, 1]])

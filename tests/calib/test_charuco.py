@@ -4,7 +4,7 @@ import cv2
 import numpy as np
 import pytest
 
-from sogdd.calib.charuco import detect_charuco
+from sogdd.calib.targets.charuco import detect_charuco
 from sogdd.evaluation.calibration.render import Camera, render_charuco
 
 DICT = cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_4X4_50)

@@ -2,8 +2,8 @@
 
 import numpy as np
 
-from sogdd.calib.lattice import apply, check, homography, ray_neighbours
-from sogdd.calib.xcorners import XCorners
+from sogdd.calib.targets.lattice import apply, check, homography, ray_neighbours
+from sogdd.calib.targets.xcorners import XCorners
 
 
 def grid(n=5, cell=20.0):

@@ -10,9 +10,11 @@ import cv2
 import numpy as np
 import pytest
 
-from sogdd.calib.board import Board
-from sogdd.calib.calibrate import _demo_calibration, calibrate, project
-from sogdd.calib.outputs import read_camera, write_calibration, write_camera_yaml
+from sogdd.calib.cameras import project
+from sogdd.calib.demo import demo_calibration
+from sogdd.calib.files import read_camera, write_calibration, write_camera_yaml
+from sogdd.calib.fit import calibrate
+from sogdd.calib.targets.board import Board
 
 
 @pytest.fixture(scope="module")
@@ -76,8 +78,8 @@ def test_views_and_corners_csv(cal, tmp_path):
 def test_an_input_is_never_overwritten(tmp_path):
     img = tmp_path / "views.csv"
     img.write_bytes(b"not really an image")
-    with pytest.raises(ValueError, match="would overwrite the input"):
-        write_calibration(_demo_calibration(), tmp_path, inputs=[img])
+    with pytest.raises(ValueError, match="that is the input"):
+        write_calibration(demo_calibration(), tmp_path, inputs=[img])
     assert img.read_bytes() == b"not really an image"
     assert not (tmp_path / "camera.yaml").exists()
 
@@ -85,7 +87,7 @@ def test_an_input_is_never_overwritten(tmp_path):
 def test_a_failed_write_is_an_error_and_leaves_nothing(tmp_path):
     (tmp_path / "file").write_text("x")
     with pytest.raises(ValueError, match="not a folder"):
-        write_calibration(_demo_calibration(), tmp_path / "file")
+        write_calibration(demo_calibration(), tmp_path / "file")
     ro = tmp_path / "ro"
     ro.mkdir()
     ro.chmod(0o500)
@@ -93,14 +95,14 @@ def test_a_failed_write_is_an_error_and_leaves_nothing(tmp_path):
         if os.access(ro, os.W_OK):
             pytest.skip("running as a user who can write to a read-only folder")
         with pytest.raises(OSError):
-            write_camera_yaml(_demo_calibration(), ro / "camera.yaml")
+            write_camera_yaml(demo_calibration(), ro / "camera.yaml")
         assert os.listdir(ro) == []
     finally:
         ro.chmod(0o700)
 
 
 def test_an_interrupted_write_keeps_the_old_file_and_no_temporary(tmp_path, monkeypatch):
-    from sogdd.calib import outputs
+    from sogdd.formats import safe_write
 
     old = tmp_path / "camera.json"
     old.write_text("old")
@@ -108,8 +110,8 @@ def test_an_interrupted_write_keeps_the_old_file_and_no_temporary(tmp_path, monk
     def fail(src, dst):
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr(outputs.os, "replace", fail)
+    monkeypatch.setattr(safe_write.os, "replace", fail)
     with pytest.raises(OSError, match="No space"):
-        write_calibration(_demo_calibration(), tmp_path)
+        write_calibration(demo_calibration(), tmp_path)
     assert old.read_text() == "old"
     assert sorted(os.listdir(tmp_path)) == ["camera.json"]

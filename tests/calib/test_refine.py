@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 import pytest
 
-from sogdd.calib.refine import cell_sizes, refine_corners
+from sogdd.calib.targets.refine import cell_sizes, refine_corners
 from sogdd.evaluation.calibration.render import Camera, ChessboardTarget, render_view
 
 CAM = Camera(np.array([[500.0, 0, 239.5], [0, 500.0, 179.5], [0, 0, 1]]), (-0.1, 0.02, 0.0, 0.0), (480, 360))

@@ -9,9 +9,11 @@ import cv2
 import numpy as np
 import pytest
 
-from sogdd.calib.board import Board
-from sogdd.calib.calibrate import calibrate, project
-from sogdd.calib.report import coverage, verdict, write_report
+from sogdd.calib.cameras import project
+from sogdd.calib.fit import calibrate
+from sogdd.calib.report import write_report
+from sogdd.calib.targets.board import Board
+from sogdd.calib.verdict import coverage, verdict
 
 sys.path.insert(0, str(Path(__file__).parent))
 from test_calibrate import COLS, D_TRUE, K_TRUE, LABELS, OBJ, ROWS, SIZE, _boards  # noqa: E402

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from sogdd.calib.xcorners import find_xcorners
+from sogdd.calib.targets.xcorners import find_xcorners
 from sogdd.evaluation.calibration.render import Camera, ChessboardTarget, render_view
 
 CAM = Camera(np.array([[500.0, 0, 239.5], [0, 500.0, 179.5], [0, 0, 1]]), (0.0, 0, 0, 0), (480, 360))

@@ -3,7 +3,7 @@
 Most tests run the command with a stand-in board detector (OpenCV's
 findChessboardCorners + cornerSubPix), so that the command's own logic is
 tested whatever the state of sogdd's detector; the last ones run sogdd's own
-detector (sogdd.calib.detect), with --jobs 2.
+detector (sogdd.calib.targets.chessboard), with --jobs 2.
 """
 
 from __future__ import annotations
@@ -19,8 +19,8 @@ import numpy as np
 import pytest
 
 import sogdd.calib
-from sogdd.calib.board import Board
-from sogdd.calib.outputs import read_camera
+from sogdd.calib.files import read_camera
+from sogdd.calib.targets.board import Board
 from sogdd.cli.main import main
 
 K_TRUE = np.array([[560.0, 0, 322.0], [0, 560.0, 236.0], [0, 0, 1]])
@@ -55,10 +55,10 @@ def _opencv_boards(img, pattern=None):
 
 @pytest.fixture
 def stand_in(monkeypatch):
-    """sogdd.calib.detect replaced by OpenCV's detector (in this process: --jobs 1)."""
-    fake = types.ModuleType("sogdd.calib.detect")
+    """sogdd.calib.targets.chessboard replaced by OpenCV's detector (in this process: --jobs 1)."""
+    fake = types.ModuleType("sogdd.calib.targets.chessboard")
     fake.detect_boards = _opencv_boards
-    monkeypatch.setitem(sys.modules, "sogdd.calib.detect", fake)
+    monkeypatch.setitem(sys.modules, "sogdd.calib.targets.chessboard", fake)
     monkeypatch.setattr(sogdd.calib, "detect", fake, raising=False)
 
 
@@ -123,10 +123,10 @@ def test_a_board_size_that_contradicts_the_option(frames, tmp_path, capsys, stan
 
 def test_a_board_smaller_than_the_option(frames, tmp_path, capsys, monkeypatch):
     """A detector that returns every view's whole 9x6 grid as a partial board of --board 10x7."""
-    fake = types.ModuleType("sogdd.calib.detect")
+    fake = types.ModuleType("sogdd.calib.targets.chessboard")
     fake.detect_boards = lambda img, pattern=None: [Board(b.image_points, b.labels + 1)
                                                     for b in _opencv_boards(img, (9, 6))]
-    monkeypatch.setitem(sys.modules, "sogdd.calib.detect", fake)
+    monkeypatch.setitem(sys.modules, "sogdd.calib.targets.chessboard", fake)
     monkeypatch.setattr(sogdd.calib, "detect", fake, raising=False)
     code, _, err = _run(capsys, frames, "--board", "chessboard:10x7", "--out", tmp_path / "o")
     assert code == 2 and err.count("\n") == 1
@@ -141,9 +141,9 @@ def test_two_boards_in_one_image_are_two_views(frames, tmp_path, capsys, monkeyp
         left, right = b.labels[:, 0] < 4, b.labels[:, 0] >= 4
         return [Board(b.image_points[left], b.labels[left]), Board(b.image_points[right], b.labels[right])]
 
-    fake = types.ModuleType("sogdd.calib.detect")
+    fake = types.ModuleType("sogdd.calib.targets.chessboard")
     fake.detect_boards = two
-    monkeypatch.setitem(sys.modules, "sogdd.calib.detect", fake)
+    monkeypatch.setitem(sys.modules, "sogdd.calib.targets.chessboard", fake)
     monkeypatch.setattr(sogdd.calib, "detect", fake, raising=False)
     code, _, err = _run(capsys, frames, "--board", "chessboard:9x6", "--out", tmp_path / "o", "--no-report")
     assert code == 0, err
@@ -188,7 +188,7 @@ def test_images_of_different_sizes(frames, tmp_path, capsys, stand_in):
 
 def test_sogdds_own_detector_end_to_end(frames, tmp_path, capsys):
     """The real board detector, two processes: every view found, the camera recovered."""
-    pytest.importorskip("sogdd.calib.detect", reason="sogdd's board detector (sogdd.calib.detect) is missing")
+    pytest.importorskip("sogdd.calib.targets.chessboard", reason="sogdd's board detector is missing")
     out = tmp_path / "calib"
     code, text, err = _run(capsys, frames, "--board", "chessboard:9x6", "--out", out, "--jobs", 2)
     assert code == 0, err
@@ -229,7 +229,7 @@ def charuco_frames(tmp_path_factory):
 
 def test_charuco_board(charuco_frames, tmp_path, capsys, monkeypatch):
     """charuco:COLSxROWS:MARKER:DICT reaches the ChArUco detector (here OpenCV's) with that board."""
-    fake = types.ModuleType("sogdd.calib.charuco")
+    fake = types.ModuleType("sogdd.calib.targets.charuco")
     seen = []
 
     def detect_charuco(img, board):
@@ -237,7 +237,7 @@ def test_charuco_board(charuco_frames, tmp_path, capsys, monkeypatch):
         return _opencv_charuco(img, board)
 
     fake.detect_charuco = detect_charuco
-    monkeypatch.setitem(sys.modules, "sogdd.calib.charuco", fake)
+    monkeypatch.setitem(sys.modules, "sogdd.calib.targets.charuco", fake)
     monkeypatch.setattr(sogdd.calib, "charuco", fake, raising=False)
     code, _, err = _run(capsys, charuco_frames, "--board", "charuco:5x7:0.7:DICT_5X5_100",
                         "--out", tmp_path / "o", "--no-report")
@@ -247,7 +247,7 @@ def test_charuco_board(charuco_frames, tmp_path, capsys, monkeypatch):
 
 
 def test_sogdds_own_charuco_detector(charuco_frames, tmp_path, capsys):
-    pytest.importorskip("sogdd.calib.charuco", reason="sogdd's ChArUco detector is missing")
+    pytest.importorskip("sogdd.calib.targets.charuco", reason="sogdd's ChArUco detector is missing")
     code, _, err = _run(capsys, charuco_frames, "--board", "charuco:5x7:0.7:DICT_5X5_100",
                         "--out", tmp_path / "o", "--no-report")
     assert code == 0, err

@@ -1,23 +1,40 @@
-"""Camera calibration on sogdd's corners: boards, refinement, calibration and its diagnostics.
+"""Camera calibration on sogdd's corners: boards, cameras, the fit and its diagnostics.
 
 A client of the core (:mod:`sogdd.detector` and its stages); the core never imports it.
+
+:mod:`.targets`: calibration boards, and how to find, label and refine them in an image.
+:mod:`.cameras`: the camera models and their maths (used by the evaluations too).
+:mod:`.solvers`: the OpenCV calls (one fit, one pose).
+:mod:`.fit`: :func:`calibrate`, the fit of a camera to labelled boards with robust rejection.
+:mod:`.cross_validation`: the two halves' cross-validation.
+:mod:`.result`: :class:`Calibration`, the result with its diagnostics.
+:mod:`.detection`: boards in image files, over many files.
+:mod:`.verdict`: what a calibration is worth, in plain words.
+:mod:`.files`: camera.yaml (OpenCV FileStorage), camera.json, views.csv, corners.csv.
+:mod:`.report`: the HTML report with its figures.
+:mod:`.demo`: a small known calibration for examples.
 """
 
-from .board import Board
-from .calibrate import Calibration, CrossValidation, ProjectionDifference, calibrate, projection_difference
-from .charuco import detect_charuco
-from .detect import detect_board, detect_boards
-from .refine import refine_corners
+from .cameras import MODELS, Camera, CameraModel, ProjectionDifference, projection_difference
+from .cross_validation import CrossValidation
+from .fit import calibrate
+from .result import Calibration
+from .targets import Board, BoardSpec, detect_board, detect_boards, detect_charuco, parse_board, refine_corners
 
 __all__ = [
+    "MODELS",
     "Board",
+    "BoardSpec",
     "Calibration",
+    "Camera",
+    "CameraModel",
     "CrossValidation",
     "ProjectionDifference",
     "calibrate",
     "detect_board",
     "detect_boards",
     "detect_charuco",
+    "parse_board",
     "projection_difference",
     "refine_corners",
 ]

@@ -16,153 +16,11 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from .calibration import Calibration
-from .outputs import _atomic, _write_text
+from ..formats.safe_write import atomic_write, write_bytes, write_text
+from .result import Calibration
+from .verdict import coverage, cv_inside, used_points, verdict
 
-__all__ = ["coverage", "verdict", "write_report"]
-
-# the verdict's limits, each stated where it is used
-_FEW_VIEWS = 10            # fewer used views than this is "few"
-_RMS_HIGH, _RMS_FAIR = 0.5, 0.2  # px
-_CV_LARGE, _CV_FAIR = 2.0, 0.5   # px, mean cross-validation difference
-_EDGE_BAND = 0.15          # the frame's outer band, as a fraction of each side
-_EDGE_CELLS = 0.5          # share of the band's cells that should hold a corner
-_TILT_MIN = 15.0           # degrees: some view should tilt the board at least this much
-_GRID = (8, 6)             # coverage cells across and down
-
-
-def _used_points(cal: Calibration) -> np.ndarray:
-    pts = [b.image_points[u] for b, u in zip(cal.boards, cal.corner_used) if b is not None and u is not None]
-    return np.concatenate(pts) if pts else np.zeros((0, 2))
-
-
-def coverage(cal: Calibration, grid: tuple[int, int] = _GRID) -> tuple[np.ndarray, float, float]:
-    """Where the used corners fell: counts per cell and the shares of cells (all, outer ring) covered.
-
-    The frame is cut into ``grid`` = (columns, rows) equal cells; the outer ring
-    is every cell on the border of that grid.
-
-    Returns
-    -------
-    counts : (rows, columns) int
-    covered : float
-        Share of cells with at least one used corner.
-    edge_covered : float
-        Share of the outer ring's cells with at least one used corner.
-
-    Examples
-    --------
-    >>> from sogdd.calib.calibrate import _demo_calibration
-    >>> counts, covered, edge = coverage(_demo_calibration())
-    >>> counts.shape, 0 < edge <= covered <= 1
-    ((6, 8), True)
-    """
-    gx, gy = grid
-    w, h = cal.image_size
-    p = _used_points(cal)
-    cx = np.clip((p[:, 0] + 0.5) / w * gx, 0, gx - 1e-9).astype(int)
-    cy = np.clip((p[:, 1] + 0.5) / h * gy, 0, gy - 1e-9).astype(int)
-    counts = np.zeros((gy, gx), int)
-    np.add.at(counts, (cy, cx), 1)
-    ring = np.ones((gy, gx), bool)
-    ring[1:-1, 1:-1] = False
-    return counts, float(np.mean(counts > 0)), float(np.mean(counts[ring] > 0))
-
-
-def _tilts(cal: Calibration) -> np.ndarray:
-    """Angle (degrees) between each used view's board normal and the optical axis: a board
-    parallel to the image plane maps to it by an affine map, which says nothing of the focal length."""
-    out = []
-    for v in np.flatnonzero(cal.view_used):
-        R, _ = cv2.Rodrigues(cal.rvecs[v])
-        out.append(np.degrees(np.arccos(min(1.0, abs(float(R[2, 2]))))))
-    return np.array(out)
-
-
-def verdict(cal: Calibration) -> list[tuple[str, str]]:
-    """Plain-words findings on a calibration, each ``(level, text)`` with level "ok", "warn" or "bad".
-
-    The rules: fewer than 10 used views is few; RMS above 0.5 px is high (0.2
-    px: fair); a mean cross-validation difference inside the corners' hull
-    above 2 px is large (0.5 px: fair), and outside it a difference above
-    both 2 px and 3 times the largest inside is extrapolation; corners in
-    fewer than half of the outer ring of an 8 x 6 grid of the frame cover
-    "only the centre"; no view tilting the board 15 degrees or
-    more leaves the focal length weak; more than a fifth of the views rejected
-    is reported. Without any finding the verdict is one "ok".
-
-    Examples
-    --------
-    >>> from sogdd.calib.calibrate import _demo_calibration
-    >>> [level for level, text in verdict(_demo_calibration())][:1]
-    ['warn']
-    """
-    out: list[tuple[str, str]] = []
-    n, total = cal.n_used, len(cal.names)
-    if n < _FEW_VIEWS:
-        out.append(("warn", f"few views ({n} used): calibrate with 10-20 views, the board tilted "
-                            "differently and placed over the whole frame"))
-    if cal.rms > _RMS_HIGH:
-        out.append(("bad", f"high RMS reprojection error ({cal.rms:.2f} px): check blur and focus, motion, "
-                           "a board that is not flat, or a lens the model does not fit"))
-    elif cal.rms > _RMS_FAIR:
-        out.append(("warn", f"fair RMS reprojection error ({cal.rms:.2f} px): sharp, well-lit views do better"))
-    out += _coverage_findings(cal)
-    out += _cross_validation_findings(cal)
-    rejected = total - n - sum(r == "no board" for r in cal.reasons)
-    if rejected > 0.2 * total:
-        out.append(("warn", f"{rejected} of {total} views rejected (see views.csv): check those images"))
-    missing = sum(r == "no board" for r in cal.reasons)
-    if missing:
-        out.append(("warn" if missing > 0.2 * total else "ok", f"no board found in {missing} of {total} views"))
-    if not any(level != "ok" for level, _ in out):
-        cv = cal.cross_validation
-        out.insert(0, ("ok", f"the calibration looks sound: {n} views, RMS {cal.rms:.3f} px"
-                             + (f", halves agree to {_cv_inside(cv)[0]:.2f} px" if cv is not None else "")))
-    return out
-
-
-def _coverage_findings(cal: Calibration) -> list[tuple[str, str]]:
-    out = []
-    _, covered, edge = coverage(cal)
-    if edge < _EDGE_CELLS:
-        out.append(("bad" if edge < 0.25 else "warn",
-                    f"the corners cover only the centre ({edge:.0%} of the frame's border cells, "
-                    f"{covered:.0%} of all cells): add views with the board near the edges and corners of "
-                    "the frame"))
-    tilts = _tilts(cal)
-    if len(tilts) and tilts.max() < _TILT_MIN:
-        out.append(("warn", f"the board faces the camera in every view (largest tilt {tilts.max():.0f} deg): "
-                            "tilt it 20-45 deg in some views to pin down the focal length"))
-    return out
-
-
-def _cross_validation_findings(cal: Calibration) -> list[tuple[str, str]]:
-    cv = cal.cross_validation
-    if cv is None:
-        return [("warn", (cal.notes[0] if cal.notes else "no cross-validation")
-                 + ": the calibration's stability is unknown")]
-    mean, mx = _cv_inside(cv)
-    out = []
-    if mean > _CV_LARGE:
-        out.append(("bad", f"large cross-validation difference ({mean:.2f} px mean, {mx:.2f} max where the "
-                           "corners are): the two halves of the views disagree; the model may not fit the lens "
-                           "(try the rational or fisheye model) or more views are needed"))
-    elif mean > _CV_FAIR:
-        out.append(("warn", f"fair cross-validation difference ({mean:.2f} px mean, {mx:.2f} max where the "
-                            "corners are): more views, tilted and near the edges, would pin the camera down"))
-    if np.isfinite(cv.max) and cv.max > max(_CV_LARGE, 3 * mx):
-        out.append(("warn", f"outside the corners the halves differ by up to {cv.max:.3g} px: the model "
-                            "extrapolates there; do not trust it beyond the area the boards covered"))
-    return out
-
-
-def _cv_inside(cv) -> tuple[float, float]:
-    """The cross-validation's mean and max inside the corners' hull (whole image without one)."""
-    if np.isfinite(cv.mean_within):
-        return cv.mean_within, cv.max_within
-    return cv.mean, cv.max
-
+__all__ = ["write_report"]
 
 # --------------------------------------------------------------------------------------------------
 # figures
@@ -178,7 +36,7 @@ def _plt():
 
 
 def _save(fig, path: Path) -> None:
-    _atomic(path, lambda tmp: fig.savefig(tmp, dpi=100, format="png"))
+    atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=100, format="png"))
     _plt().close(fig)
 
 
@@ -214,7 +72,7 @@ def _coverage_figure(cal: Calibration, path: Path) -> None:
     counts, covered, edge = coverage(cal)
     fig, ax = plt.subplots(figsize=(8, 8 * h / w + 0.6))
     ax.imshow(counts > 0, extent=(0, w, h, 0), cmap="Greens", vmin=0, vmax=2, alpha=0.6)
-    p = _used_points(cal)
+    p = used_points(cal)
     ax.plot(p[:, 0], p[:, 1], ".", ms=1.5, color="k")
     ax.set_xlim(0, w)
     ax.set_ylim(h, 0)
@@ -230,13 +88,13 @@ def _cross_validation_figure(cal: Calibration, path: Path) -> bool:
     d = cv.difference
     w, h = cal.image_size
     fig, ax = plt.subplots(figsize=(8, 8 * h / w + 0.6))
-    top = max(2 * _cv_inside(cv)[1], 1e-3)  # the colours for the data's region; beyond it saturates
+    top = max(2 * cv_inside(cv)[1], 1e-3)  # the colours for the data's region; beyond it saturates
     im = ax.imshow(d.distance, extent=(d.xs[0], d.xs[-1], d.ys[-1], d.ys[0]), cmap="viridis", vmin=0,
                    vmax=min(top, float(np.nanmax(d.distance))))
     fig.colorbar(im, ax=ax, label="px")
     if d.within is not None:  # the corners' hull: the region the data supports
         ax.contour(d.xs, d.ys, d.within.astype(float), levels=[0.5], colors="w", linewidths=1.5)
-    mean, mx = _cv_inside(cv)
+    mean, mx = cv_inside(cv)
     ax.set_title(f"cross-validation: {mean:.3f} px mean, {mx:.3f} max inside the corners' hull (white);\n"
                  f"whole frame {d.mean:.3f} mean, {d.max:.3g} max", fontsize=9)
     _save(fig, path)
@@ -277,11 +135,10 @@ def _load(image):
 
 
 def _write_png(path: Path, img: np.ndarray) -> None:
-    def write(tmp: Path) -> None:
-        if not cv2.imwrite(str(tmp), img):
-            raise OSError(f"{path}: could not write the image")
-
-    _atomic(path, write)
+    ok, data = cv2.imencode(".png", img)
+    if not ok:
+        raise OSError(f"{path}: could not encode the image")
+    write_bytes(path, data.tobytes())
 
 
 # --------------------------------------------------------------------------------------------------
@@ -313,9 +170,9 @@ def write_report(cal: Calibration, out_dir: str | os.PathLike, *, images: Sequen
     Examples
     --------
     >>> import tempfile
-    >>> from sogdd.calib.calibrate import _demo_calibration
+    >>> from sogdd.calib.demo import demo_calibration
     >>> with tempfile.TemporaryDirectory() as d:
-    ...     page = write_report(_demo_calibration(), d)
+    ...     page = write_report(demo_calibration(), d)
     ...     text = page.read_text()
     ...     pngs = sorted(p.name for p in (page.parent / "report").glob("*.png"))
     >>> "Verdict" in text, pngs[:3]
@@ -336,7 +193,7 @@ def write_report(cal: Calibration, out_dir: str | os.PathLike, *, images: Sequen
         _write_png(figs / f, _thumbnail(img, cal.boards[v], cal.corner_used[v], thumb_width, cal.image_size))
         thumbs.append(f)
     page = out / "report.html"
-    _write_text(page, _html(cal, title, thumbs, has_cv))
+    write_text(page, _html(cal, title, thumbs, has_cv))
     return page
 
 
@@ -357,7 +214,7 @@ def _html(cal: Calibration, title: str, thumbs: list[str], has_cv: bool) -> str:
     summary = (f"{cal.model} model, {cal.image_size[0]}x{cal.image_size[1]}, {cal.n_used} of {len(cal.names)} "
                f"views and {cal.n_corners_used} corners used, RMS {cal.rms:.4f} px"
                + (", cross-validation {:.3f} px mean / {:.3f} px max inside the corners' hull"
-                  .format(*_cv_inside(cv)) if cv is not None else ""))
+                  .format(*cv_inside(cv)) if cv is not None else ""))
     cards = []
     for v, (name, f) in enumerate(zip(cal.names, thumbs)):
         rms = cal.view_rms[v]

@@ -7,11 +7,12 @@ import errno
 import json
 import math
 import os
-import re
 import stat
 import sys
 from collections.abc import Callable
 from pathlib import Path
+
+from ..formats.safe_write import check_not_inputs, existing_file
 
 __all__ = [
     "HelpFormatter",
@@ -140,16 +141,6 @@ def write_stdout(data: bytes) -> None:
         raise OSError(exc.errno, f"cannot write to stdout: {exc.strerror or exc}") from None
 
 
-_FRAME = re.compile(r"^(.*)\[(\d+)\]$")  # "photo.tif[2]": frame 2 of photo.tif (sogdd.read_image)
-
-
-def _existing(path: str | os.PathLike) -> Path | None:
-    """The file ``path`` names: itself, or the file of a frame (``photo.tif[2]``); ``None`` if none."""
-    text = os.fsdecode(path)
-    if os.path.lexists(text):
-        return Path(text)
-    m = _FRAME.match(text)
-    return Path(m.group(1)) if m and os.path.lexists(m.group(1)) else None
 
 
 def _kind(mode: int) -> str | None:
@@ -180,55 +171,13 @@ def check_input_files(paths, what: str = "an image file") -> None:
     ValueError: /dev/zero: a device, not a file; give an image file
     """
     for path in paths:
-        p = _existing(path)
+        p = existing_file(path)
         try:
             kind = _kind(os.stat(p).st_mode) if p is not None else None
         except OSError:  # a broken link, no permission: the reader says so
             kind = None
         if kind:
             raise ValueError(f"{p}: {kind}, not a file; give {what}")
-
-
-def _identity(path: Path) -> tuple:
-    """What makes two paths one file: the resolved path, and (device, inode) where it exists
-    (a hard link has another path but the same inode)."""
-    real = os.path.realpath(path)
-    try:
-        st = os.stat(path)
-    except OSError:
-        return (real,)
-    return real, (st.st_dev, st.st_ino)
-
-
-def check_not_inputs(outputs, inputs) -> None:
-    """Refuse an output that is one of the inputs, before any work (``ValueError``, one line).
-
-    ``outputs``: ``(flag, path)`` pairs of the files a command writes (``None``
-    paths are skipped); ``inputs``: the files it reads. A path is the input
-    also through a symbolic link, a hard link, ``..`` or a relative path;
-    writing it would replace the input with the output.
-
-    Examples
-    --------
-    >>> import tempfile
-    >>> d = Path(tempfile.mkdtemp()); _ = (d / "photo.png").write_bytes(b"x")
-    >>> check_not_inputs([("--overlay", d / "sub" / ".." / "photo.png")], [d / "photo.png"])
-    Traceback (most recent call last):
-    ...
-    ValueError: --overlay .../sub/../photo.png: that is the input .../photo.png; choose another file name
-    """
-    known: dict = {}
-    for path in inputs:
-        p = _existing(path) if path is not None else None
-        if p is not None:
-            for key in _identity(p):
-                known.setdefault(key, p)
-    for flag, path in outputs:
-        if path is None or str(path) == "-":
-            continue
-        for key in _identity(Path(path)):
-            if key in known:
-                raise ValueError(f"{flag} {path}: that is the input {known[key]}; choose another file name")
 
 
 def output_folder(text: str) -> str:

@@ -113,7 +113,7 @@ def _no_board(results, spec) -> None:
 def _check_smaller(results, spec) -> None:
     """Every board a whole grid of one same size, smaller than --board: the size was miscounted
     (partial views of a larger board would not all show the same whole rectangle)."""
-    from ..calib.views import grid_dims
+    from ..calib.targets.spec import grid_dims
 
     boards = [b for r in results for b in r.boards]
     if spec.pattern is None or len(boards) < 3 or any(b.size is not None for b in boards):
@@ -126,12 +126,16 @@ def _check_smaller(results, spec) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..calib.calibrate import calibrate
-    from ..calib.outputs import FILES, write_calibration
-    from ..calib.views import check_detector, detect_files, parse_board
+    from ..calib.detection import check_detector, detect_files
+    from ..calib.files import FILES, write_calibration
+    from ..calib.fit import calibrate
+    from ..calib.targets.spec import parse_board
     from ..collection import expand_inputs
 
-    spec = parse_board(args.board)  # bad syntax fails before any work
+    try:
+        spec = parse_board(args.board)  # bad syntax fails before any work
+    except ValueError as exc:
+        raise ValueError(f"--{exc}") from None
     if not (args.square > 0 and args.square < float("inf")):
         raise ValueError(f"--square must be a positive size, got {args.square}")
     if args.jobs < 1:

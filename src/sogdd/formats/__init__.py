@@ -5,6 +5,7 @@ module                   what it does
 =======================  =============================================================
 :mod:`.features`         the feature-file schema (npz, CSV, JSON), atomic writes,
                          :func:`load_features` / :func:`read_features`
+:mod:`.safe_write`       atomic writes with the user's permissions, never over an input
 :mod:`.record`           one image's record: corners, parameters, the source file's stamp
 :mod:`.feature_csv`      the CSV layout: plain rows, the provenance in a ``.json`` sidecar
 :mod:`.colmap`           the COLMAP adapter: the +0.5 pixel shift, cameras, feature

@@ -28,7 +28,6 @@ import os
 import re
 import shutil
 import sqlite3
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -40,6 +39,7 @@ from ..image.files import list_images, read_image
 from ..image.header import probe
 from .colmap_database import check_database, copy_database, forget_features, quiet_colmap
 from .features import feature_files, read_descriptors, read_features
+from .safe_write import check_not_inputs, temporary_beside, user_mode
 
 __all__ = [
     "CameraPrior",
@@ -313,16 +313,15 @@ def export_features(feature_dir: str | Path, database: str | Path, images: str |
     pycolmap = require_pycolmap()
     files = feature_files(Path(feature_dir))
     db_path = Path(database)
-    _not_an_input(db_path, files, images)
+    inputs = list(files.values()) + ([Path(images) / n for n in files] if images is not None else [])
+    check_not_inputs([("--database", db_path)], inputs)
     exists = check_database(db_path)
     real = Path(os.path.realpath(db_path))  # a symbolic link keeps pointing at the database
     # all or nothing: the work happens on a copy that replaces the database only when everything is written
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{real.name}.", suffix=".sogdd.tmp", dir=real.parent)
+        work = temporary_beside(real)
     except OSError as exc:  # the message names the database, not the temporary file
         raise ValueError(f"{db_path}: cannot write in its folder ({exc.strerror.lower()})") from None
-    os.close(fd)
-    work = Path(tmp)
     try:
         if exists:
             copy_database(real, work)
@@ -331,9 +330,7 @@ def export_features(feature_dir: str | Path, database: str | Path, images: str |
             work.unlink()
         result = _export(pycolmap, files, db_path, work, images, describe_method, progress)
         if not exists:
-            mask = os.umask(0o022)  # read it (the only portable way) and put it back
-            os.umask(mask)
-            os.chmod(work, 0o666 & ~mask)
+            os.chmod(work, user_mode())
         try:
             os.replace(work, real)
         except OSError as exc:
@@ -342,15 +339,6 @@ def export_features(feature_dir: str | Path, database: str | Path, images: str |
         for leftover in (work, Path(f"{work}-wal"), Path(f"{work}-shm"), Path(f"{work}-journal")):
             leftover.unlink(missing_ok=True)
     return result
-
-
-def _not_an_input(db_path: Path, files: dict[str, Path], images) -> None:
-    """Refuse a database path that is one of the feature files or images (also through a link)."""
-    real = os.path.realpath(db_path)
-    inputs = list(files.values()) + ([Path(images) / n for n in files] if images is not None else [])
-    for p in inputs:
-        if os.path.realpath(p) == real or (db_path.exists() and p.exists() and os.path.samefile(p, db_path)):
-            raise ValueError(f"--database {db_path}: that is the input {p}; choose another file name")
 
 
 def _known_images(pycolmap, files: dict[str, Path], db_path: Path, work: Path, images) -> dict[str, int]:

@@ -54,7 +54,6 @@ from __future__ import annotations
 import io
 import json
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -62,6 +61,7 @@ import numpy as np
 from ..corners import Corners
 from .feature_csv import SIDECAR, encode_csv, encode_sidecar, read_csv, sidecar_path
 from .record import META, FeatureRecord, check_name, make_record, params_dict, record, source_stamp
+from .safe_write import TMP_SUFFIX, temporary_beside
 
 __all__ = [
     "FORMATS",
@@ -81,7 +81,6 @@ __all__ = [
 ]
 
 FORMATS = ("npz", "csv", "json")
-TMP_SUFFIX = ".sogdd.tmp"
 
 
 def _as_records(records) -> list[FeatureRecord]:
@@ -173,21 +172,13 @@ def write_features(path: str | os.PathLike, records: FeatureRecord | list[Featur
 
 
 def _write_temporary(target: Path, data: bytes) -> str:
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=TMP_SUFFIX, dir=target.parent)
+    tmp = temporary_beside(target)
     try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.chmod(tmp, 0o666 & ~_umask())
+        tmp.write_bytes(data)
     except BaseException:
-        Path(tmp).unlink(missing_ok=True)
+        tmp.unlink(missing_ok=True)
         raise
-    return tmp
-
-
-def _umask() -> int:
-    mask = os.umask(0o022)  # read it (the only portable way) and put it back
-    os.umask(mask)
-    return mask
+    return str(tmp)
 
 
 def remove_stale_temporaries(folder: str | os.PathLike) -> int:

@@ -14,6 +14,8 @@ import os
 import re
 from pathlib import Path
 
+from ..formats.safe_write import write_text
+
 __all__ = ["readme_blocks", "sync_readme"]
 
 
@@ -63,7 +65,5 @@ def sync_readme(path: str | os.PathLike, blocks: dict[str, str]) -> list[str]:
             changed.append(name)
             text = text[: m.start(2)] + body + text[m.end(2):]
     if changed:
-        tmp = p.with_name(f".{p.name}.tmp")
-        tmp.write_text(text)
-        os.replace(tmp, p)
+        write_text(p, text)
     return changed

@@ -163,7 +163,7 @@ def _detect_board():
     try:
         from sogdd.calib import detect_board
     except ImportError:  # before the package exports it
-        from sogdd.calib.detect import detect_board
+        from sogdd.calib.targets.chessboard import detect_board
     return detect_board
 
 

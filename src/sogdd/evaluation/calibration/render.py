@@ -58,9 +58,10 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from .model import Camera, ChessboardTarget, in_frame, pose_matrix
+from ...calib.cameras import Camera, pose_matrix
 from .raster import render_samples as _render
 from .raster import sample_coords as _sample_coords
+from .target import ChessboardTarget, in_frame
 
 __all__ = ["Camera", "ChessboardTarget", "RenderedView", "render_view", "render_scene", "add_noise",
            "render_charuco", "random_sequence", "pose_matrix", "in_frame"]

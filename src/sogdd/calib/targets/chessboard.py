@@ -2,17 +2,17 @@
 
 The steps (:func:`detect_boards`):
 
-1. X-corner candidates with their edge lines (:func:`sogdd.calib.xcorners.find_xcorners`;
+1. X-corner candidates with their edge lines (:func:`sogdd.calib.targets.xcorners.find_xcorners`;
    on a reduced scale for images above 2 MP, and again at full scale when that
    finds no board);
-2. boards grown from seeds by prediction (:mod:`sogdd.calib.lattice`), strongest
+2. boards grown from seeds by prediction (:mod:`sogdd.calib.targets.lattice`), strongest
    seed first, each corner used by one board at most;
 3. every corner refined at full resolution with a window of 0.65 of its local cell
    (:func:`sogdd.calib.refine_corners`); a corner whose refinement fails, or whose
    window is far less point-symmetric than the board's others (:data:`ASYMMETRY`;
    an occluder, the frame's edge), is dropped;
 4. the check: each corner must be predicted by a homography of its neighbours
-   within :data:`CHECK_TOL` of a cell (:func:`sogdd.calib.lattice.check`); a corner
+   within :data:`CHECK_TOL` of a cell (:func:`sogdd.calib.targets.lattice.check`); a corner
    that is not is dropped, twice over;
 5. a board is kept with at least ``min_corners`` corners, three rows and three
    columns of them, a complete 3 x 3 block, and 80 % of its links running along
@@ -290,9 +290,9 @@ def detect_boards(image: np.ndarray, pattern: tuple[int, int] | None = None, *, 
                   max_boards: int = 16, mask: np.ndarray | None = None) -> list[Board]:
     """Find the chessboards in an image, label their corners and refine them.
 
-    X-corners (saddle points with two edge lines, :func:`sogdd.calib.xcorners.find_xcorners`)
+    X-corners (saddle points with two edge lines, :func:`sogdd.calib.targets.xcorners.find_xcorners`)
     are linked into lattices grown from seeds by local-homography prediction
-    (:mod:`sogdd.calib.lattice`), refined to their centre of point symmetry
+    (:mod:`sogdd.calib.targets.lattice`), refined to their centre of point symmetry
     (:func:`sogdd.calib.refine_corners`), and kept only where every corner agrees
     with a homography of its neighbours within 0.12 of a cell. Labels are
     right-handed (module doc for which corner is ``(0, 0)``).
@@ -312,7 +312,7 @@ def detect_boards(image: np.ndarray, pattern: tuple[int, int] | None = None, *, 
     min_strength : float
         Weakest X-corner considered, in grey levels of contrast.
     scale : float or None
-        Search scale (:func:`sogdd.calib.xcorners.find_xcorners`); the corners are
+        Search scale (:func:`sogdd.calib.targets.xcorners.find_xcorners`); the corners are
         refined at full resolution.
     refine : bool
         Refine the corners (else the saddle points, coarse at a reduced scale).

@@ -1,4 +1,4 @@
-"""The result of a calibration: the camera, its diagnostics, and the two halves' cross-validation."""
+"""The result of a calibration: the camera and its diagnostics, view by view and corner by corner."""
 
 from __future__ import annotations
 
@@ -6,59 +6,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .camera import MODELS, ProjectionDifference
+from .cameras import MODELS, CameraModel
+from .cross_validation import CrossValidation
 
-__all__ = ["Calibration", "CrossValidation"]
-
-
-@dataclass(frozen=True)
-class CrossValidation:
-    """Two calibrations from the two interleaved halves of the used views, and how far they disagree.
-
-    Attributes
-    ----------
-    difference : ProjectionDifference
-        Camera A against camera B over the image (:func:`projection_difference`
-        with ``fit_rotation=True``: the halves' camera frames are free to differ
-        by a rotation, fitted inside the convex hull of the used corners;
-        ``mean_within``/``max_within`` are the statistics there).
-    views_a, views_b : tuple of int
-        Indices of the views in each half.
-    K_a, dist_a, K_b, dist_b : ndarray
-        The two halves' cameras.
-    rms_a, rms_b : float
-        Their RMS reprojection errors (px).
-    """
-
-    difference: ProjectionDifference
-    views_a: tuple[int, ...]
-    views_b: tuple[int, ...]
-    K_a: np.ndarray
-    dist_a: np.ndarray
-    K_b: np.ndarray
-    dist_b: np.ndarray
-    rms_a: float
-    rms_b: float
-
-    @property
-    def mean(self) -> float:
-        """Mean projection difference between the halves (px)."""
-        return self.difference.mean
-
-    @property
-    def max(self) -> float:
-        """Largest projection difference between the halves (px)."""
-        return self.difference.max
-
-    @property
-    def mean_within(self) -> float:
-        """Mean projection difference inside the hull of the used corners (px)."""
-        return self.difference.mean_within
-
-    @property
-    def max_within(self) -> float:
-        """Largest projection difference inside the hull of the used corners (px)."""
-        return self.difference.max_within
+__all__ = ["Calibration"]
 
 
 @dataclass(frozen=True)
@@ -111,7 +62,7 @@ class Calibration:
         Board square size (units of ``tvecs``).
     """
 
-    model: str
+    model: CameraModel
     image_size: tuple[int, int]
     K: np.ndarray
     dist: np.ndarray

@@ -14,7 +14,6 @@ import io
 import json
 import math
 import os
-import tempfile
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -22,7 +21,8 @@ import cv2
 import numpy as np
 
 from .._version import __version__
-from .calibration import Calibration
+from ..formats.safe_write import atomic_write, check_not_inputs, write_text
+from .result import Calibration
 
 __all__ = [
     "FILES",
@@ -49,8 +49,8 @@ def calibration_dict(cal: Calibration) -> dict:
 
     Examples
     --------
-    >>> from sogdd.calib.calibrate import _demo_calibration
-    >>> d = calibration_dict(_demo_calibration())
+    >>> from sogdd.calib.demo import demo_calibration
+    >>> d = calibration_dict(demo_calibration())
     >>> d["model"], d["image_width"], len(d["camera_matrix"]), sorted(d["distortion"])[:2]
     ('pinhole', 640, 3, ['k1', 'k2'])
     """
@@ -80,43 +80,6 @@ def calibration_dict(cal: Calibration) -> dict:
         "notes": list(cal.notes),
         "sogdd_version": __version__,
     }
-
-
-# --------------------------------------------------------------------------------------------------
-# safe writing
-
-
-def _refuse_inputs(paths: Iterable[Path], inputs: Iterable[str | os.PathLike]) -> None:
-    """``ValueError`` if a target is one of the inputs (compared by the file itself, then by path)."""
-    given = [Path(p) for p in inputs]
-    for target in paths:
-        for src in given:
-            same = target.exists() and src.exists() and os.path.samefile(target, src)
-            if same or os.path.abspath(target) == os.path.abspath(src):
-                raise ValueError(f"{target}: would overwrite the input {src}; choose another output folder")
-
-
-def _atomic(path: Path, write) -> None:
-    """Call ``write(tmp_path)`` on a temporary file beside ``path``, then rename it to ``path``."""
-    folder = path.parent if str(path.parent) else Path(".")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=folder)
-    os.close(fd)
-    try:
-        write(Path(tmp))
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
-def _write_text(path: Path, text: str) -> None:
-    def write(tmp: Path) -> None:
-        with open(tmp, "w", encoding="utf-8", newline="") as f:
-            f.write(text)
-            f.flush()
-            os.fsync(f.fileno())
-
-    _atomic(path, write)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -165,7 +128,7 @@ def write_camera_yaml(cal: Calibration, path: str | os.PathLike) -> Path:
         if not np.allclose(back["camera_matrix"], cal.K) or n != len(cal.dist):
             raise OSError(f"{path}: the written file does not read back (disk full?)")
 
-    _atomic(path, write)
+    atomic_write(path, write)
     return path
 
 
@@ -205,7 +168,7 @@ def read_camera(path: str | os.PathLike) -> dict:
 def write_camera_json(cal: Calibration, path: str | os.PathLike) -> Path:
     """Write :func:`calibration_dict` as indented JSON."""
     path = Path(path)
-    _write_text(path, json.dumps(calibration_dict(cal), indent=2) + "\n")
+    write_text(path, json.dumps(calibration_dict(cal), indent=2) + "\n")
     return path
 
 
@@ -233,7 +196,7 @@ def write_views_csv(cal: Calibration, path: str | os.PathLike) -> Path:
         rows.append([name, 0 if b is None else len(b), 0 if used is None else int(used.sum()),
                      _fmt(cal.view_rms[v]), int(bool(cal.view_used[v])), cal.reasons[v]])
     path = Path(path)
-    _write_text(path, _csv(rows))
+    write_text(path, _csv(rows))
     return path
 
 
@@ -256,7 +219,7 @@ def write_corners_csv(cal: Calibration, path: str | os.PathLike) -> Path:
             x, y = b.image_points[c]
             rows.append([name, int(i), int(j), _fmt(x), _fmt(y), _fmt(r[c]), int(bool(cal.corner_used[v][c]))])
     path = Path(path)
-    _write_text(path, _csv(rows))
+    write_text(path, _csv(rows))
     return path
 
 
@@ -280,16 +243,16 @@ def write_calibration(cal: Calibration, out_dir: str | os.PathLike, *,
     Examples
     --------
     >>> import tempfile
-    >>> from sogdd.calib.calibrate import _demo_calibration
+    >>> from sogdd.calib.demo import demo_calibration
     >>> with tempfile.TemporaryDirectory() as d:
-    ...     files = write_calibration(_demo_calibration(), d)
+    ...     files = write_calibration(demo_calibration(), d)
     ...     cam = read_camera(files["camera.yaml"])
     >>> sorted(files), round(float(cam["camera_matrix"][0, 0]))
     (['camera.json', 'camera.yaml', 'corners.csv', 'views.csv'], 600)
     """
     out = Path(out_dir)
     targets = {name: out / name for name in FILES}
-    _refuse_inputs(targets.values(), inputs)
+    check_not_inputs([("output", t) for t in targets.values()], inputs)
     if out.exists() and not out.is_dir():
         raise ValueError(f"{out}: exists and is not a folder")
     out.mkdir(parents=True, exist_ok=True)

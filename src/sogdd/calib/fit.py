@@ -5,44 +5,23 @@
 ``cv2.fisheye.calibrate`` for the fisheye one), rejects corners and views whose
 residuals lie far beyond the rest (each with its reason), and measures how far
 two calibrations from the two halves of the views disagree over the image
-(:func:`~sogdd.calib.camera.projection_difference`, re-exported here): a model
-that fits, with enough views, gives a small difference; a wrong model or too
-few views a large one.
+(:mod:`~sogdd.calib.cross_validation`).
 """
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 
-from .board import Board
-from .calibration import Calibration, CrossValidation
-from .camera import (
-    MODELS,
-    ProjectionDifference,
-    _check_model,
-    _check_size,
-    distort,
-    project,
-    projection_difference,
-    undistort,
-)
+from . import cross_validation as _cv
+from .cameras import MODELS, CameraModel, check_model, check_size, project
+from .result import Calibration
+from .solvers import fit_camera_checked, solve_pose
+from .targets.board import Board
 
-__all__ = [
-    "MODELS",
-    "Calibration",
-    "CrossValidation",
-    "ProjectionDifference",
-    "calibrate",
-    "distort",
-    "project",
-    "projection_difference",
-    "undistort",
-]
+__all__ = ["calibrate"]
 
 # a robust standard deviation from the median absolute deviation (exact for a normal distribution)
 _MAD_SCALE = 1.4826
@@ -90,55 +69,6 @@ def _usable(board: Board | None, min_corners: int) -> str:
     return ""
 
 
-# --------------------------------------------------------------------------------------------------
-# the OpenCV calls
-
-
-def _fit(obj: list[np.ndarray], img: list[np.ndarray], size: tuple[int, int], model: str, flags: int):
-    """One OpenCV calibration: ``(K, dist, rvecs (V, 3), tvecs (V, 3), std (array or None))``."""
-    crit = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 100, 1e-12)
-    if model == "fisheye":
-        f = flags | cv2.fisheye.CALIB_RECOMPUTE_EXTRINSIC | cv2.fisheye.CALIB_FIX_SKEW
-        o = [p.reshape(1, -1, 3) for p in obj]
-        i = [p.reshape(1, -1, 2) for p in img]
-        _, K, D, rv, tv = cv2.fisheye.calibrate(o, i, size, np.eye(3), np.zeros(4), flags=f, criteria=crit)
-        std = None
-    else:
-        f = flags | (cv2.CALIB_RATIONAL_MODEL if model == "rational" else 0)
-        nd = len(MODELS[model])
-        o = [p.astype(np.float64).reshape(-1, 1, 3) for p in obj]
-        i = [p.astype(np.float64).reshape(-1, 1, 2) for p in img]
-        _, K, D, rv, tv, std, _, _ = cv2.calibrateCameraExtended(
-            o, i, size, np.eye(3), np.zeros(nd), flags=f, criteria=crit)
-        D = D.ravel()[:nd]
-        std = std.ravel()
-    rv = np.array([np.asarray(r, dtype=np.float64).ravel() for r in rv])
-    tv = np.array([np.asarray(t, dtype=np.float64).ravel() for t in tv])
-    return K, np.asarray(D, dtype=np.float64).ravel(), rv, tv, std
-
-
-def _fit_checked(obj, img, size, model, flags, what: str):
-    try:
-        return _fit(obj, img, size, model, flags)
-    except cv2.error as exc:
-        msg = " ".join(str(exc).split())
-        raise ValueError(f"OpenCV could not calibrate {what} ({model} model): {msg[-160:]}") from None
-
-
-def _pose(board: Board, square: float, K, dist, model):
-    """A view's pose given the intrinsics (solvePnP), or None."""
-    obj = board.object_points(square)
-    img = board.image_points
-    try:
-        if model == "fisheye":
-            ok, rv, tv = cv2.fisheye.solvePnP(obj.reshape(-1, 1, 3), img.reshape(-1, 1, 2), K, dist)
-        else:
-            ok, rv, tv = cv2.solvePnP(obj, img, K, dist, flags=cv2.SOLVEPNP_ITERATIVE)
-    except cv2.error:
-        return None
-    return (rv.ravel(), tv.ravel()) if ok else None
-
-
 def _std_dict(std, model: str) -> dict:
     names = ("fx", "fy", "cx", "cy") + MODELS[model]
     if std is None:
@@ -176,7 +106,7 @@ def _solve(st: _State):
     idx = np.flatnonzero(st.view_ok)
     obj = [st.boards[v].object_points(st.square)[st.corner_ok[v]] for v in idx]
     img = [st.boards[v].image_points[st.corner_ok[v]] for v in idx]
-    return idx, _fit_checked(obj, img, st.size, st.model, st.flags, f"{len(idx)} views")
+    return idx, fit_camera_checked(obj, img, st.size, st.model, st.flags, f"{len(idx)} views")
 
 
 def _all_residuals(st: _State, idx, fit) -> list:
@@ -187,7 +117,7 @@ def _all_residuals(st: _State, idx, fit) -> list:
     for v, b in enumerate(st.boards):
         if b is None or len(b) == 0:
             continue
-        pose = poses.get(v) or (_pose(b, st.square, K, D, st.model) if len(b) >= 4 else None)
+        pose = poses.get(v) or (solve_pose(b, st.square, K, D, st.model) if len(b) >= 4 else None)
         if pose is None:
             continue
         proj = project(b.object_points(st.square), K, D, st.model, pose[0], pose[1])
@@ -266,38 +196,12 @@ def _iterate(st: _State, k: float, floor: float, min_views: int, min_corners: in
     return idx, fit, _all_residuals(st, idx, fit), thresholds
 
 
-def _cross_validate(st: _State, idx: np.ndarray, min_views: int):
-    """Calibrate the even- and odd-ranked used views separately and compare the two cameras."""
-    if len(idx) < 2 * min_views:
-        return None, f"no cross-validation: {len(idx)} used views, it needs {2 * min_views} (two halves)"
-    halves = (idx[0::2], idx[1::2])
-    fits = []
-    for half in halves:
-        obj = [st.boards[v].object_points(st.square)[st.corner_ok[v]] for v in half]
-        img = [st.boards[v].image_points[st.corner_ok[v]] for v in half]
-        try:
-            K, D, rv, tv, _ = _fit(obj, img, st.size, st.model, st.flags)
-        except cv2.error:
-            return None, "no cross-validation: OpenCV could not calibrate one of the halves"
-        r = np.concatenate([i - project(o, K, D, st.model, rv[n], tv[n])
-                            for n, (o, i) in enumerate(zip(obj, img))])
-        fits.append((K, D, float(np.sqrt(np.mean(np.sum(r * r, axis=1))))))
-    (Ka, Da, ra), (Kb, Db, rb) = fits
-    used = np.concatenate([st.boards[v].image_points[st.corner_ok[v]] for v in idx]).astype(np.float32)
-    hull = cv2.convexHull(used).reshape(-1, 2)
-    diff = projection_difference((Ka, Da, st.model), (Kb, Db, st.model), st.size, fit_rotation=True,
-                                 within=hull if len(hull) >= 3 else None)
-    cv = CrossValidation(diff, tuple(int(v) for v in halves[0]), tuple(int(v) for v in halves[1]),
-                         Ka, Da, Kb, Db, ra, rb)
-    return cv, ""
-
-
 def calibrate(
     boards: Sequence[Board | None],
     image_size: tuple[int, int],
     *,
     square: float = 1.0,
-    model: str = "pinhole",
+    model: CameraModel = "pinhole",
     names: Sequence[str] | None = None,
     reject: bool = True,
     k: float = 5.0,
@@ -378,8 +282,8 @@ def calibrate(
     >>> round(float(cal.K[0, 0]), 3), cal.rms < 1e-6, cal.n_used
     (600.0, True, 8)
     """
-    _check_model(model)
-    size = _check_size(image_size)
+    check_model(model)
+    size = check_size(image_size)
     if not np.isfinite(square) or square <= 0:
         raise ValueError(f"square must be a positive size, got {square}")
     if min_views < 1 or min_corners < 4:
@@ -423,7 +327,8 @@ def _result(st: _State, idx, fit, res, thresholds, min_views: int, cross_validat
     notes = []
     cv = None
     if cross_validate:
-        cv, note = _cross_validate(st, idx, min_views)
+        cv, note = _cv.cross_validate(st.boards, st.corner_ok, idx, square=st.square, image_size=st.size,
+                                  model=st.model, flags=st.flags, min_views=min_views)
         if note:
             notes.append(note)
     corner_used = tuple(
@@ -434,17 +339,3 @@ def _result(st: _State, idx, fit, res, thresholds, min_views: int, cross_validat
         residuals=tuple(res), corner_used=corner_used, view_used=st.view_ok.copy(), view_rms=view_rms,
         reasons=tuple(st.reasons), corner_reasons=tuple(st.corner_reasons), rvecs=rvecs, tvecs=tvecs,
         cross_validation=cv, thresholds=thresholds, notes=tuple(notes), square=st.square)
-
-
-@functools.lru_cache(maxsize=1)
-def _demo_calibration() -> Calibration:
-    """A small calibration from boards projected through a known camera (for the doctests)."""
-    K = np.array([[600.0, 0, 320], [0, 600, 240], [0, 0, 1]])
-    obj = np.array([(i, j, 0.0) for j in range(6) for i in range(9)])
-    rng = np.random.default_rng(0)
-    boards: list[Board | None] = []
-    for a in range(8):
-        rv, tv = (0.4 * np.sin(a), 0.4 * np.cos(a), 0.1), (-4.0 + 0.5 * np.cos(2 * a), -2.5, 12.0 + a % 3)
-        pts = project(obj, K, np.array([-0.2, 0.05, 0, 0, 0]), "pinhole", rv, tv)
-        boards.append(Board(pts + rng.normal(0, 0.03, pts.shape), obj[:, :2].astype(int)))
-    return calibrate(boards + [None], (640, 480), names=[f"view{v}.png" for v in range(9)])

@@ -1,0 +1,170 @@
+"""Writing files a user can trust: atomically, with the user's permissions, never over an input.
+
+One home for the three rules every writer of the package follows:
+
+- a file appears under its name complete or not at all: it is written to a
+  temporary name beside its target (:data:`TMP_SUFFIX`) and renamed into place
+  (:func:`atomic_write`); a failure removes the temporary file and names the
+  target, never the temporary one;
+- it gets ``0666 & ~umask``, the permissions ``open()`` would give it
+  (:func:`user_mode`), not ``mkstemp``'s 0600;
+- an output that is one of the inputs, by any path, is refused before any work
+  (:func:`check_not_inputs`, :func:`folder_holds`).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import tempfile
+from collections.abc import Callable, Iterable
+from pathlib import Path
+
+__all__ = ["TMP_SUFFIX", "atomic_write", "check_not_inputs", "existing_file", "folder_holds",
+           "temporary_beside", "user_mode", "write_bytes", "write_text"]
+
+#: the suffix of a temporary file that is being written (an interrupted writer's are stale)
+TMP_SUFFIX = ".sogdd.tmp"
+_FRAME = re.compile(r"^(.*)\[(\d+)\]$")
+
+
+def user_mode() -> int:
+    """``0o666 & ~umask``: the permissions of a new file made by ``open()``.
+
+    Examples
+    --------
+    >>> old = os.umask(0o022); m = user_mode(); _ = os.umask(old)
+    >>> oct(m)
+    '0o644'
+    """
+    mask = os.umask(0o022)  # read it (the only portable way) and put it back
+    os.umask(mask)
+    return 0o666 & ~mask
+
+
+def temporary_beside(target: str | os.PathLike) -> Path:
+    """A new empty file beside ``target`` (same folder, so the final rename is atomic), named
+    ``.<name>.<random>`` + :data:`TMP_SUFFIX`, with :func:`user_mode` permissions."""
+    target = Path(target)
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=TMP_SUFFIX, dir=target.parent)
+    os.close(fd)
+    os.chmod(tmp, user_mode())
+    return Path(tmp)
+
+
+def atomic_write(target: str | os.PathLike, write: Callable[[Path], None]) -> Path:
+    """Call ``write(tmp)`` on a temporary file beside ``target``, then rename it to ``target``.
+
+    Raises what ``write`` raises, or ``OSError`` naming ``target`` when its folder
+    cannot be written; the temporary file never survives a failure (Ctrl-C
+    included).
+
+    Examples
+    --------
+    >>> d = Path(tempfile.mkdtemp())
+    >>> _ = atomic_write(d / "a.txt", lambda tmp: tmp.write_text("hi"))
+    >>> (d / "a.txt").read_text(), sorted(p.name for p in d.iterdir())
+    ('hi', ['a.txt'])
+    """
+    target = Path(target)
+    if target.is_dir():
+        raise IsADirectoryError(f"{target}: is a folder, not a file name")
+    try:
+        tmp = temporary_beside(target)
+    except OSError as exc:
+        raise type(exc)(exc.errno, f"{target}: cannot write ({exc.strerror or exc})") from None
+    try:
+        write(tmp)
+        os.replace(tmp, target)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return target
+
+
+def write_bytes(target: str | os.PathLike, data: bytes) -> Path:
+    """:func:`atomic_write` of ``data``, flushed to the disk before the rename."""
+    def write(tmp: Path) -> None:
+        with open(tmp, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+
+    return atomic_write(target, write)
+
+
+def write_text(target: str | os.PathLike, text: str) -> Path:
+    """:func:`write_bytes` of ``text`` in UTF-8 (newlines as given)."""
+    return write_bytes(target, text.encode("utf-8"))
+
+
+def existing_file(path: str | os.PathLike) -> Path | None:
+    """The file ``path`` names: itself, or the file of a frame (``photo.tif[2]``); ``None`` if none."""
+    text = os.fsdecode(path)
+    if os.path.lexists(text):
+        return Path(text)
+    m = _FRAME.match(text)
+    return Path(m.group(1)) if m and os.path.lexists(m.group(1)) else None
+
+
+def _identity(path: Path) -> tuple:
+    """What makes two paths one file: the resolved path, and (device, inode) where it exists
+    (a hard link has another path but the same inode)."""
+    real = os.path.realpath(path)
+    try:
+        st = os.stat(path)
+    except OSError:
+        return (real,)
+    return real, (st.st_dev, st.st_ino)
+
+
+def check_not_inputs(outputs, inputs) -> None:
+    """Refuse an output that is one of the inputs, before any work (``ValueError``, one line).
+
+    ``outputs``: ``(flag, path)`` pairs of the files a command writes (``None``
+    paths are skipped); ``inputs``: the files it reads. A path is the input
+    also through a symbolic link, a hard link, ``..`` or a relative path;
+    writing it would replace the input with the output.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> d = Path(tempfile.mkdtemp()); _ = (d / "photo.png").write_bytes(b"x")
+    >>> check_not_inputs([("--overlay", d / "sub" / ".." / "photo.png")], [d / "photo.png"])
+    Traceback (most recent call last):
+    ...
+    ValueError: --overlay .../sub/../photo.png: that is the input .../photo.png; choose another file name
+    """
+    known: dict = {}
+    for path in inputs:
+        p = existing_file(path) if path is not None else None
+        if p is not None:
+            for key in _identity(p):
+                known.setdefault(key, p)
+    for flag, path in outputs:
+        if path is None or str(path) == "-":
+            continue
+        for key in _identity(Path(path)):
+            if key in known:
+                raise ValueError(f"{flag} {path}: that is the input {known[key]}; choose another file name")
+
+
+def folder_holds(folder: str | os.PathLike, inputs: Iterable[str | os.PathLike]) -> Path | None:
+    """The first input that lies inside ``folder`` (at any depth, through links too), else None.
+
+    An output folder that holds an input would mix outputs with inputs: a later
+    run over ``folder/*`` would take the outputs for images.
+
+    Examples
+    --------
+    >>> d = Path(tempfile.mkdtemp()); _ = (d / "a.png").write_bytes(b"x")
+    >>> folder_holds(d, [d / "a.png"]) == d / "a.png", folder_holds(d / "out", [d / "a.png"])
+    (True, None)
+    """
+    root = os.path.realpath(folder)
+    for p in inputs:
+        f = existing_file(p)
+        real = os.path.realpath(f if f is not None else p)
+        if os.path.commonpath([root, real]) == root:
+            return Path(p)
+    return None
