@@ -83,7 +83,7 @@ def test_no_import_circle():
 #: the core's stages, in the order the grey image goes through them
 STAGES = ("image", "measure", "select")
 #: the folders whose ``__init__`` says, in a table, what each of their modules is
-DOCUMENTED = ("image", "measure", "select", "gpu", "formats")
+DOCUMENTED = ("image", "measure", "select", "gpu", "formats", "calib", "calib/targets", "calib/cameras")
 
 
 def _stage(name: str) -> int | None:
@@ -105,6 +105,7 @@ def test_each_module_is_one_concept_named_in_its_stage(folder):
     doc = ast.get_docstring(ast.parse((PKG / folder / "__init__.py").read_text()))
     listed = set(re.findall(r"^:mod:`\.(\w+)`", doc, flags=re.M))
     present = {p.stem for p in (PKG / folder).glob("*.py") if p.stem != "__init__"}
+    present |= {p.parent.name for p in (PKG / folder).glob("*/__init__.py")}
     assert listed == present
 
 
@@ -119,3 +120,28 @@ def test_no_file_over_the_sanity_ceiling():
             if n > 800:
                 long.append((str(p.relative_to(REPO)), n))
     assert long == []
+
+
+#: calib's sub-packages: each uses the core and itself, never the calibration around it
+CALIB_LEAVES = ("sogdd.calib.targets", "sogdd.calib.cameras")
+
+
+@pytest.mark.parametrize("leaf", CALIB_LEAVES)
+def test_calib_sub_packages_import_nothing_back_up(leaf):
+    """A board or a camera model is usable alone: ``targets`` and ``cameras`` import no other part of
+    ``sogdd.calib`` (nor each other), and no client of the core."""
+    modules = _modules()
+    inside = [m for m in modules if m == leaf or m.startswith(leaf + ".")]
+    assert len(inside) > 2, inside
+    bad = [(m, t) for m in inside for t in _imports(m, modules[m], modules)
+           if not (t == leaf or t.startswith(leaf + ".")) and not _is_core(t)]
+    assert bad == []
+
+
+def test_the_evaluations_hold_no_camera_model_of_their_own():
+    """One camera model: the renderer and the evaluations use :mod:`sogdd.calib.cameras`, and no module
+    outside it defines the distortion polynomial."""
+    polynomial = re.compile(r"1 \+ r2 \* \(k1 \+ r2 \* \(k2 \+ r2 \* k3\)\)")
+    found = [p.relative_to(PKG).parts for p in PKG.rglob("*.py") if polynomial.search(p.read_text())]
+    assert any("cameras" in f for f in found), "the search finds the model where it lives"
+    assert [f for f in found if "cameras" not in f] == []
