@@ -128,14 +128,15 @@ def test_registry_and_spec_names():
 
 def test_hr_reports_one_point_per_corner(monkeypatch):
     """Two Upsilon peaks of one vertex that the adaptive refinement brings together are one corner."""
-    from sogdd.select import assemble
+    from sogdd.select import refine
     from sogdd.synthetic import pattern_image
 
     img = pattern_image((240, 320), seed=0)[0]
     got = sogdd.detect_corners(img, preset="hr")
-    assert assemble.COINCIDENT == 0.1  # the documented merge radius; literals below, not the constant
+    assert refine.COINCIDENT == 0.1  # the documented merge radius; literals below, not the constant
     assert len(cKDTree(got.xy).query_pairs(0.1)) == 0
-    monkeypatch.setattr(assemble, "one_per_point", lambda xy, s, tol: np.arange(len(xy)))
+    # the merge of every preset (sogdd.select.refine.first_distinct) switched off
+    monkeypatch.setattr(refine, "one_per_point", lambda xy, s, tol: np.arange(len(xy)))
     every = sogdd.detect_corners(img, preset="hr")
     assert len(cKDTree(every.xy).query_pairs(0.1)) > 0  # the image has such pairs
     d, _ = cKDTree(got.xy).query(every.xy)

@@ -54,6 +54,13 @@ def junction_image(shape=(36, 40)) -> np.ndarray:
     img = render_polygons(shape, polys, background=40.0) + np.random.default_rng(2).normal(0, 1.5, shape)
     return np.clip(np.round(img), 0, 255).astype(np.uint8)
 
+def edge_triangle_image() -> np.ndarray:
+    """A triangle whose vertex lies 2 px below the top edge: two peaks of the measure refine onto it
+    (as in tests/select/test_coincident.py), uint8."""
+    q = np.array([[5.3, 14.4], [24.3, 29.0], [24.3, 2.02]])
+    return np.round(render_polygons((24, 32), [Polygon(q, 200.0)], background=40.0)).astype(np.uint8)
+
+
 _SCRIPT = textwrap.dedent(
     """
     import sys, numpy as np
@@ -83,6 +90,11 @@ _SCRIPT = textwrap.dedent(
     u8p = np.round(shapes_image((40, 50)) * 255).astype(np.uint8)  # level 1 holds a keypoint (17 px)
     c = gpu.detect_corners(cuda.to_device(u8p), threshold=1e7, levels=2, border=3)  # the pyramid
     out["lev_xy"], out["lev_resp"], out["lev_level"] = c.xy, c.response, c.level
+    from test_gpu import edge_triangle_image
+    tri = edge_triangle_image()
+    for key, im in (("tri", tri), ("tri_dev", cuda.to_device(tri))):  # merged, cut, refilled
+        c = gpu.detect_corners(im, max_corners=3)
+        out[key + "_xy"], out[key + "_resp"] = c.xy, c.response
     np.savez(sys.argv[1], **out)
     """
 )
@@ -172,6 +184,20 @@ def test_pyramid_matches_cpu(sim):
     np.testing.assert_array_equal(sim["lev_level"], cpu.level)
     np.testing.assert_allclose(sim["lev_resp"], cpu.response, rtol=1e-9)
     assert np.abs(sim["lev_xy"] - cpu.xy).max() < 1e-6
+
+
+def test_coincident_points_merged_before_the_cut_as_on_cpu(sim):
+    """Two peaks refined onto one point are one corner on the device too, and max_corners is refilled."""
+    img = edge_triangle_image()
+    cpu = sogdd.detect_corners(img, max_corners=3)
+    assert len(cpu) == 3
+    for key in ("tri", "tri_dev"):
+        xy = sim[key + "_xy"]
+        gaps = np.hypot(*(xy[:, None] - xy[None]).transpose(2, 0, 1))[~np.eye(len(xy), dtype=bool)]
+        assert len(xy) == 3 and gaps.min() > 0.1
+        np.testing.assert_allclose(sim[key + "_resp"], cpu.response, rtol=1e-10)
+        # host refinement is identical; on device patches, float32 coordinates
+        assert np.abs(xy - cpu.xy).max() < (1e-6 if key == "tri" else 1e-3)
 
 
 def test_detection_with_border_matches_cpu(sim):

@@ -17,7 +17,10 @@ finished on the host by the CPU's own selection stage (:func:`sogdd.select.stage
 which reads the device's maxima or its map instead of measuring): quadratic and
 gradient refinement on those few points, and for ``hr`` the X-junction stage and
 the adaptive refinement, which read the whole grey image (copied back from the
-device for a device input).
+device for a device input), then the same merge of points that refinement
+brought together (:func:`sogdd.select.refine.first_distinct`, before the
+``max_corners`` cut, refilled from the next peaks: their patches are gathered
+on the device as they are asked for).
 ``threshold_rel`` and ``quantile`` need the whole map: it is copied back and
 peaks are selected on the host. With ``levels > 1`` the pyramid's levels are
 resized on the host (:mod:`sogdd.image.pyramid`, as on the CPU) and each is detected
@@ -35,7 +38,6 @@ of images or an (N, H, W) stack; same-sized images share one launch.
 from __future__ import annotations
 
 import math
-from functools import partial
 
 import numpy as np
 from numba import cuda
@@ -187,8 +189,11 @@ class _DeviceMeasure:
     def whole(self) -> np.ndarray:
         return self.stack.resp[self.j].copy_to_host()
 
-    def gradient(self, rows, cols):
-        return partial(_gradient_on_device, self.dev, self.j, rows, cols) if self.on_device_gradient else None
+    def gradient(self, rows, cols, xy):
+        # asked for the strongest peaks first, then for more where merged duplicates left the cut short
+        if not self.on_device_gradient or len(rows) == 0:
+            return None
+        return _gradient_on_device(self.dev, self.j, rows, cols, xy)
 
 
 def _detect_stack(s: GreyStack, p: Params, masks: list, clip: bool = True) -> list[Corners]:

@@ -7,11 +7,18 @@ them here, so a setting means the same on both:
 1. the threshold in the measure's units (:func:`peak_threshold`: grey levels of
    corner contrast are converted with :func:`sogdd.measure.units.measure_threshold`),
    and how many peaks to keep before X-junctions are added (:func:`peak_limit`);
-2. :func:`assemble`: quadratic offsets and gradient refinement, strengths in
-   grey levels, the X-junction stage (:func:`sogdd.select.x_junctions.add_x_junctions`) and
-   the adaptive gradient refinement, which needs the final neighbours; after it,
-   corners it brought within :data:`COINCIDENT` px of a stronger one are merged
-   into it (one point per corner);
+2. :func:`assemble`, in this order: quadratic offsets, strengths in grey levels,
+   the X-junction stage (:func:`sogdd.select.x_junctions.add_x_junctions`; the
+   gradient refinement before it, as it compares corners with the junctions);
+   then, for the strongest candidates only, the gradient or the adaptive
+   refinement (the latter needs the final neighbours), the drop of points that
+   it moved out of the border or mask, and the merge: a point within
+   :data:`~sogdd.select.refine.COINCIDENT` px of a stronger one is that one
+   (two local maxima of one vertex refine onto one point). The merge comes
+   before the ``max_corners`` cut, which is refilled from the next candidates
+   (:func:`sogdd.select.refine.first_distinct`), so ``max_corners=N`` gives N
+   distinct corners where the image holds them; the local maxima themselves
+   are the paper's, unchanged;
 3. :func:`merge_levels`: with an image pyramid (:mod:`sogdd.image.pyramid`), every level's
    corners mapped back to full resolution with pixel centres at integers,
    ``x_full = (x_level + 0.5) s - 0.5``, their size scaled by ``s`` and tagged with the
@@ -30,14 +37,13 @@ from ..measure.soddc import MeasureSpec
 from ..measure.units import grey_strength, measure_threshold
 from ..params import Params
 from .peaks import inside_allowed
-from .refine import one_per_point, refine_gradient, refine_gradient_adaptive
+from .refine import COINCIDENT, first_distinct, refine_gradient, refine_gradient_adaptive
 from .x_junctions import X_RING_RADIUS, add_x_junctions
 
 __all__ = ["COINCIDENT", "assemble", "merge_levels", "peak_limit", "peak_threshold"]
 
-#: with ``subpixel="adaptive"``, corners that refinement brings within this many px of a stronger
-#: one are that corner (two peaks of Upsilon around one vertex converge to ~0.005 px of each other)
-COINCIDENT = 0.1
+#: refines the points ``xy`` of the peaks at ``rows``, ``cols`` on a device, or gives None (then on the host)
+DeviceGradient = Callable[[np.ndarray, np.ndarray, np.ndarray], "np.ndarray | None"]
 
 
 def peak_threshold(p: Params, spec: MeasureSpec) -> float | None:
@@ -57,45 +63,100 @@ def peak_threshold(p: Params, spec: MeasureSpec) -> float | None:
 
 
 def peak_limit(p: Params) -> int | None:
-    """How many peaks to keep: ``max_corners``, or all of them when X-junctions join later."""
-    return None if p.x_junctions else p.max_corners
+    """How many peaks to keep: ``max_corners``, or all of them when X-junctions join later or when
+    the merge after sub-pixel refinement may drop some (:func:`assemble` refills the cut then)."""
+    return None if p.x_junctions or p.subpixel != "none" else p.max_corners
 
 
 def assemble(grey, p: Params, spec: MeasureSpec, rows: np.ndarray, cols: np.ndarray, values: np.ndarray,
              qoff: np.ndarray | None, mask: np.ndarray | None = None, *,
-             gradient: Callable[[np.ndarray], np.ndarray] | None = None,
-             saddles: tuple[np.ndarray, np.ndarray] | None = None) -> Corners:
+             gradient: DeviceGradient | None = None,
+             saddles: tuple[np.ndarray, np.ndarray] | None = None,
+             shape: tuple[int, int] | None = None) -> Corners:
     """Corners from peaks (strongest first) with their values and quadratic offsets (dx, dy).
 
     ``grey``: the grey 0-255 image (an array or a :class:`sogdd.image.rows.GreyRows`),
     read by the X-junction stage, the gradient and the adaptive refinements.
-    ``gradient``: ``subpixel="gradient"`` refinement of an (N, 2) array of points
-    (default :func:`sogdd.select.refine.refine_gradient` on ``grey``). Strengths are in
+    ``gradient``: ``subpixel="gradient"`` refinement on a device,
+    ``gradient(rows, cols, xy)`` for the peaks at ``rows``, ``cols`` from their
+    (n, 2) points ``xy``, or None where it wants the host image (then, and by
+    default, :func:`sogdd.select.refine.refine_gradient` on ``grey``). Strengths are in
     grey levels with ``threshold_units="grey"``. ``saddles``: the X-junction
     stage's :func:`sogdd.select.x_junctions.saddle_search`, if already computed.
+    ``shape``: the image's (H, W), by default ``grey.shape`` (``grey`` is None on a
+    device that refines there).
+
+    The peaks are ranked candidates (all of them where the merge may drop some,
+    :func:`peak_limit`); only the strongest are refined, as many as the merge and
+    the ``max_corners`` cut need (:func:`sogdd.select.refine.first_distinct`).
+    Returns at most ``max_corners`` points, pairwise at least ``COINCIDENT`` px
+    apart, inside ``border`` and ``mask``.
     """
     xy = np.stack([cols, rows], axis=1).astype(np.float64)
     if p.subpixel != "none" and len(rows):
         xy += qoff
-        if p.subpixel == "gradient":
-            xy = gradient(xy) if gradient is not None else refine_gradient(grey, xy)
     strength = grey_strength(values, spec) if p.threshold_units == "grey" else values
-    out = Corners(xy, strength, np.full(len(rows), p.keypoint_size()))
-    is_x = np.zeros(len(out), bool)
-    if p.x_junctions:
-        out, is_x = add_x_junctions(out, grey, spec, threshold=p.threshold, rho=X_RING_RADIUS,
-                                    size=p.keypoint_size(), border=p.border, mask=mask, found=saddles)
-        if p.max_corners is not None:
-            out, is_x = out.subset(np.arange(min(len(out), p.max_corners))), is_x[: p.max_corners]
-    if p.subpixel == "adaptive" and len(out):  # after the cut: windows see the final neighbours
-        c = ~is_x
-        xy = out.xy.copy()
-        # the float32 image the refinement reads, built once (band by band from a GreyRows)
-        xy[c] = refine_gradient_adaptive(np.asarray(grey, np.float32), xy[c], xy[is_x])
-        out = Corners(xy, out.response, out.size, out.level)
-        # two peaks of one corner that the refinement brought together are one corner
-        out = out.subset(one_per_point(out.xy, out.response, COINCIDENT))
-    return out
+    lazy = _GradientPrefix(grey, rows, cols, xy, gradient) if p.subpixel == "gradient" else None
+    is_x = np.zeros(len(rows), bool)
+    if p.x_junctions:  # the junctions replace the corners near them: compared at refined positions
+        xy = xy if lazy is None else lazy(len(xy)).copy()
+        out, is_x = add_x_junctions(Corners(xy, strength, np.full(len(rows), p.keypoint_size())), grey, spec,
+                                    threshold=p.threshold, rho=X_RING_RADIUS, size=p.keypoint_size(),
+                                    border=p.border, mask=mask, found=saddles)
+        xy, strength, lazy = out.xy, out.response, None
+    place = lazy if lazy is not None else (lambda m: xy[:m])
+    if p.subpixel == "adaptive":
+        place = _adaptive_prefix(grey, xy, is_x)
+    hw = grey.shape if shape is None else shape
+    # refinement can move a point out of the border or mask (dropped, then refilled) and onto another
+    keep, refined = first_distinct(place, strength, p.max_corners, tol=COINCIDENT,
+                                   allowed=lambda q: inside_allowed(q, mask, p.border, hw))
+    return Corners(refined[keep], strength[keep], np.full(len(keep), p.keypoint_size()))
+
+
+class _GradientPrefix:
+    """The gradient refinement of the first ``m`` points, refined once each and only when asked for.
+
+    Each point is refined on its own (:func:`sogdd.select.refine.refine_gradient`), so refining
+    a prefix, then more, gives the positions of refining all at once, bit for bit.
+    """
+
+    def __init__(self, grey, rows: np.ndarray, cols: np.ndarray, xy: np.ndarray,
+                 device: DeviceGradient | None) -> None:
+        self.grey, self.rows, self.cols, self.xy, self.device = grey, rows, cols, xy, device
+        self.done = xy.copy()
+        self.n = 0
+        self._img: np.ndarray | None = None
+
+    def __call__(self, m: int) -> np.ndarray:
+        k = self.n
+        if m > k:
+            got = self.device(self.rows[k:m], self.cols[k:m], self.xy[k:m]) if self.device is not None else None
+            if got is None:
+                if self._img is None:  # the float32 image the refinement reads, built once
+                    self._img = np.asarray(self.grey, np.float32)
+                got = refine_gradient(self._img, self.xy[k:m])
+            self.done[k:m] = got
+            self.n = m
+        return self.done[:m]
+
+
+def _adaptive_prefix(grey, xy: np.ndarray, is_x: np.ndarray) -> Callable[[int], np.ndarray]:
+    """The adaptive refinement of the first ``m`` points among themselves (X-junctions stay, as neighbours).
+
+    Each window shrinks to half the distance to the nearest other of the ``m`` points, so the
+    positions depend on ``m``: each prefix is refined anew.
+    """
+    img = np.asarray(grey, np.float32)  # the float32 image the refinement reads, built once
+
+    def place(m: int) -> np.ndarray:
+        out = xy[:m].copy()
+        c, x = ~is_x[:m], is_x[:m]
+        if c.any():
+            out[c] = refine_gradient_adaptive(img, out[c], out[x])
+        return out
+
+    return place
 
 
 def _to_full(level: Level, c: Corners) -> Corners:

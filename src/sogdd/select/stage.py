@@ -16,6 +16,11 @@ finishes them the same way whatever the choice (:func:`sogdd.select.assemble.ass
 A device (the GPU path, :mod:`sogdd.gpu`) brings its own measure: the maxima it
 finds itself, with their 3 x 3 patches, or the whole map copied back; the rest is
 the same code.
+
+Both read every peak above the threshold, ranked, where sub-pixel refinement
+may bring two onto one point (:func:`sogdd.select.assemble.peak_limit`): the
+merge of such points comes before the ``max_corners`` cut, which is refilled
+(:func:`sogdd.select.assemble.assemble`).
 """
 
 from __future__ import annotations
@@ -52,8 +57,11 @@ class DeviceMeasure(Protocol):
     def whole(self) -> np.ndarray:
         """The whole map, on the host."""
 
-    def gradient(self, rows: np.ndarray, cols: np.ndarray):
-        """The gradient refinement of these peaks' points on the device, or None (then on the host image)."""
+    def gradient(self, rows: np.ndarray, cols: np.ndarray, xy: np.ndarray) -> np.ndarray | None:
+        """The points ``xy`` of the peaks at ``rows``, ``cols``, refined on the device by the gradient
+        refinement (:func:`sogdd.select.refine.refine_gradient`), or None (then on the host image).
+        Called for the strongest peaks first and again for the next ones where the merge of coincident
+        points asks for more (:func:`sogdd.select.assemble.assemble`)."""
 
 
 def _absolute_floor(p: Params, spec: MeasureSpec, threshold: float | None) -> float | None:
@@ -126,7 +134,7 @@ def _on_device(device: DeviceMeasure, grey, p: Params, spec: MeasureSpec, thr: f
         sel = keep_ranked(rows, cols, values, shape, p.border, mask, p.nms_radius, top)
         rows, cols, values = rows[sel], cols[sel], values[sel]
         qoff = patch_offsets(patches[sel], rows, cols, shape) if quadratic and len(rows) else None
-        gradient = device.gradient(rows, cols)
+        gradient = device.gradient
     else:
         resp = device.whole()
         rows, cols = select_peaks(resp, threshold=thr, threshold_rel=p.threshold_rel, quantile=p.quantile,
@@ -134,4 +142,4 @@ def _on_device(device: DeviceMeasure, grey, p: Params, spec: MeasureSpec, thr: f
         values = resp[rows, cols]
         qoff = refine_quadratic(resp, rows, cols) if quadratic and len(rows) else None
         gradient = None
-    return assemble(grey, p, spec, rows, cols, values, qoff, mask, gradient=gradient)
+    return assemble(grey, p, spec, rows, cols, values, qoff, mask, gradient=gradient, shape=shape)
