@@ -39,3 +39,16 @@ def test_no_board_and_bad_arguments():
         detect_charuco(np.zeros((20, 20), np.uint8), "board")
     with pytest.raises(ValueError, match="min_corners"):
         detect_charuco(np.zeros((20, 20), np.uint8), BOARD, min_corners=0)
+
+
+def test_float_images_follow_the_cores_contract():
+    # floats on [0, 1], else value_range (OpenCV's float images of grey levels: (0, 255)), as the detector
+    v = view()
+    ref = detect_charuco(v.image, BOARD)
+    levels = v.image.astype(np.float64)
+    with pytest.raises(ValueError, match=r"float images must be on \[0, 1\].*value_range"):
+        detect_charuco(levels, BOARD)
+    for img, rng in ((levels, (0, 255)), (levels / 255, None)):
+        b = detect_charuco(img, BOARD, value_range=rng)
+        assert np.array_equal(b.ids, ref.ids)
+        assert np.abs(b.image_points - ref.image_points).max() < 1e-3  # rounding, far below the accuracy

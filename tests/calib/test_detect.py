@@ -1,5 +1,6 @@
 """Chessboard detection on rendered boards with known corners: labels, partial views, no false boards."""
 
+import inspect
 from functools import cache
 
 import numpy as np
@@ -7,6 +8,7 @@ import pytest
 from scipy.spatial import cKDTree
 
 from sogdd.calib.targets.chessboard import detect_board, detect_boards
+from sogdd.calib.targets.xcorners import default_scale
 from sogdd.evaluation.calibration.render import Camera, ChessboardTarget, render_view
 
 CAM = Camera(np.array([[500.0, 0, 239.5], [0, 500.0, 179.5], [0, 0, 1]]), (0.0, 0, 0, 0), (480, 360))
@@ -89,18 +91,83 @@ def test_partial_board_cut_by_the_frame():
     assert len(b) >= inside - 4 and d.max() < 0.1
 
 
-def test_two_boards_in_one_image():
-    a, c = view(roll=0.2), view(cols=7, rows=5, roll=-0.4, tilt=(-0.3, 0.2))
-    img = np.concatenate([a.image, c.image], axis=1)
+@pytest.mark.parametrize("small_first", [False, True])
+def test_two_boards_in_one_image_largest_first(small_first):
+    # either board on the left, and the larger one blurred more (its corners weaker, so the search
+    # reaches the smaller board first): the result is ordered by size, not by where or how strongly found
+    a, c = view(roll=0.2, blur=1.6), view(cols=7, rows=5, roll=-0.4, tilt=(-0.3, 0.2))
+    left, right = (c, a) if small_first else (a, c)
+    img = np.concatenate([left.image, right.image], axis=1)
     boards = detect_boards(img)
-    assert len(boards) == 2
-    found = sorted(len(b) for b in boards)
-    assert found == [35, 54]
+    assert [len(b) for b in boards] == [54, 35]
     for b in boards:
-        v, off = (a, 0) if b.image_points[:, 0].mean() < 480 else (c, 480)
+        v, off = (left, 0) if b.image_points[:, 0].mean() < 480 else (right, 480)
         shifted = type(v)(v.image, v.corners + [off, 0], v.labels, v.inside)
         d, A, t, wrong = match(b, shifted)
         assert wrong == 0 and d.max() < 0.1
+
+
+@pytest.mark.parametrize("pattern", [(9, 6), None])
+def test_upright_board_labels_i_along_columns_left_to_right_in_object_point_order(pattern):
+    # upright and nearly face on: label (i, j) is the target's inner corner (i, j), i = column (along x),
+    # j = row (along y), listed row by row like the target's object points (OpenCV's order)
+    v = view(roll=0.0, tilt=(0.15, -0.1))
+    b = detect_board(v.image, pattern)
+    target = ChessboardTarget(9, 6, 0.03)
+    assert b is not None and len(b) == 54 and b.size == pattern
+    assert b.labels.tolist() == target.labels().tolist()
+    assert np.array_equal(b.object_points(0.03), target.object_points())
+    assert np.abs(b.image_points - v.corners).max() < 0.1  # each label on its own true corner
+    top_left, top_right = b.image_points[b.labels.tolist().index([0, 0])], b.image_points[8]
+    assert b.labels[8].tolist() == [8, 0] and top_right[0] - top_left[0] > 100 > abs(top_right[1] - top_left[1])
+    grid = b.image_points.reshape(6, 9, 2)
+    assert np.all(np.diff(grid[:, :, 0], axis=1) > 10)  # i increases with x along every row
+    assert np.all(np.diff(grid[:, :, 1], axis=0) > 10)  # j increases with y down every column
+
+
+def test_unrefined_corners_at_a_reduced_scale_are_not_shifted():
+    # refine=False returns the saddle points, found at a reduced scale and mapped back to full scale:
+    # coarse, but a mapping off by half a pixel of the reduced image would shift them all
+    v = view()
+    big = np.full((1800, 2400), 110, np.uint8)  # the renderer's background level, above the pixel budget
+    big[687 : 687 + 360, 1013 : 1013 + 480] = v.image
+    assert default_scale(big.shape) < 0.7
+    for img, off, scale in ((v.image, (0, 0), 0.5), (big, (1013, 687), None)):
+        (b,) = detect_boards(img, (9, 6), scale=scale, refine=False)
+        shifted = type(v)(img, v.corners + off, v.labels, v.inside)
+        d, A, t, wrong = match(b, shifted)
+        assert wrong == 0 and len(b) == 54
+        err = b.image_points - shifted.corners[cKDTree(shifted.corners).query(b.image_points)[1]]
+        assert d.max() < 0.25 and np.all(np.abs(err.mean(axis=0)) < 0.1), scale
+
+
+def test_detect_board_takes_the_keywords_of_detect_boards():
+    def keywords(f):
+        return [(p.name, p.kind, p.default) for p in inspect.signature(f).parameters.values()]
+
+    assert keywords(detect_board) == keywords(detect_boards)
+    v = view()
+    b = detect_board(v.image, (9, 6), refine=False)  # passed through: the unrefined saddle points
+    (raw,) = detect_boards(v.image, (9, 6), refine=False)
+    assert np.array_equal(b.image_points, raw.image_points)
+    with pytest.raises(ValueError, match="min_corners"):
+        detect_board(v.image, min_corners=4)
+
+
+def test_float_images_follow_the_cores_contract():
+    # floats on [0, 1], else value_range (OpenCV's float images of grey levels: (0, 255)), as the detector
+    v = view()
+    ref = detect_board(v.image, (9, 6))
+    levels = v.image.astype(np.float64)
+    for f in (detect_boards, detect_board):
+        with pytest.raises(ValueError, match=r"float images must be on \[0, 1\].*value_range"):
+            f(levels, (9, 6))
+    for img, rng in ((levels, (0, 255)), (levels / 255, None)):
+        b = detect_board(img, (9, 6), value_range=rng)
+        assert b.labels.tolist() == ref.labels.tolist()
+        assert np.abs(b.image_points - ref.image_points).max() < 1e-3  # rounding, far below the accuracy
+        (b,) = detect_boards(img, (9, 6), value_range=rng)
+        assert np.abs(b.image_points - ref.image_points).max() < 1e-3
 
 
 def test_occluded_corners_are_dropped_not_mislabelled():
@@ -162,7 +229,7 @@ def test_photo_without_a_board_gives_no_board(data_dir):
 @pytest.mark.parametrize("bad, message", [
     (dict(pattern=(9,)), "pattern"), (dict(pattern=(1, 5)), "pattern"), (dict(pattern=(9.0, 6)), "pattern"),
     (dict(min_corners=4), "min_corners"), (dict(scale=2.0), "scale"), (dict(min_strength=-1.0), "min_strength"),
-    (dict(mask=np.ones((5, 5), bool)), "mask"),
+    (dict(mask=np.ones((5, 5), bool)), "mask"), (dict(value_range=(0, np.inf)), "value_range"),
 ])
 def test_bad_arguments_are_one_line_errors(bad, message):
     img = np.zeros((40, 40), np.uint8)
@@ -183,8 +250,11 @@ def test_dense_board_blurred_beyond_recognition_gives_no_wrong_labels():
     cam = Camera(np.array([[700.0, 0, 319.5], [0, 700.0, 239.5], [0, 0, 1]]), (-0.12, 0.03, 0.001, -0.001),
                  (640, 480))
     target = ChessboardTarget(20, 14, 0.01)
+    # (here a blur of 2 px leaves part of the board to find: a loop over nothing would prove nothing)
     r, t = random_sequence(cam, target, 3, seed=1, cell_px=(6, 8), tilt_max=40.0)[2]
-    v = render_view(cam, target, r, t, blur=2.5, noise=4.0, rng=2)
-    for b in detect_boards(v.image, (20, 14)):
+    v = render_view(cam, target, r, t, blur=2.0, noise=4.0, rng=2)
+    boards = detect_boards(v.image, (20, 14))
+    assert boards
+    for b in boards:
         d, A, t, wrong = match(b, v)
         assert wrong == 0 and round(abs(np.linalg.det(A))) == 1

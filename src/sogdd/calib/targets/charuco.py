@@ -27,13 +27,15 @@ __all__ = ["detect_charuco"]
 
 
 def detect_charuco(image: np.ndarray, board: cv2.aruco.CharucoBoard, *, refine: bool = True,
-                   min_corners: int = 4) -> Board | None:
+                   min_corners: int = 4, value_range: tuple[float, float] | None = None) -> Board | None:
     """Detect a ChArUco board: OpenCV's markers and corner IDs, corners re-measured by sogdd.
 
     Parameters
     ----------
     image : ndarray
-        Grey or colour image, any dtype (float on [0, 1] or on 0-255).
+        Grey or colour image (RGB), any dtype the corner detector takes, on its
+        scale (:func:`sogdd.image.to_gray255`): uint8, uint16, float on [0, 1];
+        another range needs ``value_range``.
     board : cv2.aruco.CharucoBoard
         The board's layout and dictionary.
     refine : bool
@@ -42,6 +44,10 @@ def detect_charuco(image: np.ndarray, board: cv2.aruco.CharucoBoard, *, refine: 
         whose re-measurement fails is dropped.
     min_corners : int
         Fewer corners than this give None.
+    value_range : (lo, hi) or None
+        The image's range, mapped to 0-255 (``(0, 255)`` for a float image of
+        grey levels); None: the dtype's, and a float image outside [0, 1] is a
+        one-line ``ValueError``.
 
     Returns
     -------
@@ -64,7 +70,7 @@ def detect_charuco(image: np.ndarray, board: cv2.aruco.CharucoBoard, *, refine: 
         raise TypeError(f"board must be a cv2.aruco.CharucoBoard, got {type(board).__name__}")
     if not isinstance(min_corners, (int, np.integer)) or isinstance(min_corners, bool) or min_corners < 1:
         raise ValueError(f"min_corners must be a positive integer, got {min_corners!r}")
-    grey = to_grey(image)
+    grey = to_grey(image, value_range)
     u8 = np.clip(np.rint(grey), 0, 255).astype(np.uint8)
     corners, ids, _, _ = cv2.aruco.CharucoDetector(board).detectBoard(u8)
     if corners is None or ids is None or len(ids) < min_corners:

@@ -287,7 +287,8 @@ def _boards(grey: np.ndarray, xc: XCorners, pattern: tuple[int, int] | None, min
 
 def detect_boards(image: np.ndarray, pattern: tuple[int, int] | None = None, *, min_corners: int = 12,
                   min_strength: float = 8.0, scale: float | None = None, refine: bool = True,
-                  max_boards: int = 16, mask: np.ndarray | None = None) -> list[Board]:
+                  max_boards: int = 16, mask: np.ndarray | None = None,
+                  value_range: tuple[float, float] | None = None) -> list[Board]:
     """Find the chessboards in an image, label their corners and refine them.
 
     X-corners (saddle points with two edge lines, :func:`sogdd.calib.targets.xcorners.find_xcorners`)
@@ -300,7 +301,10 @@ def detect_boards(image: np.ndarray, pattern: tuple[int, int] | None = None, *, 
     Parameters
     ----------
     image : ndarray
-        Grey or colour image, any dtype (float on [0, 1] or on 0-255).
+        Grey or colour image (RGB), any dtype the corner detector takes, on its
+        scale (:func:`sogdd.image.to_gray255`): uint8, uint16, float on [0, 1];
+        another range (a float image of grey levels 0-255, as OpenCV's) needs
+        ``value_range``.
     pattern : (cols, rows) or None
         Inner corners of the board (OpenCV's ``patternSize``), or None for an
         unknown size. A grid that cannot be this pattern is not returned; one
@@ -310,7 +314,7 @@ def detect_boards(image: np.ndarray, pattern: tuple[int, int] | None = None, *, 
         Fewest corners a board may have (at least 9; three rows and three
         columns and a complete 3 x 3 block are needed too).
     min_strength : float
-        Weakest X-corner considered, in grey levels of contrast.
+        Weakest X-corner considered, in grey levels of contrast (0-255 scale).
     scale : float or None
         Search scale (:func:`sogdd.calib.targets.xcorners.find_xcorners`); the corners are
         refined at full resolution.
@@ -320,6 +324,10 @@ def detect_boards(image: np.ndarray, pattern: tuple[int, int] | None = None, *, 
         Most boards returned.
     mask : ndarray of bool or None
         Where corners may lie.
+    value_range : (lo, hi) or None
+        The image's range, mapped to 0-255 (``(0, 255)`` for a float image of
+        grey levels); None: the dtype's, and a float image outside [0, 1] is a
+        one-line ``ValueError``.
 
     Returns
     -------
@@ -331,15 +339,19 @@ def detect_boards(image: np.ndarray, pattern: tuple[int, int] | None = None, *, 
     >>> import cv2
     >>> sq = np.kron((np.indices((6, 8)).sum(axis=0) % 2) * 200.0 + 30, np.ones((20, 20)))
     >>> img = cv2.GaussianBlur(np.pad(sq, 30, constant_values=230.0), (0, 0), 1.0)  # 7 x 5 inner corners
-    >>> b = detect_boards(img, (7, 5))[0]
+    >>> b = detect_boards(img, (7, 5), value_range=(0, 255))[0]
     >>> b.size, len(b), b.labels[:2].tolist()
     ((7, 5), 35, [[0, 0], [1, 0]])
     >>> np.round(b.image_points[0], 2).tolist()  # the first inner corner, between pixels 49 and 50
     [49.5, 49.5]
-    >>> detect_boards(np.full((100, 100), 128.0))
+    >>> detect_boards(np.full((100, 100), 128, np.uint8))
     []
+    >>> detect_boards(img)  # a float image is on [0, 1] unless its range is given
+    Traceback (most recent call last):
+    ...
+    ValueError: float images must be on [0, 1] (got [30, 230]); give their range: value_range=(lo, hi) ...
     """
-    grey = to_grey(image)
+    grey = to_grey(image, value_range)
     pat = _check_pattern(pattern)
     if not isinstance(min_corners, (int, np.integer)) or isinstance(min_corners, bool) or min_corners < 9:
         raise ValueError(f"min_corners must be an integer >= 9, got {min_corners!r}")
@@ -354,15 +366,30 @@ def detect_boards(image: np.ndarray, pattern: tuple[int, int] | None = None, *, 
     return out
 
 
-def detect_board(image: np.ndarray, pattern: tuple[int, int] | None = None, **kwargs) -> Board | None:
+def detect_board(image: np.ndarray, pattern: tuple[int, int] | None = None, *, min_corners: int = 12,
+                 min_strength: float = 8.0, scale: float | None = None, refine: bool = True,
+                 max_boards: int = 16, mask: np.ndarray | None = None,
+                 value_range: tuple[float, float] | None = None) -> Board | None:
     """The largest board of :func:`detect_boards` (a complete one first when ``pattern`` is given), or None.
+
+    Of the boards ``B`` found, the one that maximises ``(B.size is not None, len(B))``.
+
+    Parameters
+    ----------
+    image, pattern, min_corners, min_strength, scale, refine, max_boards, mask, value_range
+        As :func:`detect_boards` (the same keywords and defaults).
+
+    Returns
+    -------
+    Board or None
 
     Examples
     --------
     >>> detect_board(np.zeros((64, 64))) is None
     True
     """
-    boards = detect_boards(image, pattern, **kwargs)
+    boards = detect_boards(image, pattern, min_corners=min_corners, min_strength=min_strength, scale=scale,
+                           refine=refine, max_boards=max_boards, mask=mask, value_range=value_range)
     if not boards:
         return None
     return max(boards, key=lambda b: (b.size is not None, len(b)))

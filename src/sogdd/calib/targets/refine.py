@@ -58,6 +58,10 @@ WINDOW_FRACTION = 0.65
 MIN_HALF, MAX_WINDOW = 2, 20
 #: the half-width when a point has no other point to measure its cell by (cornerSubPix's usual 11 x 11)
 DEFAULT_HALF = 5
+#: Gauss-Newton steps and the step (px) that stops them, when no ``criteria`` are given
+DEFAULT_ITERATIONS, DEFAULT_TOL = 20, 1e-4
+#: ``cv2.TERM_CRITERIA_COUNT`` (= ``MAX_ITER``), ``cv2.TERM_CRITERIA_EPS``, and cornerSubPix's cap on the count
+_COUNT, _EPS, _MAX_COUNT = 1, 2, 100
 
 
 @numba.njit(**_JIT)
@@ -126,7 +130,7 @@ def _solve(A, b, x):  # pragma: no cover - jit
 
 
 @numba.njit(parallel=True, **_JIT)
-def _refine(img, pts, half, stride, max_shift, iterations, out, quality):  # pragma: no cover - jit
+def _refine(img, pts, half, stride, max_shift, iterations, tol, out, quality):  # pragma: no cover - jit
     for k in numba.prange(pts.shape[0]):
         px0 = pts[k, 0]
         py0 = pts[k, 1]
@@ -154,7 +158,7 @@ def _refine(img, pts, half, stride, max_shift, iterations, out, quality):  # pra
             px += step[0]
             py += step[1]
             ok = math.hypot(px - px0, py - py0) <= max_shift[k]
-            if not ok or n < 1e-4:
+            if not ok or n <= tol:  # cornerSubPix's test: stop once a step is at most epsilon
                 break
         if ok:
             out[k, 0] = px
@@ -183,15 +187,67 @@ def cell_sizes(points: np.ndarray) -> np.ndarray:
     return d[:, 1]
 
 
-def _points(points: object) -> np.ndarray:
-    if not isinstance(points, np.ndarray):
-        points = np.asarray(points, dtype=np.float64)
-    if points.size % 2 or points.ndim not in (1, 2, 3) or (points.ndim > 1 and points.shape[-1] != 2):
-        raise ValueError(f"points must be (N, 2) or (N, 1, 2), got shape {points.shape}")
-    pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+def _is_int(v: object) -> bool:
+    return isinstance(v, (int, np.integer)) and not isinstance(v, (bool, np.bool_))
+
+
+def _int_pair(value: object) -> tuple[int, int] | None:
+    """``value`` as OpenCV's ``Size``: an int for both, or a pair of ints; None when it is neither."""
+    if _is_int(value):
+        return int(value), int(value)
+    try:
+        pair = tuple(value)  # type: ignore[arg-type]
+    except TypeError:
+        return None
+    return (int(pair[0]), int(pair[1])) if len(pair) == 2 and all(_is_int(v) for v in pair) else None
+
+
+def _half_width(winSize: object) -> int | None:
+    """cornerSubPix's ``winSize`` as one half-width (the smaller of ``w, h``); None: from the local cell."""
+    if winSize is None:
+        return None
+    w = _int_pair(winSize)
+    if w == (-1, -1):
+        return None
+    if w is None or min(w) < 1:
+        raise ValueError(f"winSize must be a half-width (w, h) of integers >= 1, or (-1, -1), got {winSize!r}")
+    return min(w)
+
+
+def _criteria(criteria: object) -> tuple[int, float]:
+    """cornerSubPix's ``(type, maxCount, epsilon)``, mapped as it maps them: (most steps, the stopping step)."""
+    if criteria is None:
+        return DEFAULT_ITERATIONS, DEFAULT_TOL
+    try:
+        kind, count, eps = criteria  # type: ignore[misc]
+    except (TypeError, ValueError):
+        kind = count = eps = None
+    if not (_is_int(kind) and _is_int(count) and isinstance(eps, (int, float, np.integer, np.floating))
+            and not isinstance(eps, bool) and math.isfinite(eps)):
+        raise ValueError(f"criteria must be (type, maxCount, epsilon) as cv2.TERM_CRITERIA_*, got {criteria!r}")
+    iterations = min(max(int(count), 1), _MAX_COUNT) if int(kind) & _COUNT else _MAX_COUNT
+    return iterations, (max(float(eps), 0.0) if int(kind) & _EPS else 0.0)
+
+
+def _corner_array(corners: object) -> tuple[np.ndarray, np.ndarray | None, tuple[int, ...], np.dtype]:
+    """The starts as (N, 2) float64, the array to refine in place (or None), the shape and dtype to return."""
+    if isinstance(corners, np.ndarray):
+        if corners.dtype.kind not in "iuf":
+            raise ValueError(f"corners must be real numbers (float32 as OpenCV's), got dtype {corners.dtype}")
+        given = corners
+    else:
+        try:
+            given = np.asarray(corners, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(f"corners must be (N, 2) or (N, 1, 2) numbers, got {corners!r:.60}") from None
+    if given.ndim not in (1, 2, 3) or given.shape[-1] != 2:
+        raise ValueError(f"corners must be (N, 2) or (N, 1, 2), got shape {given.shape}")
+    pts = given.astype(np.float64).reshape(-1, 2)
     if not np.isfinite(pts).all():
-        raise ValueError("points must be finite")
-    return pts
+        raise ValueError("corners must be finite")
+    kept = isinstance(corners, np.ndarray) and corners.dtype in (np.float32, np.float64)
+    into = corners if kept and corners.flags.writeable else None
+    return pts, into, given.shape, given.dtype if kept else np.dtype(np.float64)
 
 
 def half_widths(pts: np.ndarray, window: object, cell: object) -> np.ndarray:
@@ -212,45 +268,74 @@ def half_widths(pts: np.ndarray, window: object, cell: object) -> np.ndarray:
     return np.clip(h, MIN_HALF, MAX_WINDOW).astype(np.int64)
 
 
-def refine_corners(image: np.ndarray, points: object, *, window: int | tuple[int, int] | None = None,
-                   cell: float | np.ndarray | None = None, max_shift: float | None = None, iterations: int = 20,
-                   return_quality: bool = False) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
-    """Refine X-corners (chessboard inner corners) to their centre of point symmetry.
+def refine_corners(image: np.ndarray, corners: object, winSize: int | tuple[int, int] | None = None,
+                   zeroZone: tuple[int, int] | None = None, criteria: tuple[int, int, float] | None = None, *,
+                   cell: float | np.ndarray | None = None, max_shift: float | None = None,
+                   return_quality: bool = False, value_range: tuple[float, float] | None = None,
+                   ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
+    """Refine X-corners (chessboard inner corners) to their centre of point symmetry, as ``cv2.cornerSubPix``.
 
     Minimises ``E(p) = sum_d w(d) (I(p + d) - I(p - d))^2`` over the corner ``p``
     (its centre of point symmetry) by Gauss-Newton, with a
     Gaussian weight ``w(d) = exp(-|d|^2 / (2 h^2))`` over the offsets ``|d_x|, |d_y| <= h``
-    (module doc). A drop-in for ``cv2.cornerSubPix`` on any detector's X-corners
-    (``findChessboardCorners``, ``findChessboardCornersSB``, ChArUco, mrgingham).
+    (module doc). A drop-in for ``cv2.cornerSubPix(image, corners, winSize, zeroZone,
+    criteria)`` on any detector's X-corners (``findChessboardCorners``,
+    ``findChessboardCornersSB``, ChArUco, mrgingham): the same arguments in the same
+    order, the result written into ``corners`` and returned in its shape and dtype.
 
     Parameters
     ----------
     image : ndarray
-        Grey or colour image, any dtype (float images on [0, 1] or on 0-255).
-    points : array_like
+        Grey or colour image (RGB), any dtype the corner detector takes, on its
+        scale (:func:`sogdd.image.to_gray255`): uint8, uint16, float on [0, 1];
+        another range (``cornerSubPix``'s float32 grey levels) needs ``value_range``.
+    corners : array_like
         Start points, (N, 2) or (N, 1, 2) as OpenCV gives them; x = column,
-        y = row, pixel centres at integers. Not modified.
-    window : int or (int, int) or None
-        Half-width ``h`` in px, as ``cv2.cornerSubPix``'s ``winSize`` (``(5, 5)`` is
-        an 11 x 11 window; the smaller of the two is used). None: 0.65 of the
-        local cell, clipped to [2, 20] px.
+        y = row, pixel centres at integers. A writable float32 or float64 array
+        is refined in place, as ``cornerSubPix`` does (so code that ignores the
+        return value still gets the refined corners); anything else (a list, an
+        integer or read-only array) is left as it is.
+    winSize : (int, int) or int or None
+        Half-width ``h`` in px, as ``cornerSubPix``'s (``(5, 5)`` is an 11 x 11
+        window); the window is square, of the smaller of the two. ``(-1, -1)`` or
+        None: 0.65 of the local cell, clipped to [2, 20] px (module doc), the default
+        because it follows the corner's scale.
+    zeroZone : (int, int) or None
+        Accepted for ``cornerSubPix``'s signature and ignored: its dead zone keeps the
+        autocorrelation matrix of a gradient fit from going singular at the corner,
+        but the offsets ``d`` near 0 add almost nothing here (``I(p + d) - I(p - d)``
+        and its derivative both vanish as ``d -> 0``), and the normal matrix gets its
+        rank from the edge lines further out.
+    criteria : (type, maxCount, epsilon) or None
+        ``cv2.TERM_CRITERIA_COUNT`` (= ``MAX_ITER``) caps the Gauss-Newton steps at
+        ``maxCount`` clipped to [1, 100], else 100; ``cv2.TERM_CRITERIA_EPS`` stops
+        after a step of at most ``epsilon`` px, else only the count stops them: the
+        mapping ``cornerSubPix`` uses. None: at most 20 steps, stopping at 1e-4 px.
     cell : float or (N,) array or None
-        The local cell size in px, for ``window=None``; None: each point's distance
-        to its nearest other point (:func:`cell_sizes`), and an 11 x 11 window for a
-        point alone.
+        The local cell size in px, for the default window; None: each point's
+        distance to its nearest other point (:func:`cell_sizes`), and an 11 x 11
+        window for a point alone.
     max_shift : float or None
         A point that would move farther than this keeps its start (quality 0);
-        None: the window's half-width.
-    iterations : int
-        Most Gauss-Newton steps; they stop below 1e-4 px.
+        None: the window's half-width (``cornerSubPix`` keeps the start when
+        either coordinate moves more than its half-width).
     return_quality : bool
         Also return each point's quality ``1 - E / V`` in [0, 1] (``V``: the weighted
         variance of the window's samples; 1 for a perfectly symmetric corner, 0 for a
         failed one).
+    value_range : (lo, hi) or None
+        The image's range, mapped to 0-255 (``(0, 255)`` for a float image of
+        grey levels); None: the dtype's, and a float image outside [0, 1] is a
+        one-line ``ValueError``.
 
     Returns
     -------
-    ndarray (N, 2) float64, or (points, quality) with ``return_quality=True``.
+    ndarray, or (corners, quality) with ``return_quality=True``
+        The refined corners in the shape and dtype of ``corners`` (float64 for a
+        list or an integer array): ``corners`` itself when it was refined in place.
+        A point that cannot be refined (a singular normal matrix: a flat or one-edge
+        neighbourhood; or a move beyond ``max_shift``) keeps its start exactly, as
+        ``cornerSubPix`` leaves a point that moved beyond its window, and gets quality 0.
 
     Examples
     --------
@@ -258,14 +343,25 @@ def refine_corners(image: np.ndarray, points: object, *, window: int | tuple[int
     >>> t = np.arange(40) + 0.5 - 20.3   # pixel centres relative to a corner at x = y = 19.8
     >>> edge = np.clip(t, -0.5, 0.5)     # each pixel's covered fraction, minus 1/2
     >>> img = cv2.GaussianBlur(128 + 200 * edge[:, None] * edge[None, :], (0, 0), 1.0)  # blur sigma 1 px
-    >>> xy, q = refine_corners(img, [[19.0, 20.5]], window=6, return_quality=True)
+    >>> xy, q = refine_corners(img, [[19.0, 20.5]], 6, return_quality=True, value_range=(0, 255))
     >>> np.round(np.abs(xy - 19.8).max(), 2), bool(q[0] > 0.99)  # from 0.8 px off to 0.01
     (np.float64(0.01), True)
+
+    OpenCV's calling convention, the corners refined in place:
+
+    >>> grey = np.rint(img).astype(np.uint8)
+    >>> found = np.array([[[19.0, 20.5]]], np.float32)  # as findChessboardCorners gives them
+    >>> crit = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 0.001)
+    >>> out = refine_corners(grey, found, (6, 6), (-1, -1), crit)
+    >>> out is found, out.shape, out.dtype, bool(np.abs(found - 19.8).max() < 0.02)
+    (True, (1, 1, 2), dtype('float32'), True)
     """
-    grey = to_grey(image)
-    pts = _points(points)
-    if not isinstance(iterations, (int, np.integer)) or isinstance(iterations, bool) or iterations < 1:
-        raise ValueError(f"iterations must be a positive integer, got {iterations!r}")
+    grey = to_grey(image, value_range)
+    pts, into, shape, dtype = _corner_array(corners)
+    window = _half_width(winSize)
+    if zeroZone is not None and _int_pair(zeroZone) is None:
+        raise ValueError(f"zeroZone must be (w, h) integers as cornerSubPix's, e.g. (-1, -1), got {zeroZone!r}")
+    iterations, tol = _criteria(criteria)
     half = half_widths(pts, window, cell)
     if max_shift is None:
         shift = half.astype(np.float64)
@@ -273,13 +369,21 @@ def refine_corners(image: np.ndarray, points: object, *, window: int | tuple[int
         if not (np.isfinite(max_shift) and max_shift > 0):
             raise ValueError(f"max_shift must be a positive number, got {max_shift!r}")
         shift = np.full(len(pts), float(max_shift))
-    out, quality = refine_grey(grey, pts, half, shift, int(iterations))
-    return (out, quality) if return_quality else out
+    out, quality = refine_grey(grey, pts, half, shift, iterations, tol)
+    if into is not None:
+        into[...] = out.reshape(shape)
+        result = into
+    else:
+        result = out.reshape(shape).astype(dtype, copy=False)
+    return (result, quality) if return_quality else result
 
 
 def refine_grey(grey: np.ndarray, pts: np.ndarray, half: np.ndarray, shift: np.ndarray,
-                iterations: int = 20) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`refine_corners` on a validated grey image with per-point half-widths and shift bounds."""
+                iterations: int = 20, tol: float = DEFAULT_TOL) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`refine_corners` on a validated grey image with per-point half-widths and shift bounds.
+
+    At most ``iterations`` Gauss-Newton steps, stopping after a step of at most ``tol`` px.
+    """
     H, W = grey.shape
     room = np.floor(np.min(np.c_[pts, W - 1 - pts[:, 0], H - 1 - pts[:, 1]], axis=1)) - 2  # and the gradient
     half = np.maximum(np.minimum(half, room), 1).astype(np.int64)  # the window stays inside the image
@@ -288,5 +392,5 @@ def refine_grey(grey: np.ndarray, pts: np.ndarray, half: np.ndarray, shift: np.n
     quality = np.zeros(len(pts))
     if len(pts):
         _refine(np.ascontiguousarray(grey, dtype=np.float64), pts, half.astype(np.int64), stride,
-                shift.astype(np.float64), int(iterations), out, quality)
+                shift.astype(np.float64), int(iterations), float(tol), out, quality)
     return out, quality

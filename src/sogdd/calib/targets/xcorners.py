@@ -29,10 +29,12 @@ from functools import lru_cache
 import cv2
 import numpy as np
 
+from sogdd.params import PRESETS
+
 __all__ = ["XCorners", "find_xcorners"]
 
-#: the saddle search's scale (the ``hr`` preset's ``sigma2``)
-SIGMA2 = 1.5
+#: the saddle search's scale ``sigma^2`` (px^2): the ``hr`` preset's ``sigma2``, read from it so the two agree
+SIGMA2 = float(PRESETS["hr"].sigma2)
 #: images above this many pixels are searched at a reduced scale by default (the refinement works at full scale)
 SEARCH_PIXELS = 2_000_000
 
@@ -74,29 +76,35 @@ class XCorners:
         return XCorners(self.xy[keep], self.strength[keep], self.light[keep], self.spread[keep])
 
 
-def to_grey(image: object) -> np.ndarray:
-    """A grey float64 image on the 0-255 scale.
+def to_grey(image: object, value_range: tuple[float, float] | None = None) -> np.ndarray:
+    """A grey float64 image on the 0-255 scale: the core's conversion and contract.
 
-    Integer images take their dtype's scale (uint8 as it is, uint16 / 257, ...);
-    float images are taken on [0, 1] when no value exceeds 1, else as grey levels
-    already (as OpenCV's float images usually are); colour is converted (RGB order).
+    :func:`sogdd.image.validate_image` then :func:`sogdd.image.to_gray255`, so
+    calibration reads an image exactly as the corner detector does: uint8 as it
+    is, uint16 times ``255 / 65535``, float on [0, 1] times 255 (floats outside
+    [0, 1] are refused with a one-line ``ValueError``), colour by BT.601 luma
+    (RGB order); with ``value_range=(lo, hi)`` any dtype becomes
+    ``255 (g - lo) / (hi - lo)``, clipped to [0, 255]. The search needs at least
+    8 x 8 pixels.
+
+    Examples
+    --------
+    >>> img = np.array([[0.0, 127.5], [255.0, 255.0]]).repeat(4, axis=0).repeat(4, axis=1)
+    >>> to_grey(img, value_range=(0, 255))[::4, ::4].tolist()  # OpenCV's float images: grey levels
+    [[0.0, 127.5], [255.0, 255.0]]
+    >>> to_grey(img)
+    Traceback (most recent call last):
+    ...
+    ValueError: float images must be on [0, 1] (got [0, 255]); give their range: value_range=(lo, hi) ...
     """
-    from sogdd.image import to_gray255, validate_image
+    from sogdd.image import check_value_range, to_gray255, validate_image
 
     if not isinstance(image, np.ndarray):
         raise TypeError(f"image must be a numpy array, got {type(image).__name__}")
-    if image.ndim not in (2, 3) or min(image.shape[:2]) < 8:
-        raise ValueError(f"image must be a grey or colour array of at least 8 x 8 pixels, got {image.shape}")
-    rng = None
-    if image.dtype.kind == "f":
-        if not np.isfinite(image).all():
-            raise ValueError("image has NaN or infinite values")
-        hi = float(image.max())
-        rng = (0.0, 255.0) if hi > 1.0 else (0.0, 1.0)
-        lo = float(image.min())
-        if lo < 0 or hi > 255:
-            rng = (min(lo, 0.0), max(hi, 255.0))
+    rng = check_value_range(value_range)
     img = validate_image(image, value_range=rng)
+    if min(img.shape[:2]) < 8:
+        raise ValueError(f"image must be at least 8 x 8 pixels, got {image.shape}")
     return to_gray255(img, value_range=rng)
 
 
@@ -167,11 +175,11 @@ def check_search(grey: np.ndarray, min_strength: float, scale: float | None, mas
 
 
 def find_xcorners(image: np.ndarray, *, min_strength: float = 8.0, scale: float | None = None,
-                  mask: np.ndarray | None = None) -> XCorners:
+                  mask: np.ndarray | None = None, value_range: tuple[float, float] | None = None) -> XCorners:
     """X-corner candidates: saddle points, their edge lines and grey-level strength.
 
-    For each saddle ``p`` of ``G_sigma * I`` (``sigma^2 = 1.5``, the ``hr``
-    preset's scale; :func:`sogdd.select.find_saddles`), the Hessian ``H`` at
+    For each saddle ``p`` of ``G_sigma * I`` (:data:`SIGMA2`, the ``hr``
+    preset's ``sigma^2 = 1.5``; :func:`sogdd.select.find_saddles`), the Hessian ``H`` at
     ``p`` gives the light axis ``alpha`` (eigenvector of the positive eigenvalue
     ``l+``) and the edge lines at ``alpha +- phi``, ``tan phi = sqrt(l+ / -l-)``
     (the directions with ``d^T H d = 0``). The strength is the saddle strength
@@ -180,9 +188,12 @@ def find_xcorners(image: np.ndarray, *, min_strength: float = 8.0, scale: float 
     Parameters
     ----------
     image : ndarray
-        Grey or colour image (any dtype :func:`sogdd.image.validate_image` takes).
+        Grey or colour image (RGB), any dtype :func:`sogdd.image.validate_image`
+        takes, on its scale (:func:`to_grey`): a float image on [0, 1], else
+        give ``value_range``.
     min_strength : float
-        Candidates below this strength (grey levels of contrast) are not fitted.
+        Candidates below this strength (grey levels of contrast on the 0-255
+        scale) are not fitted.
     scale : float or None
         Search on the image resized by this factor (<= 1) and map the points back
         (``x = (x' + 0.5) / scale - 0.5``); None: 1 up to
@@ -191,6 +202,9 @@ def find_xcorners(image: np.ndarray, *, min_strength: float = 8.0, scale: float 
         (:func:`sogdd.calib.refine_corners`).
     mask : ndarray of bool or None
         Keep only candidates whose nearest pixel is True.
+    value_range : (lo, hi) or None
+        The image's range, mapped to 0-255 (``(0, 255)`` for OpenCV's float
+        images of grey levels); None: the dtype's (float: [0, 1]).
 
     Returns
     -------
@@ -200,13 +214,13 @@ def find_xcorners(image: np.ndarray, *, min_strength: float = 8.0, scale: float 
     --------
     >>> t = np.arange(60) - 30.4
     >>> img = np.where((t[:, None] > 0) == (t[None, :] > 0), 200.0, 40.0)
-    >>> xc = find_xcorners(img)
+    >>> xc = find_xcorners(img, value_range=(0, 255))
     >>> len(xc), np.round(xc.xy[0], 1).tolist()
     (1, [30.5, 30.5])
     >>> round(float(np.degrees(xc.light[0]))), round(float(np.degrees(xc.spread[0])))
     (45, 45)
     """
-    grey = to_grey(image)
+    grey = to_grey(image, value_range)
     check_search(grey, min_strength, scale, mask)
     return search(grey, min_strength, scale, mask)
 

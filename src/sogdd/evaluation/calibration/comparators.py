@@ -82,7 +82,8 @@ def _opencv_refine(image: np.ndarray, pattern: tuple[int, int]) -> Detection:
                                         flags=cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE)
     if not ok:
         return _NONE
-    return _board(refine_corners(image, pts.reshape(-1, 2)), pattern)
+    # float64 in, float64 out: OpenCV's float32 corners would come back rounded to float32
+    return _board(refine_corners(image, pts.reshape(-1, 2).astype(np.float64)), pattern)
 
 
 def _opencv_sb(image: np.ndarray, pattern: tuple[int, int]) -> Detection:
