@@ -6,8 +6,9 @@ import cv2
 import numpy as np
 import pytest
 
-from sogdd.calib.cameras import distort, project, projection_difference, undistort
+from sogdd.calib.cameras import MODELS, distort, project, projection_difference, undistort
 from sogdd.calib.fit import calibrate
+from sogdd.calib.solvers import jacobian_std
 from sogdd.calib.targets.board import Board
 
 SIZE = (640, 480)
@@ -176,7 +177,9 @@ def test_rational_and_fisheye_models():
     fish = calibrate(fb, SIZE, model="fisheye")
     assert len(fish.dist) == 4 and abs(fish.K[0, 0] - 600.0) < 2.0
     assert projection_difference(fish, (K_TRUE, fd, "fisheye"), SIZE, fit_rotation=True).mean < 0.1
-    assert np.isnan(fish.std["fx"])
+    # OpenCV's fisheye calibration gives no standard deviations: they come from the residuals' Jacobian
+    assert all(np.isfinite(v) and v > 0 for v in fish.std.values()) and fish.std_note == ""
+    assert 0 < fish.std["fx"] < 1.0
 
 
 def test_partial_boards_with_relative_labels():
@@ -236,3 +239,91 @@ def test_projection_difference_within_a_polygon():
     assert np.all(d.distance[d.within] <= d.max_within)
     with pytest.raises(ValueError, match="polygon of at least 3 points"):
         projection_difference((K_TRUE, D_TRUE), (K_TRUE, d3), SIZE, within=poly[:2])
+
+
+def test_a_sub_pixel_outlier_is_rejected_above_the_floor():
+    """At 0.01 px noise the robust limit is far below 0.1 px: the floor decides, and 0.7 px is an outlier."""
+    boards = _boards(10, noise=0.01, seed=40)
+    pts = boards[4].image_points.copy()
+    pts[23] += [0.5, -0.5]
+    boards[4] = Board(pts, LABELS)
+    cal = calibrate(boards, SIZE)
+    r = np.hypot(*cal.residuals[4][23])
+    assert 0.3 < r < 1.0  # between the floor and a floor ten times too high
+    assert not cal.corner_used[4][23] and "residual" in cal.corner_reasons[4][23]
+    assert cal.thresholds["corner"] == pytest.approx(0.1)
+    assert cal.n_corners_used == 10 * COLS * ROWS - 1
+
+
+@pytest.mark.parametrize("model,dist,n", [("fisheye", np.array([0.3, -0.1, 0.05, 0.0]), 4),
+                                          ("rational", D_TRUE, 8)])
+def test_the_halves_are_fitted_with_the_model(model, dist, n):
+    """A fisheye's halves fitted as pinholes would disagree by hundreds of px."""
+    boards = _boards(12, noise=0.03, seed=41, dist=dist, model="pinhole" if model == "rational" else model,
+                     spread=1.4)
+    cv = calibrate(boards, SIZE, model=model).cross_validation
+    assert len(cv.dist_a) == len(cv.dist_b) == n
+    assert cv.mean_within < 0.3 and cv.rms_a < 0.1 and cv.rms_b < 0.1
+
+
+def test_the_halves_are_disjoint_and_each_is_its_own_fit():
+    boards = _boards(12, noise=0.1, seed=42)
+    boards[3] = None
+    cal = calibrate(boards, SIZE)
+    cv = cal.cross_validation
+    a, b = set(cv.views_a), set(cv.views_b)
+    assert not a & b and a | b == set(np.flatnonzero(cal.view_used).tolist())
+    assert abs(len(a) - len(b)) <= 1
+    # each half's camera is the calibration of its own views (fitted here by OpenCV directly)
+    for views, K in ((cv.views_a, cv.K_a), (cv.views_b, cv.K_b)):
+        obj = [cal.boards[v].object_points(1.0)[cal.corner_used[v]].astype(np.float32) for v in views]
+        img = [cal.boards[v].image_points[cal.corner_used[v]].astype(np.float32) for v in views]
+        _, K_ref, *_ = cv2.calibrateCamera(obj, img, SIZE, None, None)
+        np.testing.assert_allclose(K, K_ref, atol=0.05)
+    # on noisy data two disjoint halves differ by far more than rounding
+    assert abs(cv.K_a[0, 0] - cv.K_b[0, 0]) > 1e-3 and cv.mean > 0.01
+
+
+def test_one_view_has_no_standard_deviations_and_says_why():
+    cal = calibrate(_boards(1, seed=2), SIZE, min_views=1)
+    assert all(np.isnan(v) for v in cal.std.values())
+    assert cal.std_note.startswith("one view") and any(n.endswith(cal.std_note) for n in cal.notes)
+    assert calibrate(_boards(3, seed=2), SIZE).std_note == ""
+
+
+def test_standard_deviations_match_the_spread_over_noise_draws():
+    """Each parameter's reported deviation against its spread over 50 fresh noise draws on one scene."""
+    rng = np.random.default_rng(43)
+    scene = [p for _, _, p in _poses(8, rng)]
+    values, stds = [], []
+    for _ in range(50):
+        boards = [Board(p + rng.normal(0, 0.1, p.shape), LABELS) for p in scene]
+        cal = calibrate(boards, SIZE, reject=False, cross_validate=False)
+        values.append([cal.K[0, 0], cal.K[1, 1], cal.K[0, 2], cal.K[1, 2], *cal.dist])
+        stds.append(list(cal.std.values()))
+    assert list(cal.std) == ["fx", "fy", "cx", "cy", *MODELS["pinhole"]]
+    spread = np.std(values, axis=0, ddof=1)
+    reported = np.median(stds, axis=0)
+    # the linearised estimate is exact to first order; the spread of 50 draws is good to about 10 %
+    for name, s, r in zip(cal.std, spread, reported):
+        assert s / 1.35 < r < s * 1.35, (name, r, s)
+
+
+@pytest.mark.parametrize("model", ["pinhole", "rational"])
+def test_the_jacobian_standard_deviations_are_opencvs(model):
+    """jacobian_std (what the fisheye model gets) is the estimate OpenCV makes for the others."""
+    boards = _boards(8, noise=0.1, seed=45)
+    obj = [b.object_points(1.0).reshape(-1, 1, 3) for b in boards]
+    img = [b.image_points.reshape(-1, 1, 2) for b in boards]
+    flags = cv2.CALIB_RATIONAL_MODEL if model == "rational" else 0
+    crit = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 100, 1e-12)
+    _, K, D, rv, tv, std, _, _ = cv2.calibrateCameraExtended(obj, img, SIZE, None, None, flags=flags,
+                                                             criteria=crit)
+    n = 4 + len(MODELS[model])
+    mine = jacobian_std([o.reshape(-1, 3) for o in obj], [i.reshape(-1, 2) for i in img], K, D.ravel()[:n - 4],
+                        np.array(rv).reshape(-1, 3), np.array(tv).reshape(-1, 3), model)
+    np.testing.assert_allclose(mine, std.ravel()[:n], rtol=1e-3)
+    # and calibrate names OpenCV's vector in that order
+    cal = calibrate(boards, SIZE, model=model, reject=False, cross_validate=False)
+    names = ("fx", "fy", "cx", "cy", *MODELS[model])
+    np.testing.assert_allclose([cal.std[k] for k in names], std.ravel()[:n], rtol=1e-3)

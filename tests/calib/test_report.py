@@ -2,9 +2,6 @@
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import cv2
 import numpy as np
 import pytest
@@ -15,18 +12,31 @@ from sogdd.calib.report import write_report
 from sogdd.calib.targets.board import Board
 from sogdd.calib.verdict import coverage, verdict
 
-sys.path.insert(0, str(Path(__file__).parent))
-from test_calibrate import COLS, D_TRUE, K_TRUE, LABELS, OBJ, ROWS, SIZE, _boards  # noqa: E402
-
 
 def _texts(cal):
     return " | ".join(t for _, t in verdict(cal))
 
 
-def test_verdict_follows_the_coverage():
-    centre = calibrate(_boards(14, noise=0.05, seed=21, spread=0.2), SIZE)
-    spread = calibrate(_boards(14, noise=0.05, seed=21, spread=1.6), SIZE)
-    assert coverage(centre)[2] < coverage(spread)[2]
+def _edge_share(points: np.ndarray, size) -> float:
+    """Share of the border cells of an 8 x 6 grid of the frame ([-0.5, w - 0.5] x [-0.5, h - 0.5]) holding a
+    point, cell by cell."""
+    w, h = size
+    hit = set()
+    for x, y in points:
+        i = min(int((x + 0.5) // (w / 8)), 7)
+        j = min(int((y + 0.5) // (h / 6)), 5)
+        if i in (0, 7) or j in (0, 5):
+            hit.add((i, j))
+    return len(hit) / (2 * 8 + 2 * 4)
+
+
+def test_verdict_follows_the_coverage(synthetic):
+    centre = calibrate(synthetic.boards(14, noise=0.05, seed=21, spread=0.2), synthetic.SIZE)
+    spread = calibrate(synthetic.boards(14, noise=0.05, seed=21, spread=1.6), synthetic.SIZE)
+    for cal in (centre, spread):
+        pts = np.concatenate([b.image_points[u] for b, u in zip(cal.boards, cal.corner_used)])
+        assert coverage(cal)[2] == pytest.approx(_edge_share(pts, synthetic.SIZE))
+    assert coverage(centre)[2] < 0.5 <= coverage(spread)[2]
     assert "cover only the centre" in _texts(centre)
     assert "the model extrapolates there" in _texts(centre)  # the halves part beyond the corners
     assert centre.cross_validation.mean_within < 0.5 < centre.cross_validation.max
@@ -34,7 +44,8 @@ def test_verdict_follows_the_coverage():
     assert verdict(spread)[0][0] == "ok" and "looks sound" in verdict(spread)[0][1]
 
 
-def test_verdict_few_views_high_rms_and_a_wrong_model():
+def test_verdict_few_views_high_rms_and_a_wrong_model(synthetic):
+    SIZE, _boards = synthetic.SIZE, synthetic.boards
     few = calibrate(_boards(5, noise=0.05, seed=22, spread=1.6), SIZE)
     assert "few views (5 used)" in _texts(few) and "no cross-validation" in _texts(few)
     noisy = calibrate(_boards(14, noise=0.6, seed=23, spread=1.6), SIZE)
@@ -46,7 +57,8 @@ def test_verdict_few_views_high_rms_and_a_wrong_model():
     assert levels.get("large cross-validation difference") == "bad"
 
 
-def test_the_page_and_its_figures(tmp_path):
+def test_the_page_and_its_figures(tmp_path, synthetic):
+    SIZE, _boards = synthetic.SIZE, synthetic.boards
     boards = _boards(8, noise=0.05, seed=25, spread=1.6)
     boards.append(None)
     cal = calibrate(boards, SIZE, names=[f"img{v}.png" for v in range(9)])
@@ -67,7 +79,10 @@ def test_the_page_and_its_figures(tmp_path):
         write_report(cal, tmp_path, images=images[:2])
 
 
-def test_verdict_says_when_the_board_never_tilts():
+def test_verdict_says_when_the_board_never_tilts(synthetic):
+    s = synthetic
+    SIZE, _boards, K_TRUE, D_TRUE, COLS, ROWS, OBJ, LABELS = (s.SIZE, s.boards, s.K_TRUE, s.D_TRUE, s.COLS,
+                                                               s.ROWS, s.OBJ, s.LABELS)
     rng = np.random.default_rng(30)
     boards = []
     for _ in range(12):

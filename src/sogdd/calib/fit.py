@@ -18,7 +18,7 @@ import numpy as np
 from . import cross_validation as _cv
 from .cameras import MODELS, CameraModel, check_model, check_size, project
 from .result import Calibration
-from .solvers import fit_camera_checked, solve_pose
+from .solvers import fisheye_fixed, fit_camera_checked, jacobian_std, solve_pose
 from .targets.board import Board
 
 __all__ = ["calibrate"]
@@ -70,11 +70,12 @@ def _usable(board: Board | None, min_corners: int) -> str:
 
 
 def _std_dict(std, model: str) -> dict:
+    """Name the standard deviations: OpenCV's ``stdDeviationsIntrinsics`` (and :func:`jacobian_std`)
+    run fx, fy, cx, cy, then the distortion in OpenCV's order, which is ``MODELS[model]``'s."""
     names = ("fx", "fy", "cx", "cy") + MODELS[model]
     if std is None:
         return {n: float("nan") for n in names}
-    order = ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6")
-    return {n: float(std[order.index(n)]) for n in names}
+    return {n: float(s) for n, s in zip(names, std)}
 
 
 def _robust_limit(values: np.ndarray, k: float, floor: float) -> float:
@@ -310,8 +311,30 @@ def _too_few(n: int, need: int, reasons: list[str], names: list[str]) -> None:
                      + (f"; rejected: {why}" if why else ""))
 
 
-def _result(st: _State, idx, fit, res, thresholds, min_views: int, cross_validate: bool) -> Calibration:
+_ONE_VIEW = ("one view: a view of a flat board gives two constraints on the intrinsics, too few to "
+             "determine them, so no standard deviation means anything; calibrate with more views")
+_DEGENERATE = ("the fit is degenerate: the views cannot tell some parameters apart (boards that all face "
+               "the camera, too few corners, or a model with more terms than the data support), so the "
+               "standard deviations are undefined")
+
+
+def _stds(st: _State, idx: np.ndarray, fit) -> tuple[np.ndarray | None, str]:
+    """The final fit's standard deviations (or None) and why there are none ("" when there are)."""
     K, D, rv, tv, std = fit
+    if len(idx) < 2:
+        # OpenCV still reports finite ones here, even for a focal length of a sixth of the truth
+        return None, _ONE_VIEW
+    if st.model == "fisheye":  # cv2.fisheye.calibrate gives none: the same estimate, computed here
+        obj = [st.boards[v].object_points(st.square)[st.corner_ok[v]] for v in idx]
+        img = [st.boards[v].image_points[st.corner_ok[v]] for v in idx]
+        std = jacobian_std(obj, img, K, D, rv, tv, st.model, fisheye_fixed(st.flags))
+    if std is None or not np.all(np.isfinite(std)):
+        return None, _DEGENERATE
+    return std, ""
+
+
+def _result(st: _State, idx, fit, res, thresholds, min_views: int, cross_validate: bool) -> Calibration:
+    K, D, rv, tv, _ = fit
     V = len(st.boards)
     rvecs = np.full((V, 3), np.nan)
     tvecs = np.full((V, 3), np.nan)
@@ -331,11 +354,14 @@ def _result(st: _State, idx, fit, res, thresholds, min_views: int, cross_validat
                                   model=st.model, flags=st.flags, min_views=min_views)
         if note:
             notes.append(note)
+    std, std_note = _stds(st, idx, fit)
+    if std_note:
+        notes.append(f"no standard deviations: {std_note}")
     corner_used = tuple(
         None if b is None else (st.corner_ok[v] & bool(st.view_ok[v])) for v, b in enumerate(st.boards))
     return Calibration(
         model=st.model, image_size=st.size, K=K, dist=D, rms=float(np.sqrt(used_r2.mean())),
-        std=_std_dict(std, st.model), names=tuple(st.names), boards=tuple(st.boards),
+        std=_std_dict(std, st.model), std_note=std_note, names=tuple(st.names), boards=tuple(st.boards),
         residuals=tuple(res), corner_used=corner_used, view_used=st.view_ok.copy(), view_rms=view_rms,
         reasons=tuple(st.reasons), corner_reasons=tuple(st.corner_reasons), rvecs=rvecs, tvecs=tvecs,
         cross_validation=cv, thresholds=thresholds, notes=tuple(notes), square=st.square)

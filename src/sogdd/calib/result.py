@@ -30,8 +30,13 @@ class Calibration:
         :math:`\\sqrt{\\sum \\lVert r \\rVert^2 / n}`.
     std : dict of str to float
         Standard deviations of the intrinsics (``fx, fy, cx, cy`` and the
-        distortion coefficients), OpenCV's estimate from the Jacobian scaled by
-        the residuals; NaN for the fisheye model (OpenCV gives none).
+        distortion coefficients): the square roots of the diagonal of
+        :math:`\\sigma^2 (J^T J)^{-1}`, :math:`J` the Jacobian of the
+        reprojection residuals at the solution and :math:`\\sigma^2` their
+        sum of squares over the degrees of freedom. OpenCV's for the pinhole
+        and rational models; for the fisheye model, for which OpenCV gives
+        none, :func:`~sogdd.calib.solvers.jacobian_std`'s. 0 for a parameter
+        the flags fix; NaN when there are none, ``std_note`` saying why.
     names : tuple of str
         A name per view.
     boards : tuple of Board or None
@@ -60,6 +65,9 @@ class Calibration:
         What the calibration could not do (e.g. why there is no cross-validation).
     square : float
         Board square size (units of ``tvecs``).
+    std_note : str
+        Why ``std`` is NaN ("" when it is not): one view, which cannot determine
+        the intrinsics, or a degenerate fit (also in ``notes``).
     """
 
     model: CameraModel
@@ -82,6 +90,7 @@ class Calibration:
     thresholds: dict = field(default_factory=dict)
     notes: tuple[str, ...] = ()
     square: float = 1.0
+    std_note: str = ""
 
     @property
     def n_used(self) -> int:

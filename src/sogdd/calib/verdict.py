@@ -8,9 +8,10 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from .cameras import MODELS
 from .result import Calibration
 
-__all__ = ["coverage", "cv_inside", "used_points", "verdict"]
+__all__ = ["coverage", "cv_inside", "radial_map", "used_points", "verdict"]
 
 # the verdict's limits, each stated where it is used
 _FEW_VIEWS = 10            # fewer used views than this is "few"
@@ -20,6 +21,11 @@ _EDGE_BAND = 0.15          # the frame's outer band, as a fraction of each side
 _EDGE_CELLS = 0.5          # share of the band's cells that should hold a corner
 _TILT_MIN = 15.0           # degrees: some view should tilt the board at least this much
 _GRID = (8, 6)             # coverage cells across and down
+_ASPECT_REL = 0.01         # fx and fy may differ by 1 % (see verdict) ...
+_ASPECT_SIGMAS = 3.0       # ... and by 3 standard deviations of their difference
+_CANCEL_RATIO = 8.0        # distortion terms whose magnitudes add up to 8 times their net ...
+_CANCEL_PX = 20.0          # ... and to more than 20 px at the frame's corner are fitted noise
+_SERIES = {"pinhole": ((0, 3), (1, 5), (4, 7)), "fisheye": ((0, 3), (1, 5), (2, 7), (3, 9))}
 
 
 def used_points(cal: Calibration) -> np.ndarray:
@@ -83,6 +89,34 @@ def verdict(cal: Calibration) -> list[tuple[str, str]]:
     more leaves the focal length weak; more than a fifth of the views rejected
     is reported. Without any finding the verdict is one "ok".
 
+    On the parameters, each "bad":
+
+    - standard deviations that are NaN, with ``Calibration.std_note``'s
+      reason (one view; a degenerate fit), or of ``fx, fy, cx, cy`` larger than
+      the value. A distortion coefficient's own deviation is not judged: one
+      the lens does not need (a mild lens's k3, the tangential terms) is zero
+      within it, and the rational model's numerator and denominator terms
+      trade off against each other (k1 = 11 +- 76 on a sound fit); the map as
+      a whole is judged instead, below;
+    - :math:`|f_x - f_y| > 3 \\sqrt{\\sigma_{f_x}^2 + \\sigma_{f_y}^2}` and
+      :math:`|f_x - f_y| > 0.01 (f_x + f_y) / 2`: pixels are square on nearly
+      every camera, and a sound fit finds them square to a fraction of a per
+      cent; beyond both its uncertainty and 1 %, the views did not pin the
+      aspect down (without deviations, 1 % alone decides);
+    - a radial map :math:`\\rho(\\theta)` (:func:`radial_map`) that stops
+      increasing along the rays out to the frame's farthest corner: inside the
+      corners' largest ray it is "bad", beyond them a "warn" (pixels farther
+      out have no ray);
+    - for the series models (pinhole k1, k2, k3; fisheye k1..k4), terms
+      :math:`f |k_i| x^{2i+1}` at the frame's corner (``x`` its ray: ``r`` or
+      ``theta``) that add up to more than 20 px and to more than 8 times their
+      sum: a lens's series is led by its first term (on the test lenses the
+      terms add up to at most 5 times their net, a fisheye model fitted to a
+      rectilinear lens included), while coefficients fitted to noise cancel
+      (five views in the centre gave a fisheye k3 = 7.2, k4 = -21, 257 px of
+      terms for 22 px of net). Raw coefficient sizes are not compared: a
+      rational k4 of 5 can be a sound lens.
+
     Examples
     --------
     >>> from sogdd.calib.demo import demo_calibration
@@ -99,6 +133,9 @@ def verdict(cal: Calibration) -> list[tuple[str, str]]:
                            "a board that is not flat, or a lens the model does not fit"))
     elif cal.rms > _RMS_FAIR:
         out.append(("warn", f"fair RMS reprojection error ({cal.rms:.2f} px): sharp, well-lit views do better"))
+    out += _std_findings(cal)
+    out += _aspect_findings(cal)
+    out += _distortion_findings(cal)
     out += _coverage_findings(cal)
     out += _cross_validation_findings(cal)
     rejected = total - n - sum(r == "no board" for r in cal.reasons)
@@ -132,8 +169,8 @@ def _coverage_findings(cal: Calibration) -> list[tuple[str, str]]:
 def _cross_validation_findings(cal: Calibration) -> list[tuple[str, str]]:
     cv = cal.cross_validation
     if cv is None:
-        return [("warn", (cal.notes[0] if cal.notes else "no cross-validation")
-                 + ": the calibration's stability is unknown")]
+        note = next((n for n in cal.notes if n.startswith("no cross-validation")), "no cross-validation")
+        return [("warn", note + ": the calibration's stability is unknown")]
     mean, mx = cv_inside(cv)
     out = []
     if mean > _CV_LARGE:
@@ -154,3 +191,136 @@ def cv_inside(cv) -> tuple[float, float]:
     if np.isfinite(cv.mean_within):
         return cv.mean_within, cv.max_within
     return cv.mean, cv.max
+
+
+# --------------------------------------------------------------------------------------------------
+# the parameters: their uncertainties, the aspect ratio, the distortion
+
+
+def _std_findings(cal: Calibration) -> list[tuple[str, str]]:
+    """NaN standard deviations (with ``std_note``'s reason), and intrinsics whose deviation exceeds them."""
+    if any(not np.isfinite(v) for v in cal.std.values()):
+        return [("bad", "no standard deviations of the parameters: "
+                        + (cal.std_note or "the fit gave none") + "; the calibration cannot be trusted")]
+    values = dict(zip(("fx", "fy", "cx", "cy"), (cal.K[0, 0], cal.K[1, 1], cal.K[0, 2], cal.K[1, 2])))
+    loose = [f"{n} = {v:.4g} +- {cal.std[n]:.3g}" for n, v in values.items() if cal.std[n] > abs(v)]
+    if not loose:
+        return []
+    return [("bad", f"undetermined intrinsics ({', '.join(loose)}: a standard deviation larger than the "
+                    "value): the views do not pin the camera down; add views, tilted and over the whole frame")]
+
+
+def _aspect_findings(cal: Calibration) -> list[tuple[str, str]]:
+    """fx and fy further apart than both 1 % and 3 standard deviations of their difference."""
+    fx, fy = float(cal.K[0, 0]), float(cal.K[1, 1])
+    d = abs(fx - fy)
+    sd = float(np.hypot(cal.std.get("fx", np.nan), cal.std.get("fy", np.nan)))
+    sd = sd if np.isfinite(sd) else 0.0  # without an uncertainty, the tolerance alone decides
+    if d <= _ASPECT_REL * 0.5 * (fx + fy) or d <= _ASPECT_SIGMAS * sd:
+        return []
+    return [("bad", f"fx and fy differ by {d / (0.5 * (fx + fy)):.1%} ({fx:.2f} and {fy:.2f} px"
+                    + (f", {d / sd:.0f} standard deviations" if sd > 0 else "")
+                    + "): pixels are square on nearly every camera, so the fit is likely wrong (too few views, "
+                      "or views too alike); unless the pixels really are not square, recalibrate")]
+
+
+def _largest_ray(cal: Calibration) -> float:
+    """The largest ``|(X/Z, Y/Z)|`` of the used corners, from the fitted poses (the undistorted rays)."""
+    out = 0.0
+    for v in np.flatnonzero(cal.view_used):
+        R, _ = cv2.Rodrigues(cal.rvecs[v])
+        X = cal.boards[v].object_points(cal.square)[cal.corner_used[v]] @ R.T + cal.tvecs[v]
+        if len(X):
+            out = max(out, float(np.max(np.hypot(X[:, 0], X[:, 1]) / X[:, 2])))
+    return out
+
+
+def _frame_radius(cal: Calibration) -> float:
+    """The farthest frame corner's distorted normalised radius (where the frame ends, in the model's terms)."""
+    w, h = cal.image_size
+    K = cal.K
+    u, v = np.array([-0.5, w - 0.5, -0.5, w - 0.5]), np.array([-0.5, -0.5, h - 0.5, h - 0.5])
+    yd = (v - K[1, 2]) / K[1, 1]
+    xd = (u - K[0, 2] - K[0, 1] * yd) / K[0, 0]
+    return float(np.max(np.hypot(xd, yd)))
+
+
+def radial_map(cal: Calibration, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The distorted normalised radius of rays at angles ``theta`` from the axis, and the rational denominator.
+
+    Pinhole and rational: :math:`\\rho = r \\frac{1 + k_1 r^2 + k_2 r^4 + k_3 r^6}{1 + k_4 r^2 + k_5 r^4
+    + k_6 r^6}` with :math:`r = \\tan\\theta`; fisheye:
+    :math:`\\rho = \\theta_d = \\theta (1 + k_1 \\theta^2 + \\dots + k_4 \\theta^8)` (denominator 1).
+    Tangential terms are left out: they shift points, they do not fold the map.
+
+    Examples
+    --------
+    >>> from sogdd.calib.demo import demo_calibration
+    >>> rho, den = radial_map(demo_calibration(), np.array([0.0, np.arctan(0.5)]))
+    >>> np.round(rho, 2).tolist(), den.tolist()
+    ([0.0, 0.48], [1.0, 1.0])
+    """
+    d = dict(zip(MODELS[cal.model], np.asarray(cal.dist, float)))
+    if cal.model == "fisheye":
+        t2 = theta * theta
+        rho = theta * (1 + t2 * (d["k1"] + t2 * (d["k2"] + t2 * (d["k3"] + t2 * d["k4"]))))
+        return rho, np.ones(len(theta))
+    r = np.tan(theta)
+    r2 = r * r
+    num = 1 + r2 * (d["k1"] + r2 * (d["k2"] + r2 * d["k3"]))
+    den = 1 + r2 * (d.get("k4", 0.0) + r2 * (d.get("k5", 0.0) + r2 * d.get("k6", 0.0)))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return r * num / den, den
+
+
+def _fold(cal: Calibration) -> tuple[float, float, float]:
+    """``(theta_F, rho_max, rho_frame)``: the ray angle where the radial map first stops increasing (or
+    reaches the frame's farthest corner, whichever comes first), the largest radius it reached before,
+    and the frame's radius.
+
+    A rational model's numerator and denominator often vanish at nearly the same ray: the map spikes
+    there over a sliver of rays and goes on as before, so a step next to a sign change of the
+    denominator is skipped; a pole the numerator does not cancel leaves the map negative beyond it,
+    which is a fold.
+    """
+    theta = np.linspace(0.0, np.radians(89.9), 4000)
+    rho, den = radial_map(cal, theta)
+    rho_frame = _frame_radius(cal)
+    pole = np.flatnonzero(np.diff(np.sign(den)) != 0)
+    near = np.zeros(len(theta) - 1, bool)
+    for i in pole:
+        near[max(0, i - 2): i + 3] = True
+    with np.errstate(invalid="ignore"):
+        good = ((np.diff(rho) > 0) & (rho[1:] > 0)) | near
+    bad = np.flatnonzero(~good)
+    stop = int(bad[0]) if len(bad) else len(theta) - 1
+    smooth = rho[: stop + 1].copy()
+    smooth[1:][near[:stop]] = np.nan  # the spike's samples reach nothing
+    reached = np.flatnonzero(smooth >= rho_frame)
+    end = int(reached[0]) if len(reached) else stop
+    return float(theta[end]), float(np.nanmax(smooth[: end + 1])), rho_frame
+
+
+def _distortion_findings(cal: Calibration) -> list[tuple[str, str]]:
+    """A distortion that folds over (no ray, or two, for a pixel) or whose terms cancel each other."""
+    f = 0.5 * float(cal.K[0, 0] + cal.K[1, 1])
+    theta_f, rho_max, rho_frame = _fold(cal)
+    theta_data = float(np.arctan(_largest_ray(cal)))
+    out = []
+    if rho_max < rho_frame:
+        where = "inside the corners" if theta_f <= theta_data else "beyond the corners"
+        out.append(("bad" if theta_f <= theta_data else "warn",
+                    f"the distortion folds over {rho_max * f:.0f} px from the principal point, {where} "
+                    f"(the frame reaches {rho_frame * f:.0f} px): pixels farther out have no ray; the "
+                    "distortion coefficients are not those of a lens (try a simpler model or more views)"))
+    if cal.model in _SERIES:
+        x = theta_f if cal.model == "fisheye" else float(np.tan(theta_f))
+        terms = np.array([cal.dist[i] * x ** p for i, p in _SERIES[cal.model]]) * f
+        total, net = float(np.sum(np.abs(terms))), abs(float(np.sum(terms)))
+        if total > _CANCEL_PX and total > _CANCEL_RATIO * net:
+            coef = ", ".join(f"{n} = {v:.3g}" for n, v in cal.coefficients().items() if not n.startswith("p"))
+            out.append(("bad", f"implausible distortion ({coef}): at the frame's corner its terms move a point "
+                               f"by {total:.0f} px in all but cancel to {net:.1f} px, so they fit noise and "
+                               "the model diverges beyond the data; add views near the frame's edges and "
+                               "corners, or fix the higher terms (e.g. cv2.CALIB_FIX_K3)"))
+    return out
