@@ -84,21 +84,45 @@ def test_an_input_is_never_overwritten(tmp_path):
     assert not (tmp_path / "camera.yaml").exists()
 
 
-def test_a_failed_write_is_an_error_and_leaves_nothing(tmp_path):
+def test_a_failed_write_is_an_error_and_leaves_the_folder_as_it_was(tmp_path, monkeypatch):
+    """Whoever runs it (root writes into a read-only folder, so the failures are made otherwise)."""
+    from sogdd.formats import safe_write
+
     (tmp_path / "file").write_text("x")
     with pytest.raises(ValueError, match="not a folder"):
         write_calibration(demo_calibration(), tmp_path / "file")
-    ro = tmp_path / "ro"
-    ro.mkdir()
-    ro.chmod(0o500)
-    try:
-        if os.access(ro, os.W_OK):
-            pytest.skip("running as a user who can write to a read-only folder")
-        with pytest.raises(OSError):
-            write_camera_yaml(demo_calibration(), ro / "camera.yaml")
-        assert os.listdir(ro) == []
-    finally:
-        ro.chmod(0o700)
+    with pytest.raises(OSError):  # a folder under a regular file cannot exist
+        write_camera_yaml(demo_calibration(), tmp_path / "file" / "camera.yaml")
+    assert sorted(os.listdir(tmp_path)) == ["file"] and (tmp_path / "file").read_text() == "x"
+    out = tmp_path / "out"
+    write_calibration(demo_calibration(), out)
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+
+    def full(fd):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(safe_write.os, "fsync", full)  # the disk fills while the files are written
+    with pytest.raises(OSError, match="No space"):
+        write_calibration(demo_calibration(), out)
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before  # no temporary file left either
+
+
+def test_views_csv_and_camera_json_account_for_every_input(cal, tmp_path):
+    from sogdd.calib import ViewRecord
+
+    views = [ViewRecord(n, f"in/{n}", "used" if cal.view_used[v] else "rejected", cal.reasons[v], v)
+             for v, n in enumerate(cal.names)]
+    views.insert(3, ViewRecord("bad.png", "in/bad.png", "unreadable", "in/bad.png: not a readable image"))
+    files = write_calibration(cal, tmp_path, views=views)
+    rows = list(csv.DictReader(open(files["views.csv"])))
+    assert [r["view"] for r in rows] == [v.name for v in views]
+    assert rows[3] == {"view": "bad.png", "corners_found": "0", "corners_used": "0", "rms": "", "used": "0",
+                       "reason": "in/bad.png: not a readable image", "status": "unreadable"}
+    assert rows[4]["view"] == "f3.png" and rows[4]["corners_found"] == "54"
+    js = json.loads(files["camera.json"].read_text())
+    assert js["rejected_views"]["bad.png"] == "in/bad.png: not a readable image"
+    assert js["views"][3] == {"view": "bad.png", "file": "in/bad.png", "status": "unreadable",
+                              "reason": "in/bad.png: not a readable image"}
 
 
 def test_an_interrupted_write_keeps_the_old_file_and_no_temporary(tmp_path, monkeypatch):

@@ -8,7 +8,8 @@ A client of the core (:mod:`sogdd.detector` and its stages); the core never impo
 :mod:`.fit`: :func:`calibrate`, the fit of a camera to labelled boards with robust rejection.
 :mod:`.cross_validation`: the two halves' cross-validation.
 :mod:`.result`: :class:`Calibration`, the result with its diagnostics.
-:mod:`.detection`: boards in image files, over many files.
+:mod:`.detection`: boards in image files, over many files (each image read once).
+:mod:`.session`: :func:`calibrate_images`, image files to a camera and every view's fate; its output folder.
 :mod:`.verdict`: what a calibration is worth, in plain words.
 :mod:`.files`: camera.yaml (OpenCV FileStorage), camera.json, views.csv, corners.csv.
 :mod:`.report`: the HTML report with its figures.
@@ -17,8 +18,10 @@ A client of the core (:mod:`sogdd.detector` and its stages); the core never impo
 
 from .cameras import MODELS, Camera, CameraModel, ProjectionDifference, projection_difference
 from .cross_validation import CrossValidation
+from .detection import ViewRecord, ViewStatus
 from .fit import calibrate
 from .result import Calibration
+from .session import ImageCalibration, calibrate_images, check_output_folder, write_outputs
 from .targets import Board, BoardSpec, detect_board, detect_boards, detect_charuco, parse_board, refine_corners
 
 __all__ = [
@@ -29,12 +32,18 @@ __all__ = [
     "Camera",
     "CameraModel",
     "CrossValidation",
+    "ImageCalibration",
     "ProjectionDifference",
+    "ViewRecord",
+    "ViewStatus",
     "calibrate",
+    "calibrate_images",
+    "check_output_folder",
     "detect_board",
     "detect_boards",
     "detect_charuco",
     "parse_board",
     "projection_difference",
     "refine_corners",
+    "write_outputs",
 ]

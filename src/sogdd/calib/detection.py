@@ -1,30 +1,143 @@
-"""Boards in image files: detection over many files with --jobs and progress."""
+"""Boards in image files: each image read once, made grey once, its boards found; over many files.
+
+:func:`detect_view` is the unit of work: it reads one file (:func:`sogdd.read_image`),
+converts it to grey with the core's conversion (:func:`sogdd.image.to_gray255`), finds
+its boards by the specification, says what it saw where no board matched, and keeps a
+small grey thumbnail for the report, so no file is read twice. :func:`detect_files` runs
+it over many files through :func:`sogdd.collection.run_tasks`: in this process, on local
+worker processes (a worker that dies costs only its image) or on a Dask cluster.
+"""
 
 from __future__ import annotations
 
 import os
 import sys
-from collections.abc import Sequence
-from concurrent.futures import ProcessPoolExecutor
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Literal
 
 import cv2
 import numpy as np
 
+from ..collection import run_tasks
+from ..image.files import max_pixels_limit, opencv_message, read_image
+from ..image.grey import to_gray255
+from ..image.validate import validate_image
+from .result import Calibration
+from .targets import charuco, chessboard
 from .targets.board import Board
 from .targets.spec import BoardSpec, grid_dims
 
-__all__ = [
-    "ViewResult", "check_detector", "detect_files", "detect_view",
-]
+__all__ = ["READ_OPTIONS", "THUMB_WIDTH", "Thumbnail", "ViewRecord", "ViewResult", "ViewStatus",
+           "check_read_options", "detect_files", "detect_view", "make_thumbnail", "view_records"]
+
+#: the keyword arguments of :func:`sogdd.read_image` that ``read_options`` may hold
+READ_OPTIONS = ("max_pixels", "allow_corrupt", "ignore_orientation")
+
+# the grey image's scale, said to the detectors (a float image is otherwise taken to be on [0, 1])
+_GREY = (0.0, 255.0)
+
+# a forkserver imports this module once for all its workers
+_PRELOAD = ("sogdd.calib.detection",)
+
+
+def _start_method() -> str | None:
+    """How worker processes start: the platform's default, unless that is ``fork`` and this process has run
+    numba's parallel code on GNU OpenMP, whose forked children die when they run such code themselves (the
+    refinement does): then from a fresh server process (``forkserver``). Forking otherwise keeps what spawned
+    workers need, a ``__main__`` guard in the caller's script, out of the command's and most callers' way."""
+    import multiprocessing
+
+    import numba
+
+    try:
+        layer = numba.threading_layer()
+    except ValueError:  # no parallel code has run here
+        return None
+    return "forkserver" if layer == "omp" and multiprocessing.get_start_method() == "fork" else None
+
+#: what became of an input: its board used or rejected by the fit; a board of another kind or size
+#: seen and ignored; no board; a file that could not be read (or whose worker died)
+ViewStatus = Literal["used", "rejected", "ignored", "no board", "unreadable"]
+
+
+@dataclass(frozen=True)
+class ViewRecord:
+    """The fate of one view: an image's board (``name``, ``name#2`` for its second board), or an image
+    that gave the calibration nothing.
+
+    ``file`` is the input file; ``status`` a :data:`ViewStatus`; ``reason`` says
+    why it was not used (the read error, what was seen instead of the board,
+    the fit's rejection), "" for a used view; ``view`` is its index in the
+    calibration's views (``Calibration.names``), None for an image that could not
+    be read.
+    """
+
+    name: str
+    file: str
+    status: ViewStatus
+    reason: str = ""
+    view: int | None = None
+
+
+def view_records(cal: Calibration) -> list[ViewRecord]:
+    """A :class:`ViewRecord` per view of a calibration alone (no files: ``file`` is the view's name).
+
+    Examples
+    --------
+    >>> from sogdd.calib.demo import demo_calibration
+    >>> r = view_records(demo_calibration())
+    >>> r[0].status, r[8].status, r[8].reason
+    ('used', 'no board', 'no board')
+    """
+    def status(v: int) -> ViewStatus:
+        return "used" if cal.view_used[v] else "no board" if cal.boards[v] is None else "rejected"
+
+    return [ViewRecord(n, n, status(v), cal.reasons[v], v) for v, n in enumerate(cal.names)]
+
+
+#: the thumbnails' width in px
+THUMB_WIDTH = 240
+
+
+@dataclass(frozen=True)
+class Thumbnail:
+    """A small grey copy of an image for the report: ``image`` (uint8, H x W) and ``scale``, its
+    pixels per pixel of the full image (a point ``p`` of the image lies at ``(p + 0.5) scale - 0.5``)."""
+
+    image: np.ndarray
+    scale: float
+
+
+def make_thumbnail(image: np.ndarray, width: int = THUMB_WIDTH) -> Thumbnail:
+    """A :class:`Thumbnail` ``width`` px wide (never wider than the image) of a grey float image on
+    0-255 (what :func:`sogdd.image.to_gray255` returns) or of any image :func:`sogdd.image.validate_image`
+    takes (converted by the core's conversion).
+
+    Examples
+    --------
+    >>> t = make_thumbnail(np.full((480, 640), 100, np.uint8))
+    >>> t.image.shape, t.image.dtype.name, t.scale, int(t.image[0, 0])
+    ((180, 240), 'uint8', 0.375, 100)
+    """
+    grey = np.asarray(image)
+    if grey.ndim != 2 or grey.dtype != np.float64:
+        grey = to_gray255(validate_image(grey))
+    w = max(1, min(int(width), grey.shape[1]))
+    s = w / grey.shape[1]
+    small = cv2.resize(grey, (w, max(1, round(grey.shape[0] * s))), interpolation=cv2.INTER_AREA)
+    return Thumbnail(np.clip(np.rint(small), 0, 255).astype(np.uint8), s)
+
 
 @dataclass(frozen=True)
 class ViewResult:
     """What one image gave: its boards (possibly none), its size, a read error, what else was seen.
 
     ``seen`` describes what the detector found where no board matched the
-    specification (for the error message); ``other_size`` is the (columns,
-    rows) of a complete board of another size than the specification's.
+    specification; ``other_size`` is the (columns, rows) of a complete board of
+    another size than the specification's (a board that was seen and ignored);
+    ``thumbnail`` is the small grey picture the report draws the detections on
+    (None when not asked for or when the image could not be read).
     """
 
     path: str
@@ -33,55 +146,101 @@ class ViewResult:
     error: str = ""
     seen: str = ""
     other_size: tuple[int, int] | None = None
+    thumbnail: Thumbnail | None = None
 
 
-def _grey(img: np.ndarray) -> np.ndarray:
-    if img.ndim == 3:
-        img = cv2.cvtColor(img[..., :3], cv2.COLOR_RGB2GRAY)
-    return img
+def check_read_options(read_options: Mapping | None) -> dict:
+    """``read_options`` as a dict, checked before any work (``ValueError`` for an unknown key or a bad limit).
+
+    Examples
+    --------
+    >>> check_read_options({"allow_corrupt": True})
+    {'allow_corrupt': True}
+    >>> check_read_options({"max_pixel": 10})
+    Traceback (most recent call last):
+    ...
+    ValueError: read_options: unknown option 'max_pixel' (known: max_pixels, allow_corrupt, ignore_orientation)
+    """
+    opts = dict(read_options or {})
+    for k in opts:
+        if k not in READ_OPTIONS:
+            raise ValueError(f"read_options: unknown option {k!r} (known: {', '.join(READ_OPTIONS)})")
+    max_pixels_limit(opts.get("max_pixels"))
+    return opts
 
 
 def _matches(size, pattern) -> bool:
     return size is None or tuple(size) in (tuple(pattern), tuple(pattern)[::-1])
 
 
-def detect_view(path: str, spec: BoardSpec) -> ViewResult:
-    """Read one image and find its boards by ``spec`` (the unit of work of :func:`detect_files`)."""
-    import sogdd
+def _read_grey(path: str, read_options: Mapping | None) -> np.ndarray:
+    """The image file as grey float64 on 0-255, by the core's conversion (the one the detector uses)."""
+    return to_gray255(validate_image(read_image(path, **(read_options or {}))))
 
-    from .targets import chessboard as detect
 
+def detect_view(path: str | os.PathLike, spec: BoardSpec, read_options: Mapping | None = None,
+                thumb_width: int | None = THUMB_WIDTH) -> ViewResult:
+    """Read one image and find its boards by ``spec`` (the unit of work of :func:`detect_files`).
+
+    A file that cannot be read gives a :class:`ViewResult` with ``error`` set
+    (one line, naming the file). ``read_options`` go to :func:`sogdd.read_image`;
+    ``thumb_width`` is the width of the thumbnail kept for the report (None: none).
+
+    Examples
+    --------
+    >>> import tempfile, cv2
+    >>> from sogdd.calib import parse_board
+    >>> sq = np.kron((np.indices((6, 8)).sum(axis=0) % 2) * 200 + 30, np.ones((20, 20)))
+    >>> img = cv2.GaussianBlur(np.pad(sq, 30, constant_values=230).astype(np.uint8), (0, 0), 1.0)
+    >>> f = tempfile.mkdtemp() + "/board.png"; _ = cv2.imwrite(f, img)
+    >>> r = detect_view(f, parse_board("chessboard:7x5"))
+    >>> len(r.boards[0]), r.size, r.thumbnail.image.shape
+    (35, (220, 180), (180, 220))
+    >>> detect_view(f, parse_board("chessboard:5x4")).seen  # a board that cannot be part of a 5 x 4 one
+    'a board of 7x5 inner corners'
+    >>> print(detect_view(f + ".missing", parse_board("chessboard:7x5")).error)
+    /...board.png.missing: no such file
+    """
+    path = str(path)
     try:
-        img = _grey(sogdd.read_image(path))
+        grey = _read_grey(path, read_options)
     except (ValueError, OSError, cv2.error) as exc:
-        msg = " ".join(str(exc).split())
-        return ViewResult(str(path), error=msg if str(path) in msg else f"{path}: {msg}")
-    size = (int(img.shape[1]), int(img.shape[0]))
+        msg = opencv_message(exc) if isinstance(exc, cv2.error) else " ".join(str(exc).split())
+        return ViewResult(path, error=msg if path in msg else f"{path}: {msg}")
+    except MemoryError:
+        return ViewResult(path, error=f"{path}: out of memory")
+    size = (int(grey.shape[1]), int(grey.shape[0]))
+    thumb = make_thumbnail(grey, thumb_width) if thumb_width else None
     if spec.kind == "charuco":
-        from .targets.charuco import detect_charuco
-
-        b = detect_charuco(img, spec.charuco_board())
-        return ViewResult(str(path), (b,) if b is not None and len(b) else (), size,
-                          seen="" if b is not None else "no ChArUco markers/corners")
-    boards = [b for b in detect.detect_boards(img, spec.pattern) if len(b)]
-    if spec.pattern is not None:
-        wrong = [b for b in boards if not _matches(b.size, spec.pattern)]
-        boards = [b for b in boards if _matches(b.size, spec.pattern)]
-        if wrong and not boards:
-            s = wrong[0].size
-            return ViewResult(str(path), (), size, seen=f"a board of {s[0]}x{s[1]} inner corners", other_size=s)
-        if not boards:
-            return _what_else(str(path), img, size, spec.pattern, detect)
-    return ViewResult(str(path), tuple(boards), size, seen="" if boards else "no board")
+        b = charuco.detect_charuco(grey, spec.charuco_board(), value_range=_GREY)
+        return ViewResult(path, (b,) if b is not None and len(b) else (), size,
+                          seen="" if b is not None else "no ChArUco markers/corners", thumbnail=thumb)
+    found = _boards(path, grey, size, spec)
+    return ViewResult(found.path, found.boards, size, seen=found.seen, other_size=found.other_size,
+                      thumbnail=thumb)
 
 
-def _what_else(path: str, img: np.ndarray, size, pattern, detect) -> ViewResult:
+def _boards(path: str, grey: np.ndarray, size, spec: BoardSpec) -> ViewResult:
+    boards = [b for b in chessboard.detect_boards(grey, spec.pattern, value_range=_GREY) if len(b)]
+    if spec.pattern is None:
+        return ViewResult(path, tuple(boards), size, seen="" if boards else "no board")
+    wrong = [b for b in boards if not _matches(b.size, spec.pattern)]
+    boards = [b for b in boards if _matches(b.size, spec.pattern)]
+    if boards:
+        return ViewResult(path, tuple(boards), size)
+    if wrong:
+        s = wrong[0].size
+        return ViewResult(path, (), size, seen=f"a board of {s[0]}x{s[1]} inner corners", other_size=s)
+    return _what_else(path, grey, size, spec.pattern)
+
+
+def _what_else(path: str, grey: np.ndarray, size, pattern) -> ViewResult:
     """No board of the given size: look for a board of any size, to say what the image shows.
 
     A complete grid that does not fit in the pattern (in either orientation)
     cannot be part of it: its size contradicts the pattern.
     """
-    others = [b for b in detect.detect_boards(img, None) if len(b)]
+    others = [b for b in chessboard.detect_boards(grey, None, value_range=_GREY) if len(b)]
     for b in others:
         dims = b.size if b.size is not None else grid_dims(b)
         if dims is not None and not _fits(dims, pattern):
@@ -97,42 +256,41 @@ def _fits(dims, pattern) -> bool:
     return (w <= c and h <= r) or (w <= r and h <= c)
 
 
-def check_detector(spec: BoardSpec) -> None:
-    """``ValueError`` if the detector that ``spec`` needs cannot be imported (before any work)."""
-    import importlib
-
-    name = "charuco" if spec.kind == "charuco" else "chessboard"
-    try:
-        importlib.import_module(f"sogdd.calib.targets.{name}")
-    except ImportError as exc:
-        raise ValueError(f"board detection (sogdd.calib.{name}) is not available: {exc}") from None
+def _died(a: tuple, message: str) -> ViewResult:
+    return ViewResult(str(a[0]), error=f"{a[0]}: {message}")
 
 
 def detect_files(paths: Sequence[str | os.PathLike], spec: BoardSpec, *, jobs: int = 1,
-                 progress: bool = True) -> list[ViewResult]:
-    """:func:`detect_view` on every file, ``jobs`` processes at a time, with a progress bar on stderr.
+                 scheduler: str | None = None, progress: bool = False, read_options: Mapping | None = None,
+                 thumb_width: int | None = THUMB_WIDTH) -> list[ViewResult]:
+    """:func:`detect_view` on every file, ``jobs`` processes at a time or on the Dask cluster at ``scheduler``.
 
-    A file that cannot be read gives a :class:`ViewResult` with ``error`` set;
-    the others complete. Results are in input order.
+    A file that cannot be read, or whose worker process dies, gives a
+    :class:`ViewResult` with ``error`` set; the others complete. Results are in
+    input order. ``progress`` shows a bar on stderr, opened once the work starts.
+    Raises :class:`sogdd.collection.BatchInterrupted` on Ctrl-C or ``SIGTERM``.
     """
     from tqdm import tqdm
 
     if int(jobs) < 1:
-        raise ValueError(f"--jobs must be >= 1, got {jobs}")
-    check_detector(spec)
+        raise ValueError(f"jobs must be >= 1, got {jobs}")
+    opts = check_read_options(read_options)
     names = [str(p) for p in paths]
-    bar = tqdm(total=len(names), desc="boards", unit="img", file=sys.stderr, disable=not progress)
-    out: list[ViewResult] = []
+    args = [(n, spec, opts, thumb_width) for n in names]
+    results: dict[str, ViewResult] = {}
+    bars: list = []
+
+    def started() -> None:
+        bars.append(tqdm(total=len(names), desc="boards", unit="img", file=sys.stderr, disable=not progress))
+
+    def done(r: ViewResult) -> None:
+        results[r.path] = r
+        bars[0].update(1)
+
     try:
-        if jobs == 1 or len(names) == 1:
-            for n in names:
-                out.append(detect_view(n, spec))
-                bar.update(1)
-        else:
-            with ProcessPoolExecutor(max_workers=min(int(jobs), len(names))) as pool:
-                for r in pool.map(detect_view, names, [spec] * len(names)):
-                    out.append(r)
-                    bar.update(1)
+        run_tasks(detect_view, args, done, jobs=min(int(jobs), max(1, len(names))), scheduler=scheduler,
+                  started=started, died=_died, start_method=_start_method(), preload=_PRELOAD)
     finally:
-        bar.close()
-    return out
+        for bar in bars:
+            bar.close()
+    return [results[n] for n in names]

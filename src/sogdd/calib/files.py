@@ -14,7 +14,7 @@ import io
 import json
 import math
 import os
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 import cv2
@@ -22,6 +22,7 @@ import numpy as np
 
 from .._version import __version__
 from ..formats.safe_write import atomic_write, check_not_inputs, write_text
+from .detection import ViewRecord, view_records
 from .result import Calibration
 
 __all__ = [
@@ -44,8 +45,13 @@ def _num(v) -> float | None:
     return v if math.isfinite(v) else None
 
 
-def calibration_dict(cal: Calibration) -> dict:
+def calibration_dict(cal: Calibration, views: Sequence[ViewRecord] | None = None) -> dict:
     """The calibration as plain JSON-able data (non-finite numbers as None).
+
+    With ``views`` (every input's fate, :attr:`sogdd.calib.ImageCalibration.views`),
+    ``views`` lists them all (``view``, ``file``, ``status``, ``reason``) and
+    ``rejected_views`` holds every one not used, the images that could not be
+    read too; without it, the views of ``cal``.
 
     Examples
     --------
@@ -76,7 +82,10 @@ def calibration_dict(cal: Calibration) -> dict:
             "camera_matrix_b": cv.K_b.tolist(), "distortion_b": cv.dist_b.tolist(),
         },
         "thresholds": {k: _num(v) for k, v in cal.thresholds.items()},
-        "rejected_views": {n: r for n, r, u in zip(cal.names, cal.reasons, cal.view_used) if not u},
+        "rejected_views": {n: r for n, r, u in zip(cal.names, cal.reasons, cal.view_used) if not u}
+        if views is None else {v.name: v.reason or v.status for v in views if v.status != "used"},
+        **({} if views is None else {"views": [{"view": v.name, "file": v.file, "status": v.status,
+                                                "reason": v.reason} for v in views]}),
         "notes": list(cal.notes),
         "sogdd_version": __version__,
     }
@@ -165,10 +174,11 @@ def read_camera(path: str | os.PathLike) -> dict:
     return out
 
 
-def write_camera_json(cal: Calibration, path: str | os.PathLike) -> Path:
+def write_camera_json(cal: Calibration, path: str | os.PathLike, *,
+                      views: Sequence[ViewRecord] | None = None) -> Path:
     """Write :func:`calibration_dict` as indented JSON."""
     path = Path(path)
-    write_text(path, json.dumps(calibration_dict(cal), indent=2) + "\n")
+    write_text(path, json.dumps(calibration_dict(cal, views), indent=2) + "\n")
     return path
 
 
@@ -182,19 +192,29 @@ def _fmt(v: float, digits: int = 4) -> str:
     return f"{v:.{digits}f}" if math.isfinite(v) else ""
 
 
-def write_views_csv(cal: Calibration, path: str | os.PathLike) -> Path:
-    """``view,corners_found,corners_used,rms,used,reason``: one row per view.
+def write_views_csv(cal: Calibration, path: str | os.PathLike, *,
+                    views: Sequence[ViewRecord] | None = None) -> Path:
+    """``view,corners_found,corners_used,rms,used,reason,status``: one row per view.
 
     ``rms`` is over the used corners (all corners of a rejected view, from its
     pose re-estimated with the final camera; empty without a pose); ``used`` is
-    1 or 0 and ``reason`` says why a view was rejected.
+    1 or 0 and ``reason`` says why a view was not used; ``status`` is ``used``,
+    ``rejected``, ``ignored`` (a board of another kind or size), ``no board`` or
+    ``unreadable``. With ``views`` (every input's fate,
+    :attr:`sogdd.calib.ImageCalibration.views`) every input is a row, the
+    images that could not be read too; without it, the views of ``cal``.
     """
-    rows: list[list] = [["view", "corners_found", "corners_used", "rms", "used", "reason"]]
-    for v, name in enumerate(cal.names):
-        b = cal.boards[v]
-        used = cal.corner_used[v]
-        rows.append([name, 0 if b is None else len(b), 0 if used is None else int(used.sum()),
-                     _fmt(cal.view_rms[v]), int(bool(cal.view_used[v])), cal.reasons[v]])
+    if views is None:
+        views = view_records(cal)
+    rows: list[list] = [["view", "corners_found", "corners_used", "rms", "used", "reason", "status"]]
+    for row in views:
+        v = row.view
+        if v is None:
+            rows.append([row.name, 0, 0, "", 0, row.reason, row.status])
+            continue
+        b, used = cal.boards[v], cal.corner_used[v]
+        rows.append([row.name, 0 if b is None else len(b), 0 if used is None else int(used.sum()),
+                     _fmt(cal.view_rms[v]), int(bool(cal.view_used[v])), row.reason, row.status])
     path = Path(path)
     write_text(path, _csv(rows))
     return path
@@ -224,7 +244,8 @@ def write_corners_csv(cal: Calibration, path: str | os.PathLike) -> Path:
 
 
 def write_calibration(cal: Calibration, out_dir: str | os.PathLike, *,
-                      inputs: Iterable[str | os.PathLike] = ()) -> dict[str, Path]:
+                      inputs: Iterable[str | os.PathLike] = (),
+                      views: Sequence[ViewRecord] | None = None) -> dict[str, Path]:
     """Write camera.yaml, camera.json, views.csv and corners.csv into ``out_dir`` (created if needed).
 
     Parameters
@@ -234,6 +255,8 @@ def write_calibration(cal: Calibration, out_dir: str | os.PathLike, *,
     inputs : paths
         Files that must never be overwritten (the images): a target that is one
         of them raises ``ValueError`` before anything is written.
+    views : sequence of ViewRecord, optional
+        Every input's fate, for views.csv and camera.json (:func:`write_views_csv`).
 
     Returns
     -------
@@ -257,7 +280,7 @@ def write_calibration(cal: Calibration, out_dir: str | os.PathLike, *,
         raise ValueError(f"{out}: exists and is not a folder")
     out.mkdir(parents=True, exist_ok=True)
     write_camera_yaml(cal, targets["camera.yaml"])
-    write_camera_json(cal, targets["camera.json"])
-    write_views_csv(cal, targets["views.csv"])
+    write_camera_json(cal, targets["camera.json"], views=views)
+    write_views_csv(cal, targets["views.csv"], views=views)
     write_corners_csv(cal, targets["corners.csv"])
     return targets

@@ -4,6 +4,10 @@ The page shows every view's detections as a thumbnail (used corners green,
 rejected ones red), the residual vectors magnified, where the corners fell in
 the frame, the cross-validation difference map, and :func:`verdict`: what is
 wrong with the calibration, if anything, and what to do about it.
+
+The report never reads an image file: the thumbnails come from :class:`Thumbnail`
+objects made where the image was read for detection (:mod:`.detection`), or from
+image arrays.
 """
 
 from __future__ import annotations
@@ -17,6 +21,7 @@ import cv2
 import numpy as np
 
 from ..formats.safe_write import atomic_write, write_bytes, write_text
+from .detection import THUMB_WIDTH, Thumbnail, ViewRecord, make_thumbnail, view_records
 from .result import Calibration
 from .verdict import coverage, cv_inside, used_points, verdict
 
@@ -102,36 +107,28 @@ def _cross_validation_figure(cal: Calibration, path: Path) -> bool:
 
 
 def _thumbnail(image, board, used, width: int, size: tuple[int, int]) -> np.ndarray:
-    w, h = size
+    """The view's thumbnail (a :class:`Thumbnail`, an image array or None: grey) with its detections."""
     if image is None:
-        grey = np.full((h, w), 200, np.uint8)
+        w, h = size
+        thumb = Thumbnail(np.full((max(1, round(h * width / w)), width), 200, np.uint8), width / w)
+    elif isinstance(image, Thumbnail):
+        thumb = image
     else:
-        grey = np.asarray(image)
-        if grey.ndim == 3:
-            grey = cv2.cvtColor(grey[..., :3].astype(np.float32), cv2.COLOR_RGB2GRAY)
-        if grey.dtype != np.uint8:  # 16-bit or float: stretch its range to 8 bits for the picture
-            grey = np.clip(grey * (255.0 / max(1e-9, float(np.max(grey)))), 0, 255).astype(np.uint8)
-    s = width / grey.shape[1]
-    small = cv2.resize(grey, (width, max(1, round(grey.shape[0] * s))), interpolation=cv2.INTER_AREA)
-    vis = cv2.cvtColor(small, cv2.COLOR_GRAY2BGR)
+        thumb = make_thumbnail(image, width)
+    if thumb.image.shape[1] != width:  # made at another width: the picture and the points follow
+        f = width / thumb.image.shape[1]
+        small = cv2.resize(thumb.image, (width, max(1, round(thumb.image.shape[0] * f))),
+                           interpolation=cv2.INTER_AREA)
+        thumb = Thumbnail(small, thumb.scale * f)
+    s = thumb.scale
+    vis = cv2.cvtColor(thumb.image, cv2.COLOR_GRAY2BGR)
     if board is not None:
         u = np.ones(len(board), bool) if used is None else used
-        for (x, y), ok in zip(board.image_points * s, u):
+        for (x, y), ok in zip((board.image_points + 0.5) * s - 0.5, u):
             cv2.circle(vis, (round(x), round(y)), 2, (0, 180, 0) if ok else (0, 0, 255), -1, cv2.LINE_AA)
-        origin = board.image_points[np.argmin(board.labels.sum(axis=1))] * s
+        origin = (board.image_points[np.argmin(board.labels.sum(axis=1))] + 0.5) * s - 0.5
         cv2.circle(vis, (round(origin[0]), round(origin[1])), 5, (255, 0, 0), 1, cv2.LINE_AA)
     return vis
-
-
-def _load(image):
-    if image is None or isinstance(image, np.ndarray):
-        return image
-    import sogdd
-
-    try:
-        return sogdd.read_image(image)
-    except ValueError:
-        return None
 
 
 def _write_png(path: Path, img: np.ndarray) -> None:
@@ -146,7 +143,8 @@ def _write_png(path: Path, img: np.ndarray) -> None:
 
 
 def write_report(cal: Calibration, out_dir: str | os.PathLike, *, images: Sequence | None = None,
-                 title: str = "Camera calibration", thumb_width: int = 240) -> Path:
+                 views: Sequence[ViewRecord] | None = None, title: str = "Camera calibration",
+                 thumb_width: int = THUMB_WIDTH) -> Path:
     """Write ``report.html`` and its figures (``report/*.png``) into ``out_dir``.
 
     Parameters
@@ -155,9 +153,13 @@ def write_report(cal: Calibration, out_dir: str | os.PathLike, *, images: Sequen
     out_dir : path
         Created if needed.
     images : sequence, optional
-        Per view, an image (array), an image file, or None, for the
-        thumbnails (read one at a time); without it the detections are drawn
-        on grey.
+        Per view of ``cal``, a :class:`Thumbnail`, an image array, or None, for
+        the thumbnails; without it the detections are drawn on grey. Files are
+        never read here.
+    views : sequence of ViewRecord, optional
+        Every input's fate (:attr:`sogdd.calib.ImageCalibration.views`): the page
+        lists them all, the images that could not be read too; without it, the
+        views of ``cal`` (:func:`~sogdd.calib.detection.view_records`).
     title : str
     thumb_width : int
         Thumbnail width in px.
@@ -188,13 +190,32 @@ def write_report(cal: Calibration, out_dir: str | os.PathLike, *, images: Sequen
     has_cv = _cross_validation_figure(cal, figs / "cross_validation.png")
     thumbs = []
     for v in range(len(cal.names)):
-        img = _load(images[v]) if images is not None else None
         f = f"view_{v:04d}.png"
+        img = images[v] if images is not None else None
         _write_png(figs / f, _thumbnail(img, cal.boards[v], cal.corner_used[v], thumb_width, cal.image_size))
         thumbs.append(f)
     page = out / "report.html"
-    write_text(page, _html(cal, title, thumbs, has_cv))
+    write_text(page, _html(cal, title, _cards(cal, thumbs, views), has_cv))
     return page
+
+
+def _cards(cal: Calibration, thumbs: list[str], views) -> list[str]:
+    """A figure per view (per input with ``views``: one that could not be read has no picture)."""
+    esc = html.escape
+    cards = []
+    for row in view_records(cal) if views is None else views:
+        # a view the fit had but did not use (no board, or rejected) is "rejected", as the fit says
+        word = row.status if row.status in ("unreadable", "ignored") else "rejected"
+        state = "used" if row.status == "used" else f"{word}: {row.reason or row.status}"
+        if row.view is None:
+            cards.append(f'<figure class="none"><div>no picture</div><figcaption>{esc(row.name)}<br>'
+                         f"{esc(state)}</figcaption></figure>")
+            continue
+        rms = cal.view_rms[row.view]
+        cap = f"{esc(row.name)}<br>{'' if not np.isfinite(rms) else f'RMS {rms:.3f} px, '}{esc(state)}"
+        cards.append(f'<figure><img src="report/{thumbs[row.view]}" alt="{esc(row.name)}">'
+                     f"<figcaption>{cap}</figcaption></figure>")
+    return cards
 
 
 def _camera_table(cal: Calibration) -> str:
@@ -206,7 +227,7 @@ def _camera_table(cal: Calibration) -> str:
     return f"<table><tr><th>parameter</th><th>value</th><th>std</th></tr>{cells}</table>"
 
 
-def _html(cal: Calibration, title: str, thumbs: list[str], has_cv: bool) -> str:
+def _html(cal: Calibration, title: str, cards: list[str], has_cv: bool) -> str:
     esc = html.escape
     colours = {"ok": "#1a7f37", "warn": "#9a6700", "bad": "#cf222e"}
     items = "".join(f'<li style="color:{colours[lv]}"><b>{lv}</b>: {esc(t)}</li>' for lv, t in verdict(cal))
@@ -215,17 +236,12 @@ def _html(cal: Calibration, title: str, thumbs: list[str], has_cv: bool) -> str:
                f"views and {cal.n_corners_used} corners used, RMS {cal.rms:.4f} px"
                + (", cross-validation {:.3f} px mean / {:.3f} px max inside the corners' hull"
                   .format(*cv_inside(cv)) if cv is not None else ""))
-    cards = []
-    for v, (name, f) in enumerate(zip(cal.names, thumbs)):
-        rms = cal.view_rms[v]
-        state = "used" if cal.view_used[v] else f"rejected: {cal.reasons[v]}"
-        cap = f"{esc(name)}<br>{'' if not np.isfinite(rms) else f'RMS {rms:.3f} px, '}{esc(state)}"
-        cards.append(f'<figure><img src="report/{f}" alt="{esc(name)}"><figcaption>{cap}</figcaption></figure>')
     cvfig = ('<h2>Cross-validation</h2><p>Two calibrations from the interleaved halves of the used views; the '
              'map shows how far apart they put the same rays (a rotation between them fitted).</p>'
              '<img src="report/cross_validation.png" alt="cross-validation difference">') if has_cv else ""
     style = ("body{font-family:sans-serif;max-width:1100px;margin:auto}figure{display:inline-block;margin:4px;"
-             "font-size:11px;width:250px;vertical-align:top}td,th{padding:2px 8px;text-align:right}")
+             "font-size:11px;width:250px;vertical-align:top}figure.none div{width:240px;height:60px;"
+             "background:#eee;text-align:center;line-height:60px}td,th{padding:2px 8px;text-align:right}")
     return (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{esc(title)}</title>"
             f"<style>{style}</style></head><body><h1>{esc(title)}</h1><p>{esc(summary)}</p><h2>Verdict</h2><ul>{items}</ul>"
             f"<h2>Camera</h2>{_camera_table(cal)}"

@@ -11,21 +11,23 @@ Boards (--board):
                                 DICT, e.g. charuco:5x7:0.7:DICT_5X5_100
 
 Writes into --out: camera.yaml (OpenCV FileStorage), camera.json, views.csv (per
-view: corners found, RMS, used or rejected and why), corners.csv
-(view,i,j,x,y,residual,used) and report.html with its figures (report/). Corners
-and views whose residuals lie far beyond the rest are rejected and reported.
+input: corners found, RMS, used or not and why; an image that could not be read
+too), corners.csv (view,i,j,x,y,residual,used) and report.html with its figures
+(report/). Corners and views whose residuals lie far beyond the rest are
+rejected and reported. The folder ends complete or as it was: a new or empty
+folder, or a previous output of sogdd calibrate, which is replaced whole; a
+folder holding other files, or any input, is refused.
 An image that cannot be read is reported and the calibration uses the others
-(exit code 2 all the same).
+(exit code 2 all the same). Ctrl-C leaves --out as it was (exit code 130).
 """
 
 from __future__ import annotations
 
 import argparse
-import os
 import sys
-from pathlib import Path
 
-from ._common import print_json
+from ._common import check_input_files, print_json
+from .params import add_read_arguments, read_options
 
 
 def configure(p: argparse.ArgumentParser) -> None:
@@ -38,166 +40,86 @@ def configure(p: argparse.ArgumentParser) -> None:
     p.add_argument("--model", choices=("pinhole", "rational", "fisheye"), default="pinhole",
                    help="camera model: k1,k2,p1,p2,k3; OpenCV's rational k1..k6,p1,p2; or OpenCV's "
                         "fisheye k1..k4")
-    p.add_argument("--out", required=True, metavar="DIR", help="output folder (created if needed)")
+    p.add_argument("--out", required=True, metavar="DIR", help="output folder (created if needed; a previous "
+                   "output is replaced)")
     p.add_argument("--jobs", type=int, default=1, help="images detected in parallel (processes)")
+    p.add_argument("--scheduler", metavar="ADDRESS", help="detect on a Dask distributed scheduler "
+                   "(pip install 'sogdd[distributed]')")
     p.add_argument("--min-views", type=int, default=3, help="fewest views with a board to calibrate")
     p.add_argument("--no-reject", dest="reject", action="store_false",
                    help="keep every corner and view (by default outliers are rejected)")
     p.add_argument("--no-report", dest="report", action="store_false",
                    help="skip report.html and its figures (written by default)")
     p.add_argument("-r", "--recursive", action="store_true", help="folders: include their sub-folders")
+    add_read_arguments(p)
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
     p.add_argument("--quiet", "--no-progress", dest="quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
 
-def _check_out(out: Path, given: list[str], paths: list[Path]) -> None:
-    """The output folder must be neither an input file nor a folder of inputs."""
-    if out.exists() and not out.is_dir():
-        raise ValueError(f"--out {out}: exists and is not a folder")
-    real = os.path.realpath(out)
-    for g in given:
-        if os.path.isdir(g) and os.path.realpath(g) == real:
-            raise ValueError(f"--out {out}: is an input folder; choose another folder for the outputs")
-    if any(os.path.realpath(p) == real for p in paths):
-        raise ValueError(f"--out {out}: is an input")
-    folder = out if out.exists() else out.parent
-    while not folder.exists() and folder != folder.parent:
-        folder = folder.parent
-    if not os.access(folder, os.W_OK):
-        raise ValueError(f"--out {out}: folder {folder} is not writable")
-
-
-def _views(results):
-    """The calibration's views: one per board (an image with several boards gives ``name#2``, ...)."""
-    from ..collection import relative_names
-
-    names = relative_names([r.path for r in results])
-    boards, vnames, files = [], [], []
-    for r, n in zip(results, names):
-        if r.error:
-            continue
-        for k, b in enumerate(r.boards or (None,)):
-            boards.append(b)
-            vnames.append(n if k == 0 else f"{n}#{k + 1}")
-            files.append(r.path)
-    return boards, vnames, files
-
-
-def _image_size(results) -> tuple[int, int]:
-    sizes = {}
-    for r in results:
-        if r.size is not None:
-            sizes.setdefault(r.size, r.path)
-    if len(sizes) > 1:
-        (s1, p1), (s2, p2) = list(sizes.items())[:2]
-        raise ValueError(f"images of different sizes: {p1} is {s1[0]}x{s1[1]} but {p2} is {s2[0]}x{s2[1]}; "
-                         "a calibration is for one camera at one resolution")
-    return next(iter(sizes))
-
-
-def _no_board(results, spec) -> None:
-    """Raise the one-line error for a run where no image shows a usable board."""
-    good = [r for r in results if not r.error]
-    others = [r for r in good if r.other_size is not None]
-    if spec.pattern is not None and others:
-        s = others[0].other_size
-        raise ValueError(f"--board {spec} contradicts the images: {len(others)} of {len(good)} show a board of "
-                         f"{s[0]}x{s[1]} inner corners (e.g. {others[0].path}); give --board "
-                         f"chessboard:{s[0]}x{s[1]} (inner corners, not squares)")
-    seen = "; ".join(f"{r.path}: {r.seen or 'no board'}" for r in good[:3])
-    more = f"; and {len(good) - 3} more" if len(good) > 3 else ""
-    raise ValueError(f"no board ({spec}) in any of the {len(good)} image(s): {seen}{more}")
-
-
-def _check_smaller(results, spec) -> None:
-    """Every board a whole grid of one same size, smaller than --board: the size was miscounted
-    (partial views of a larger board would not all show the same whole rectangle)."""
-    from ..calib.targets.spec import grid_dims
-
-    boards = [b for r in results for b in r.boards]
-    if spec.pattern is None or len(boards) < 3 or any(b.size is not None for b in boards):
-        return
-    dims = {grid_dims(b) for b in boards}
-    if len(dims) == 1 and None not in dims:
-        w, h = dims.pop()
-        raise ValueError(f"--board {spec} contradicts the images: all {len(boards)} boards show exactly "
-                         f"{w}x{h} inner corners; give --board chessboard:{w}x{h} (inner corners, not squares)")
-
-
 def run(args: argparse.Namespace) -> int:
-    from ..calib.detection import check_detector, detect_files
-    from ..calib.files import FILES, write_calibration
-    from ..calib.fit import calibrate
-    from ..calib.targets.spec import parse_board
+    from ..calib import calibrate_images, check_output_folder, parse_board, write_outputs
     from ..collection import expand_inputs
 
     try:
-        spec = parse_board(args.board)  # bad syntax fails before any work
+        spec = parse_board(args.board)  # bad syntax fails before any work, naming the flag
     except ValueError as exc:
         raise ValueError(f"--{exc}") from None
-    if not (args.square > 0 and args.square < float("inf")):
+    for flag, v in (("--jobs", args.jobs), ("--min-views", args.min_views)):
+        if v < 1:
+            raise ValueError(f"{flag} must be >= 1, got {v}")
+    if not 0 < args.square < float("inf"):
         raise ValueError(f"--square must be a positive size, got {args.square}")
-    if args.jobs < 1:
-        raise ValueError(f"--jobs must be >= 1, got {args.jobs}")
-    if args.min_views < 1:
-        raise ValueError(f"--min-views must be >= 1, got {args.min_views}")
+    reading = read_options(args)
     paths = expand_inputs(args.images, recursive=args.recursive)
     if not paths:
         raise ValueError("no input images")
-    out = Path(args.out)
-    _check_out(out, args.images, paths)
-    check_detector(spec)
-    results = detect_files(paths, spec, jobs=args.jobs, progress=not args.quiet)
-    failed = [r for r in results if r.error]
-    for r in failed:
-        print(f"sogdd: error: {r.error}", file=sys.stderr)
-    if len(failed) == len(results):
-        raise ValueError(f"none of the {len(results)} image(s) could be read")
-    if not any(r.boards for r in results):
-        _no_board(results, spec)
-    _check_smaller(results, spec)
-    boards, names, files = _views(results)
-    size = _image_size(results)
-    cal = calibrate(boards, size, square=args.square, model=args.model, names=names, reject=args.reject,
-                    min_views=args.min_views)
-    written = write_calibration(cal, out, inputs=paths)
-    page = None
-    if args.report:
-        from ..calib.report import write_report
-
-        page = write_report(cal, out, images=files, title=f"Camera calibration: {len(files)} views, {spec}")
-    _summary(args, cal, out, [FILES[0]] + ([page.name] if page else []), written, failed)
-    return 2 if failed else 0
+    check_input_files(paths)  # a device or a FIFO would be read for ever
+    check_output_folder(args.out, paths)  # before any work
+    try:
+        result = calibrate_images(paths, spec, square=args.square, model=args.model, jobs=args.jobs,
+                                  scheduler=args.scheduler, min_views=args.min_views, reject=args.reject,
+                                  read_options=reading, thumbnails=args.report, progress=not args.quiet)
+        written = write_outputs(result, args.out, report=args.report, inputs=paths)
+    except KeyboardInterrupt:
+        print(f"sogdd: interrupted; {args.out} left as it was", file=sys.stderr)
+        raise
+    for v in result.unreadable:
+        print(f"sogdd: error: {v.reason}", file=sys.stderr)
+    _summary(args, result, written)
+    return 2 if result.unreadable else 0
 
 
-def _summary(args, cal, out: Path, main_files: list[str], written, failed) -> None:
-    from ..calib.report import verdict
+def _summary(args: argparse.Namespace, result, written: dict) -> None:
+    from ..calib.verdict import verdict
 
+    cal = result.calibration
     K = cal.K
     cv = cal.cross_validation
     findings = verdict(cal)
+    not_used = [(v.name, v.status, v.reason) for v in result.views if v.status != "used"]
     if args.json:
-        print_json({"out": str(out), "files": sorted(str(p) for p in written.values()), "model": cal.model,
+        print_json({"out": args.out, "files": sorted(str(p) for p in written.values()), "model": cal.model,
                     "fx": K[0, 0], "fy": K[1, 1], "cx": K[0, 2], "cy": K[1, 2], "dist": cal.dist.tolist(),
                     "rms": cal.rms, "views_used": cal.n_used, "views": len(cal.names),
                     "cross_validation_mean": None if cv is None else cv.mean,
                     "cross_validation_mean_within": None if cv is None else cv.mean_within,
                     "verdict": [{"level": lv, "text": t} for lv, t in findings],
-                    "rejected": {n: r for n, r, u in zip(cal.names, cal.reasons, cal.view_used) if not u},
-                    "unreadable": [r.path for r in failed]})
+                    "rejected": {n: r for n, s, r in not_used if s == "rejected"},
+                    "not_used": [{"view": n, "status": s, "reason": r} for n, s, r in not_used],
+                    "unreadable": [v.file for v in result.unreadable]})
         return
     lines = [f"{cal.model}: fx {K[0, 0]:.2f} fy {K[1, 1]:.2f} cx {K[0, 2]:.2f} cy {K[1, 2]:.2f}, "
              f"RMS {cal.rms:.4f} px, {cal.n_used} of {len(cal.names)} views used"
              + (f", cross-validation {cv.mean_within:.3f} px inside the corners ({cv.mean:.3g} over the frame)"
                 if cv is not None else "")]
     lines += [f"  {lv}: {t}" for lv, t in findings]
-    rejected = [(n, r) for n, r, u in zip(cal.names, cal.reasons, cal.view_used) if not u]
-    lines += [f"  rejected {n}: {r}" for n, r in rejected[:5]]
-    if len(rejected) > 5:
-        lines.append(f"  ... and {len(rejected) - 5} more rejected views (views.csv)")
+    lines += [f"  {s} {n}: {r}" for n, s, r in not_used[:5]]
+    if len(not_used) > 5:
+        lines.append(f"  ... and {len(not_used) - 5} more views not used (views.csv)")
     n_bad = sum(len(d) for d, u in zip(cal.corner_reasons, cal.view_used) if u)
     if n_bad:
         lines.append(f"  {n_bad} corner(s) rejected in the used views (corners.csv, used = 0)")
-    lines.append(f"written to {out}/: {', '.join(main_files)} ...")
+    main = [n for n in ("camera.yaml", "report.html") if n in written]
+    lines.append(f"written to {args.out}/: {', '.join(main)} ...")
     sys.stdout.write("\n".join(lines) + "\n")

@@ -6,7 +6,8 @@ Modules: :mod:`~sogdd.collection.names` (the inputs and the feature file each
 gets), :mod:`~sogdd.collection.items` (what a batch reports),
 :mod:`~sogdd.collection.processes` (local worker processes),
 :mod:`~sogdd.collection.cluster` (Dask); the batch itself and its unit of work
-are here.
+are here, and :func:`run_tasks`, the runner under it, for any other work over
+many files (the calibration's board detection uses it).
 
 Names. Each image's feature file is ``<out>/<path relative to the inputs'
 common folder>.<format>`` (``photos/a/0001.jpg`` and ``photos/b/0001.jpg`` give
@@ -41,8 +42,9 @@ from __future__ import annotations
 import os
 import signal
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import TypeVar
 
 import cv2
 import numpy as np
@@ -66,11 +68,14 @@ from ..params import resolve_params
 from .cluster import connect, run_dask
 from .items import BatchInterrupted, BatchItem
 from .names import expand_inputs, feature_path, relative_names
-from .processes import run_local
+from .processes import died_item, run_local
 
 __all__ = [
     "BatchInterrupted", "BatchItem", "expand_inputs", "feature_path", "relative_names", "run_batch",
+    "run_tasks",
 ]
+
+T = TypeVar("T")
 
 
 def _current(target: Path, params: dict, source: tuple) -> bool:
@@ -162,32 +167,72 @@ def run_batch(
             progress(item)
 
     try:
-        with _signals_raise():
-            _run(args, jobs, scheduler, done, started or (lambda: None))
-    except KeyboardInterrupt as exc:
+        run_tasks(detect_to_file, args, done, jobs=jobs, scheduler=scheduler, started=started)
+    except BatchInterrupted as exc:
         remove_stale_temporaries(out)
-        signum = exc.signum if isinstance(exc, BatchInterrupted) else int(signal.SIGINT)
-        raise BatchInterrupted(signum, [results[n] for n in names if n in results]) from None
+        raise BatchInterrupted(exc.signum, [results[n] for n in names if n in results]) from None
     return [results[n] for n in names]
 
 
-def _run(args: list[tuple], jobs: int, scheduler: str | None, done: Callable[[BatchItem], None],
-         started: Callable[[], None]) -> None:
+def run_tasks(work: Callable[..., T], args: Sequence[tuple], done: Callable[[T], None], *, jobs: int = 1,
+              scheduler: str | None = None, started: Callable[[], None] | None = None,
+              died: Callable[[tuple, str], T] = died_item, start_method: str | None = None,
+              preload: Sequence[str] = ()) -> None:
+    """``work(*a)`` for every ``a`` of ``args``: in this process, on ``jobs`` local processes, or on Dask.
+
+    The runner under :func:`run_batch`, for any work over many files. ``done``
+    gets each outcome as it finishes (in this process, in completion order);
+    ``work`` must be a module-level function and ``args`` picklable when
+    ``jobs > 1`` or with ``scheduler``. A task whose worker process dies (the
+    out-of-memory killer) gives ``died(a, why)`` and the others complete
+    (:mod:`~sogdd.collection.processes`). ``started()`` is called once, after
+    the connection to ``scheduler``, before the first task. ``start_method`` and
+    ``preload``: :func:`~sogdd.collection.processes.run_local`.
+
+    Raises :class:`BatchInterrupted` on ``SIGINT`` or ``SIGTERM``, its ``items``
+    the outcomes finished so far; local workers stop at once.
+
+    Examples
+    --------
+    >>> out = []
+    >>> run_tasks(divmod, [(7, 2), (9, 4)], out.append)
+    >>> out
+    [(3, 1), (2, 1)]
+    """
+    if int(jobs) < 1:
+        raise ValueError(f"jobs must be >= 1, got {jobs}")
+    finished: list = []
+
+    def keep(outcome) -> None:
+        finished.append(outcome)
+        done(outcome)
+
+    try:
+        with _signals_raise():
+            _run(work, list(args), int(jobs), scheduler, keep, started or (lambda: None), died, start_method,
+                 preload)
+    except KeyboardInterrupt as exc:
+        signum = exc.signum if isinstance(exc, BatchInterrupted) else int(signal.SIGINT)
+        raise BatchInterrupted(signum, finished) from None
+
+
+def _run(work: Callable, args: list[tuple], jobs: int, scheduler: str | None, done: Callable,
+         started: Callable[[], None], died: Callable, start_method: str | None, preload: Sequence[str]) -> None:
     """Every task in this process, on ``jobs`` local processes, or on the Dask cluster at ``scheduler``."""
     if scheduler:
         client = connect(scheduler)  # before ``started``: an unreachable scheduler is the only output
         try:
             started()
-            run_dask(client, detect_to_file, args, done)
+            run_dask(client, work, args, done, died=died)
         finally:
             client.close()
         return
     started()
     if jobs == 1:
         for a in args:
-            done(detect_to_file(*a))
+            done(work(*a))
     else:
-        run_local(detect_to_file, args, jobs, done)
+        run_local(work, args, jobs, done, died=died, start_method=start_method, preload=preload)
 
 
 def _check_batch(preset: str, params: dict, fmt: str, jobs: int, device: str, in_process: bool) -> None:

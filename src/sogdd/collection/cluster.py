@@ -1,15 +1,16 @@
 """A batch on a Dask distributed cluster (``pip install 'sogdd[distributed]'``).
 
 The connection is made before any work is shown or submitted, so an unreachable
-scheduler is one error and nothing else.
+scheduler is one error and nothing else. A task whose workers keep dying (Dask
+retries it elsewhere, then gives up with ``KilledWorker``) costs only that task.
 """
 
 from __future__ import annotations
 
 import socket
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
-from .items import BatchItem
+from .processes import died_item
 
 __all__ = ["connect", "run_dask"]
 
@@ -30,14 +31,21 @@ def connect(scheduler: str):
         raise ValueError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from exc
 
 
-def run_dask(client, work: Callable[..., BatchItem], args: list[tuple],
-             done: Callable[[BatchItem], None]) -> None:
-    """``work(*a)`` for each ``a`` in ``args`` on the cluster of ``client``; ``done`` gets each outcome."""
-    from distributed import as_completed
+def run_dask(client, work: Callable, args: Sequence[tuple], done: Callable, *,
+             died: Callable[[tuple, str], object] = died_item) -> None:
+    """``work(*a)`` for each ``a`` in ``args`` on the cluster of ``client``; ``done`` gets each outcome.
 
-    futures = [client.submit(work, *a, pure=False) for a in args]
-    for f in as_completed(futures):
-        done(f.result())
+    A task that Dask gives up on because its workers died gives ``died(a, why)``.
+    """
+    from distributed import KilledWorker, as_completed
+
+    futures = {client.submit(work, *a, pure=False): a for a in args}
+    for f in as_completed(list(futures)):
+        try:
+            out = f.result()
+        except KilledWorker:
+            out = died(futures[f], "Dask workers died running it (killed by the system, e.g. out of memory)")
+        done(out)
 
 
 def _probe_scheduler(address: str) -> None:

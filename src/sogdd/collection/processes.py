@@ -14,6 +14,12 @@ it. So no worker outlives its parent, on any POSIX system, with no platform call
 and no reach into the executor's private state. The watch is a thread, so it
 runs when the worker's main thread releases the GIL; the numba kernels release
 it (``nogil``) and so does OpenCV.
+
+Start method. The platform's default (``fork`` on Linux up to Python 3.13), or
+the one a caller names: a forked child of a parent that has run numba's
+``parallel=True`` code on the GNU OpenMP layer terminates ("fork() called from a
+process already using GNU OpenMP") the moment it runs such code itself, so work
+that does (the calibration's corner refinement) asks for ``forkserver``.
 """
 
 from __future__ import annotations
@@ -23,34 +29,47 @@ import os
 import signal
 import threading
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from multiprocessing.connection import Connection
 
 from .items import BatchItem
 
-__all__ = ["run_local"]
+__all__ = ["DIED", "died_item", "run_local"]
 
 DIED = "worker process died (killed by the system, e.g. out of memory)"
 
 
-def run_local(work: Callable[..., BatchItem], args: list[tuple], jobs: int,
-              done: Callable[[BatchItem], None]) -> None:
-    """``work(*a)`` for each ``a`` in ``args`` on ``jobs`` worker processes; ``done`` gets each outcome."""
+def died_item(a: tuple, message: str) -> BatchItem:
+    """The outcome of a batch task whose worker died: its image (``a[0]``) failed with ``message``."""
+    return BatchItem(a[0], "failed", message=f"{a[0]}: {message}")
+
+
+def run_local(work: Callable, args: Sequence[tuple], jobs: int, done: Callable, *,
+              died: Callable[[tuple, str], object] = died_item, start_method: str | None = None,
+              preload: Sequence[str] = ()) -> None:
+    """``work(*a)`` for each ``a`` in ``args`` on ``jobs`` worker processes; ``done`` gets each outcome.
+
+    A task whose worker dies twice (module doc) gives ``died(a, DIED)`` instead.
+    ``start_method`` is multiprocessing's (None: the platform's default);
+    ``preload`` names modules a ``forkserver`` imports once for all its workers.
+    """
+    ctx = multiprocessing.get_context(start_method)
+    if preload and ctx.get_start_method() == "forkserver":
+        ctx.set_forkserver_preload(list(preload))
     pending = deque(args)
     while pending:
-        lost = _run_executor(work, pending, jobs, done)
+        lost = _run_executor(work, pending, jobs, done, ctx)
         for a in lost:  # each alone: only an image that kills its own worker fails
-            if _run_executor(work, deque([a]), 1, done):
-                done(BatchItem(a[0], "failed", message=f"{a[0]}: {DIED}"))
+            if _run_executor(work, deque([a]), 1, done, ctx):
+                done(died(a, DIED))
 
 
-def _run_executor(work: Callable[..., BatchItem], queue: deque, width: int,
-                  done: Callable[[BatchItem], None]) -> list[tuple]:
+def _run_executor(work: Callable, queue: deque, width: int, done: Callable, ctx) -> list[tuple]:
     """Run tasks from ``queue`` until it is empty or the executor breaks; return the tasks lost in a break."""
-    lifeline, holder = multiprocessing.Pipe(duplex=False)
-    pool = ProcessPoolExecutor(width, initializer=_worker_init, initargs=(lifeline, holder))
+    lifeline, holder = ctx.Pipe(duplex=False)
+    pool = ProcessPoolExecutor(width, mp_context=ctx, initializer=_worker_init, initargs=(lifeline, holder))
     inflight: dict = {}
     lost: list[tuple] = []
     try:

@@ -1,0 +1,458 @@
+"""A calibration session: images of a board in, a camera and every view's fate out, and its output folder.
+
+The library's entry point, what ``sogdd calibrate`` runs. :func:`calibrate_images`
+finds the board in every image (:mod:`.detection`: in this process, on local worker
+processes or on a Dask cluster), checks that the images agree (one size; the board
+the specification names, not one of another size), fits the camera (:func:`calibrate`)
+and accounts for every input (:class:`ImageCalibration`). :func:`write_outputs` writes
+the output folder (:func:`check_output_folder` says beforehand whether it may).
+
+The output folder is complete or as it was, never a mix: everything is written
+into a new hidden folder beside it (``.<name>.new-<random>.sogdd.tmp``), which then
+takes its place by two renames (the old folder is renamed aside, the new one in,
+the old one deleted). A failure or an interrupt before that leaves the folder as
+it was and removes the new one; a signal during the renames (milliseconds) is held
+until they are done, and the run completes. Only a missing folder, an empty one,
+or a previous output of this function (its files alone) is replaced: a folder
+holding anything else is refused, so a run never deletes a file it did not make.
+"""
+
+from __future__ import annotations
+
+import numbers
+import os
+import re
+import secrets
+import shutil
+import signal
+import threading
+from collections.abc import Iterable, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..collection import expand_inputs, relative_names
+from ..formats.safe_write import TMP_SUFFIX, folder_holds
+from .cameras import CameraModel, check_model
+from .detection import THUMB_WIDTH, Thumbnail, ViewRecord, ViewResult, check_read_options, detect_files
+from .files import FILES, write_calibration
+from .fit import calibrate
+from .result import Calibration
+from .targets.spec import BoardSpec, grid_dims, parse_board
+
+__all__ = ["OUTPUTS", "ImageCalibration", "calibrate_images", "check_output_folder", "write_outputs"]
+
+#: what :func:`write_outputs` writes: the four files, report.html and the report/ folder of figures
+OUTPUTS = (*FILES, "report.html", "report")
+_FIGURE = re.compile(r"(view_\d{4,}|residuals|coverage|cross_validation)\.png")
+
+
+@dataclass(frozen=True)
+class ImageCalibration:
+    """A calibration from image files, with what became of every input (:func:`calibrate_images`).
+
+    Attributes
+    ----------
+    calibration : Calibration
+        The camera and its diagnostics; its views are the boards found (and the
+        images without one), named by their files relative to the inputs' common
+        folder (``name#2`` for an image's second board).
+    board : BoardSpec
+    views : tuple of ViewRecord
+        Every input, in input order, one record per board (an image without a
+        board, or that could not be read, is one record too): its status and
+        why.
+    thumbnails : tuple of Thumbnail or None
+        Per view of ``calibration``, the small grey image the report draws on.
+    """
+
+    calibration: Calibration
+    board: BoardSpec
+    views: tuple[ViewRecord, ...]
+    thumbnails: tuple[Thumbnail | None, ...] = ()
+
+    @property
+    def unreadable(self) -> tuple[ViewRecord, ...]:
+        """The inputs that could not be read (or whose worker process died)."""
+        return tuple(v for v in self.views if v.status == "unreadable")
+
+
+def _check_parameters(board: str | BoardSpec, square: float, model: str, jobs: int,
+                      min_views: int) -> BoardSpec:
+    """Bad parameters fail before any image is read."""
+    spec = parse_board(board) if isinstance(board, str) else board
+    if not isinstance(spec, BoardSpec):
+        raise TypeError(f"board must be a specification string or a BoardSpec, got {type(board).__name__}")
+    if not (isinstance(square, numbers.Real) and 0 < square < float("inf")):
+        raise ValueError(f"square must be a positive size, got {square}")
+    check_model(model)
+    for name, v in (("jobs", jobs), ("min_views", min_views)):
+        if not isinstance(v, numbers.Integral) or isinstance(v, bool) or v < 1:
+            raise ValueError(f"{name} must be an integer >= 1, got {v!r}")
+    return spec
+
+
+def calibrate_images(
+    images: str | os.PathLike | Iterable[str | os.PathLike],
+    board: str | BoardSpec = "chessboard:auto",
+    *,
+    square: float = 1.0,
+    model: CameraModel = "pinhole",
+    jobs: int = 1,
+    scheduler: str | None = None,
+    min_views: int = 3,
+    reject: bool = True,
+    recursive: bool = False,
+    read_options: dict | None = None,
+    thumbnails: bool = True,
+    progress: bool = False,
+) -> ImageCalibration:
+    """Calibrate a camera from image files of a board.
+
+    Parameters
+    ----------
+    images : path, pattern, or iterable of them
+        Image files, folders (their images; ``recursive``: and their
+        sub-folders') and glob patterns (:func:`sogdd.collection.expand_inputs`).
+    board : str or BoardSpec
+        ``chessboard:COLSxROWS`` (inner corners), ``chessboard:auto`` or
+        ``charuco:COLSxROWS:MARKER:DICT`` (:func:`sogdd.calib.parse_board`).
+    square : float
+        The side of a board square, in the unit the poses should have.
+    model : {"pinhole", "rational", "fisheye"}
+        The camera model (:func:`sogdd.calib.calibrate`).
+    jobs : int
+        Images read and searched at a time, in worker processes (1: in this process).
+    scheduler : str, optional
+        A Dask distributed scheduler's address to run the detection on
+        (``pip install 'sogdd[distributed]'``); ``jobs`` is then unused.
+    min_views : int
+        Fewest views with a board to calibrate.
+    reject : bool
+        Reject outlying corners and views (each with its reason).
+    recursive : bool
+        Folders: include their sub-folders.
+    read_options : dict, optional
+        Keyword arguments of :func:`sogdd.read_image` (``max_pixels``,
+        ``allow_corrupt``, ``ignore_orientation``).
+    thumbnails : bool
+        Keep a small grey copy of each image for the report.
+    progress : bool
+        A progress bar on stderr.
+
+    Returns
+    -------
+    ImageCalibration
+        The calibration and every input's fate. An image that cannot be read is
+        a view of status ``unreadable`` and the calibration uses the others.
+
+    Raises
+    ------
+    ValueError
+        One line: bad parameters; no input; none of the images readable; no
+        board in any of them (saying what was seen instead, and the right
+        ``board`` when the images show a board of another size); images of
+        different sizes; too few views.
+    sogdd.collection.BatchInterrupted
+        On Ctrl-C or ``SIGTERM``.
+
+    Examples
+    --------
+    >>> import tempfile, cv2, numpy as np
+    >>> from sogdd.evaluation.calibration import render
+    >>> cam = render.Camera(np.array([[560.0, 0, 322], [0, 560, 236], [0, 0, 1]]), (-0.2, 0.06, 0, 0, 0),
+    ...                     (640, 480))
+    >>> target = render.ChessboardTarget(9, 6, 1.0)
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> for k, (rv, tv) in enumerate(render.random_sequence(cam, target, 6, seed=3)):
+    ...     view = render.render_view(cam, target, rv, tv, blur=0.8, noise=2.0, rng=k)
+    ...     _ = cv2.imwrite(str(folder / f"f{k}.png"), view.image)
+    >>> (folder / "notes.png").write_bytes(b"not an image")
+    12
+    >>> result = calibrate_images(folder, "chessboard:9x6", square=25.0)
+    >>> cal = result.calibration
+    >>> cal.n_used, bool(abs(cal.K[0, 0] - 560) < 5)
+    (6, True)
+    >>> [(v.name, v.status) for v in result.views][-2:]
+    [('f5.png', 'used'), ('notes.png', 'unreadable')]
+    """
+    spec = _check_parameters(board, square, model, jobs, min_views)
+    opts = check_read_options(read_options)
+    given = [images] if isinstance(images, (str, os.PathLike)) else list(images)
+    paths = expand_inputs([os.fspath(g) for g in given], recursive=recursive)
+    if not paths:
+        raise ValueError("no input images")
+    names = relative_names(paths)  # collisions fail before any work
+    results = detect_files(paths, spec, jobs=jobs, scheduler=scheduler, progress=progress, read_options=opts,
+                           thumb_width=THUMB_WIDTH if thumbnails else None)
+    _check_results(results, spec)
+    boards, vnames, owners = _views(results, names)
+    cal = calibrate(boards, _image_size(results), square=float(square), model=model, names=vnames,
+                    reject=reject, min_views=min_views)
+    return ImageCalibration(cal, spec, tuple(_records(results, names, cal, spec)),
+                            tuple(results[i].thumbnail for i in owners))
+
+
+def _check_results(results: list[ViewResult], spec: BoardSpec) -> None:
+    """The one-line error for a run that cannot calibrate: nothing readable, no board, a miscounted board."""
+    failed = [r for r in results if r.error]
+    if len(failed) == len(results):
+        more = f"; and {len(failed) - 1} more" if len(failed) > 1 else ""
+        raise ValueError(f"none of the {len(results)} image(s) could be read: {failed[0].error}{more}")
+    if not any(r.boards for r in results):
+        _no_board(results, spec)
+    _check_smaller(results, spec)
+
+
+def _views(results: list[ViewResult], names: list[str]) -> tuple[list, list[str], list[int]]:
+    """The calibration's views: one per board (an image with several boards gives ``name#2``, ...),
+    one for a readable image without a board; with the index of the image each comes from."""
+    boards, vnames, owners = [], [], []
+    for i, (r, n) in enumerate(zip(results, names)):
+        if r.error:
+            continue
+        for k, b in enumerate(r.boards or (None,)):
+            boards.append(b)
+            vnames.append(n if k == 0 else f"{n}#{k + 1}")
+            owners.append(i)
+    return boards, vnames, owners
+
+
+def _records(results: list[ViewResult], names: list[str], cal: Calibration,
+             spec: BoardSpec) -> list[ViewRecord]:
+    """Every input's fate, in input order (the views in the calibration's order, which is the same)."""
+    out: list[ViewRecord] = []
+    v = 0
+    for r, n in zip(results, names):
+        if r.error:
+            out.append(ViewRecord(n, r.path, "unreadable", r.error))
+            continue
+        if not r.boards:
+            if r.other_size is not None:
+                out.append(ViewRecord(n, r.path, "ignored", f"{r.seen}, not {spec}", v))
+            else:
+                out.append(ViewRecord(n, r.path, "no board", r.seen or "no board", v))
+            v += 1
+            continue
+        for _ in r.boards:
+            used = bool(cal.view_used[v])
+            out.append(ViewRecord(cal.names[v], r.path, "used" if used else "rejected",
+                                  "" if used else cal.reasons[v], v))
+            v += 1
+    return out
+
+
+def _image_size(results: list[ViewResult]) -> tuple[int, int]:
+    """The one size of every readable image (a calibration is for one camera at one resolution)."""
+    sizes: dict = {}
+    for r in results:
+        if r.size is not None:
+            sizes.setdefault(r.size, r.path)
+    if len(sizes) > 1:
+        (s1, p1), (s2, p2) = list(sizes.items())[:2]
+        raise ValueError(f"images of different sizes: {p1} is {s1[0]}x{s1[1]} but {p2} is {s2[0]}x{s2[1]}; "
+                         "a calibration is for one camera at one resolution")
+    return next(iter(sizes))
+
+
+def _no_board(results: list[ViewResult], spec: BoardSpec) -> None:
+    """Raise the one-line error for a run where no image shows a usable board."""
+    good = [r for r in results if not r.error]
+    others = [r for r in good if r.other_size is not None]
+    if spec.pattern is not None and others:
+        s = others[0].other_size
+        raise ValueError(f"board {spec} contradicts the images: {len(others)} of {len(good)} show a board of "
+                         f"{s[0]}x{s[1]} inner corners (e.g. {others[0].path}); give chessboard:{s[0]}x{s[1]} "
+                         "(inner corners, not squares)")
+    seen = "; ".join(f"{r.path}: {r.seen or 'no board'}" for r in good[:3])
+    more = f"; and {len(good) - 3} more" if len(good) > 3 else ""
+    raise ValueError(f"no board ({spec}) in any of the {len(good)} image(s): {seen}{more}")
+
+
+def _check_smaller(results: list[ViewResult], spec: BoardSpec) -> None:
+    """Every board a whole grid of one same size, smaller than the specification's: the size was miscounted
+    (partial views of a larger board would not all show the same whole rectangle)."""
+    boards = [b for r in results for b in r.boards]
+    if spec.pattern is None or len(boards) < 3 or any(b.size is not None for b in boards):
+        return
+    dims = {grid_dims(b) for b in boards}
+    if len(dims) == 1 and None not in dims:
+        w, h = dims.pop()
+        raise ValueError(f"board {spec} contradicts the images: all {len(boards)} boards show exactly "
+                         f"{w}x{h} inner corners; give chessboard:{w}x{h} (inner corners, not squares)")
+
+
+# --------------------------------------------------------------------------------------------------
+# the output folder
+
+
+def _is_previous_output(folder: Path) -> str | None:
+    """None if ``folder`` holds only what :func:`write_outputs` writes, else the first entry it did not."""
+    for p in sorted(folder.iterdir()):
+        if p.name.endswith(TMP_SUFFIX):
+            continue
+        if p.name == "report" and p.is_dir() and not p.is_symlink():
+            odd = next((q for q in sorted(p.iterdir()) if not _FIGURE.fullmatch(q.name)
+                        and not q.name.endswith(TMP_SUFFIX)), None)
+            if odd is not None:
+                return f"report/{odd.name}"
+        elif p.name not in OUTPUTS or not p.is_file():
+            return p.name
+    return None
+
+
+def check_output_folder(out: str | os.PathLike, inputs: Iterable[str | os.PathLike] = ()) -> Path:
+    """Whether :func:`write_outputs` may write ``out``: a one-line ``ValueError`` if not, else its full path.
+
+    ``out`` may be missing (it is created, with its parents), empty, or a
+    previous output (:data:`OUTPUTS` and nothing else), which is replaced. It
+    is refused when it is a file, holds an input (however the inputs were
+    named: :func:`sogdd.formats.safe_write.folder_holds`), holds files this
+    function did not write, or is (or holds) the current folder.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> d = Path(tempfile.mkdtemp()); _ = (d / "a.png").write_bytes(b"x")
+    >>> check_output_folder(d / "calib", [d / "a.png"]) == d / "calib"
+    True
+    >>> check_output_folder(d, [d / "*.png"])
+    Traceback (most recent call last):
+    ...
+    ValueError: output folder /...: holds the input /.../*.png; choose another folder for the outputs
+    """
+    given = os.fspath(out)
+    path = Path(os.path.abspath(given))
+    if os.path.lexists(path) and not path.is_dir():
+        raise ValueError(f"output folder {given}: exists and is not a folder")
+    held = folder_holds(path, inputs)  # a glob pattern too: it lies where its matches would
+    if held is not None:
+        raise ValueError(f"output folder {given}: holds the input {held}; choose another folder for the "
+                         "outputs")
+    real, here = os.path.realpath(path), os.path.realpath(os.getcwd())
+    if os.path.commonpath([real, here]) == real:
+        raise ValueError(f"output folder {given}: is (or holds) the current folder, which a run replaces; "
+                         "choose another folder")
+    if path.is_dir():
+        odd = _is_previous_output(path)
+        if odd is not None:
+            raise ValueError(f"output folder {given}: holds {odd}, which sogdd calibrate did not write; give a "
+                             "new or empty folder, or a previous output to replace")
+    folder = path.parent
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent
+    if not os.access(folder, os.W_OK):
+        raise ValueError(f"output folder {given}: folder {folder} is not writable")
+    return path
+
+
+def _beside(path: Path, tag: str) -> Path:
+    """A new name beside ``path`` for a folder of this run (hidden, with the temporary suffix)."""
+    return path.parent / f".{path.name}.{tag}-{secrets.token_hex(4)}{TMP_SUFFIX}"
+
+
+def _make_parents(folder: Path) -> list[Path]:
+    """Make ``folder`` and its missing parents; return those made, deepest first (to undo)."""
+    made = []
+    p = folder
+    while not p.exists():
+        made.append(p)
+        p = p.parent
+    for q in reversed(made):
+        q.mkdir()
+    return made
+
+
+@contextmanager
+def _signals_held():
+    """``SIGINT`` and ``SIGTERM`` wait while the folders are swapped (main thread only): the renames take
+    milliseconds, and an interrupt between them would leave no folder under the name."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = {s: signal.signal(s, lambda *_: None) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)
+
+
+def _swap(new: Path, out: Path) -> None:
+    """Put ``new`` in the place of ``out`` (missing, or replaced), the old one deleted."""
+    with _signals_held():
+        if not out.exists():
+            os.rename(new, out)
+            return
+        aside = _beside(out, "old")
+        os.rename(out, aside)
+        try:
+            os.rename(new, out)
+        except BaseException:
+            os.rename(aside, out)
+            raise
+        shutil.rmtree(aside, ignore_errors=True)
+
+
+def write_outputs(result: ImageCalibration, out: str | os.PathLike, *, report: bool = True,
+                  inputs: Sequence[str | os.PathLike] = (), title: str | None = None) -> dict[str, Path]:
+    """Write the output folder of a calibration: camera.yaml, camera.json, views.csv, corners.csv and, with
+    ``report``, report.html with its figures (report/).
+
+    The folder ends complete, or as it was (module doc); files get the user's
+    umask (:func:`sogdd.formats.safe_write.user_mode`), a replaced folder keeps
+    its permissions. ``inputs`` (the image files) are never written over and
+    may not lie in ``out`` (:func:`check_output_folder`).
+
+    Returns
+    -------
+    dict
+        File name (``report.html`` and ``report`` too) -> its final path.
+
+    Raises
+    ------
+    ValueError
+        ``out`` may not be written (:func:`check_output_folder`).
+    OSError
+        A write failed (full disk, permissions): one line saying that ``out``
+        was left as it was.
+    """
+    path = check_output_folder(out, inputs)
+    given = os.fspath(out)
+    kept = f"{given} left as it was" if path.exists() else f"{given} not created"
+    made = _make_parents(path.parent)
+    new = None
+    try:
+        new = _beside(path, "new")
+        new.mkdir()  # the user's umask, as any folder they make
+        if path.exists():
+            os.chmod(new, path.stat().st_mode & 0o7777)
+        files = write_calibration(result.calibration, new, inputs=inputs, views=result.views)
+        if report:
+            from .report import write_report
+
+            n = sum(v.view is not None for v in result.views)
+            files["report.html"] = write_report(
+                result.calibration, new, images=result.thumbnails or None, views=result.views,
+                title=title or f"Camera calibration: {n} views, {result.board}")
+            files["report"] = new / "report"
+        _swap(new, path)
+    except OSError as exc:
+        _undo(new, made)
+        why = exc.strerror or (str(exc).replace(str(new), given) if new is not None else str(exc))
+        raise OSError(exc.errno, f"{given}: cannot write the outputs ({why}); {kept}") from None
+    except BaseException:
+        _undo(new, made)
+        raise
+    return {name: path / name for name in files}
+
+
+def _undo(new: Path | None, made: list[Path]) -> None:
+    """Remove this run's new folder and the parents it made."""
+    if new is not None:
+        shutil.rmtree(new, ignore_errors=True)
+    for p in made:
+        try:
+            p.rmdir()
+        except OSError:
+            break

@@ -1,0 +1,270 @@
+"""calibrate_images and write_outputs: every input accounted for, and an output folder a user can trust."""
+
+from __future__ import annotations
+
+import csv
+import errno
+import json
+import os
+import shutil
+import stat
+import subprocess
+import sys
+import textwrap
+
+import cv2
+import numpy as np
+import pytest
+
+from sogdd.calib import calibrate_images, check_output_folder, detection, report, session, write_outputs
+from sogdd.calib.files import read_camera
+from sogdd.formats import safe_write
+
+
+def _tree(folder):
+    """Every file under ``folder`` with its bytes: what a run may not change."""
+    return {p.relative_to(folder).as_posix(): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+@pytest.fixture(scope="module")
+def inputs(rendered_frames, tmp_path_factory):
+    """The eight frames, a file that is not an image and a blank image."""
+    folder = tmp_path_factory.mktemp("inputs")
+    for p in rendered_frames.iterdir():
+        shutil.copy(p, folder / p.name)
+    (folder / "broken.png").write_bytes(b"\x89PNG\r\n\x1a\n not a png")
+    cv2.imwrite(str(folder / "blank.png"), np.full((480, 640), 128, np.uint8))
+    return folder
+
+
+@pytest.fixture(scope="module")
+def result(inputs):
+    return calibrate_images(inputs, "chessboard:9x6", square=25.0)
+
+
+def test_every_input_has_a_fate(result):
+    fates = {v.name: (v.status, v.reason) for v in result.views}
+    assert list(fates) == ["blank.png", "broken.png", *(f"f{k}.png" for k in range(8))]
+    assert fates["blank.png"] == ("no board", "no board")
+    assert fates["broken.png"][0] == "unreadable" and "broken.png" in fates["broken.png"][1]
+    assert all(fates[f"f{k}.png"] == ("used", "") for k in range(8))
+    cal = result.calibration
+    assert cal.n_used == 8 and abs(cal.K[0, 0] - 560.0) < 5.6
+    assert [os.path.basename(v.file) for v in result.unreadable] == ["broken.png"]
+    # the views of the calibration and their thumbnails, made where the images were read
+    assert len(result.thumbnails) == len(cal.names) == 9
+    assert all(t.image.shape == (180, 240) and t.image.dtype == np.uint8 for t in result.thumbnails)
+
+
+def test_a_board_of_another_size_is_ignored_and_says_so(rendered_frames, tmp_path):
+    folder = tmp_path / "in"
+    folder.mkdir()
+    img = cv2.imread(str(rendered_frames / "f0.png"), cv2.IMREAD_GRAYSCALE)
+    big = np.full((480, 640), 255, np.uint8)
+    sq = np.kron((np.indices((8, 11)).sum(axis=0) % 2) * 200 + 30, np.ones((30, 30))).astype(np.uint8)
+    big[100:340, 100:430] = sq  # 10 x 7 inner corners: larger than the 9 x 6 board, so not a view of it
+    for k in range(4):
+        shutil.copy(rendered_frames / f"f{k}.png", folder / f"f{k}.png")
+    cv2.imwrite(str(folder / "other.png"), cv2.GaussianBlur(big, (0, 0), 1.0))
+    assert img.shape == big.shape
+    res = calibrate_images(folder, "chessboard:9x6", min_views=2)
+    (other,) = [v for v in res.views if v.name == "other.png"]
+    assert other.status == "ignored"
+    assert "10x7 inner corners" in other.reason and "chessboard:9x6" in other.reason
+
+
+def test_the_library_checks_its_parameters_before_any_work(inputs):
+    for kw, text in [({"square": 0}, "square must be a positive size"), ({"model": "nope"}, "unknown camera"),
+                     ({"jobs": 0}, "jobs must be"), ({"read_options": {"maxpixels": 3}}, "unknown option")]:
+        with pytest.raises(ValueError, match=text):
+            calibrate_images(inputs / "f0.png", "chessboard:9x6", **kw)
+    with pytest.raises(ValueError, match="board"):
+        calibrate_images(inputs / "f0.png", "chessboard:9by6")
+    with pytest.raises(ValueError, match="none of the 1 image"):
+        calibrate_images(inputs / "broken.png", "chessboard:9x6")
+
+
+def test_the_report_never_reads_an_image_file(inputs, tmp_path, monkeypatch):
+    reads = []
+    real, imread = detection.read_image, cv2.imread
+    monkeypatch.setattr(detection, "read_image", lambda p, **kw: reads.append(p) or real(p, **kw))
+    res = calibrate_images(inputs, "chessboard:9x6")
+    assert sorted(map(str, reads)) == sorted(str(p) for p in inputs.iterdir())  # each once
+    import sogdd
+
+    monkeypatch.setattr(sogdd, "read_image", lambda *a, **k: pytest.fail("the report read a file"))
+    monkeypatch.setattr(cv2, "imread", lambda *a, **k: pytest.fail("the report read a file"))
+    write_outputs(res, tmp_path / "out", inputs=list(inputs.iterdir()))
+    vis = imread(str(tmp_path / "out" / "report" / "view_0002.png"))
+    assert vis.shape == (180, 240, 3) and (vis[..., 1] > 150).any()  # the image with green corners
+
+
+def test_the_output_folder_is_complete_accounts_for_every_input_and_gets_the_umask(result, inputs, tmp_path):
+    old = os.umask(0o022)
+    try:
+        files = write_outputs(result, tmp_path / "a" / "calib", inputs=list(inputs.iterdir()))
+    finally:
+        os.umask(old)
+    out = tmp_path / "a" / "calib"
+    assert sorted(p.name for p in out.iterdir()) == ["camera.json", "camera.yaml", "corners.csv", "report",
+                                                      "report.html", "views.csv"]
+    assert set(files) == {"camera.json", "camera.yaml", "corners.csv", "views.csv", "report.html", "report"}
+    modes = {p.relative_to(tmp_path).as_posix(): stat.S_IMODE(p.stat().st_mode) for p in tmp_path.rglob("*")}
+    assert {m for p, m in modes.items() if (tmp_path / p).is_file()} == {0o644}, modes
+    assert {m for p, m in modes.items() if (tmp_path / p).is_dir()} == {0o755}, modes
+    assert not [p for p in tmp_path.rglob("*") if p.name.endswith(safe_write.TMP_SUFFIX)]
+    views = list(csv.DictReader(open(out / "views.csv")))
+    assert [v["view"] for v in views] == [v.name for v in result.views]
+    broken = next(v for v in views if v["view"] == "broken.png")
+    assert broken["status"] == "unreadable" and "broken.png" in broken["reason"] and broken["used"] == "0"
+    js = json.loads((out / "camera.json").read_text())
+    assert [v["view"] for v in js["views"]] == [v["view"] for v in views]
+    assert "broken.png" in js["rejected_views"] and js["rejected_views"]["blank.png"] == "no board"
+    html = (out / "report.html").read_text()
+    assert "broken.png" in html and "unreadable" in html
+    assert read_camera(out / "camera.yaml")["camera_matrix"][0, 0] == pytest.approx(result.calibration.K[0, 0])
+
+
+def test_a_rerun_with_fewer_views_leaves_no_stale_figures(result, inputs, rendered_frames, tmp_path):
+    out = tmp_path / "calib"
+    write_outputs(result, out)
+    assert (out / "report" / "view_0008.png").is_file() and (out / "report" / "cross_validation.png").is_file()
+    few = calibrate_images([rendered_frames / f"f{k}.png" for k in range(3)], "chessboard:9x6")
+    write_outputs(few, out)
+    assert sorted(p.name for p in (out / "report").iterdir()) == [
+        "coverage.png", "residuals.png", "view_0000.png", "view_0001.png", "view_0002.png"]
+    assert len(list(csv.DictReader(open(out / "views.csv")))) == 3
+    assert [p.name for p in tmp_path.iterdir()] == ["calib"]  # no folder left beside it
+
+
+def test_an_interrupted_rerun_leaves_the_folder_as_it_was(result, inputs, tmp_path, monkeypatch):
+    out = tmp_path / "calib"
+    write_outputs(result, out)
+    before = _tree(out)
+    rational = calibrate_images(inputs, "chessboard:9x6", model="rational")
+
+    def interrupt(*a, **k):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(report, "_html", interrupt)  # the camera files are written by then
+    with pytest.raises(KeyboardInterrupt):
+        write_outputs(rational, out)
+    assert _tree(out) == before
+    assert read_camera(out / "camera.yaml")["model"] == "pinhole"
+    assert [p.name for p in tmp_path.iterdir()] == ["calib"]
+
+
+def test_a_failed_write_leaves_the_folder_as_it_was(result, tmp_path, monkeypatch):
+    out = tmp_path / "calib"
+    write_outputs(result, out, report=False)
+    before = _tree(out)
+    real = os.replace
+
+    def full(src, dst):
+        if str(dst).endswith("corners.csv"):
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        return real(src, dst)
+
+    monkeypatch.setattr(safe_write.os, "replace", full)
+    with pytest.raises(OSError) as info:
+        write_outputs(result, out)
+    msg = str(info.value)
+    assert "No space left on device" in msg and f"{out} left as it was" in msg and "\n" not in msg
+    assert ".sogdd.tmp" not in msg  # names the folder, not the temporary one
+    assert _tree(out) == before
+    # a new folder, with parents to make: nothing at all is left
+    with pytest.raises(OSError, match="not created"):
+        write_outputs(result, tmp_path / "new" / "deeper" / "calib")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["calib"]
+
+
+def test_an_output_under_a_regular_file_is_refused(result, tmp_path):
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(ValueError, match="exists and is not a folder"):
+        write_outputs(result, tmp_path / "file")
+    with pytest.raises(OSError):
+        write_outputs(result, tmp_path / "file" / "calib")
+    assert (tmp_path / "file").read_text() == "x" and [p.name for p in tmp_path.iterdir()] == ["file"]
+
+
+def test_which_folders_may_be_replaced(result, inputs, tmp_path, monkeypatch):
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("my notes")
+    with pytest.raises(ValueError, match="holds notes.txt, which sogdd calibrate did not write"):
+        write_outputs(result, mine)
+    assert [p.name for p in mine.iterdir()] == ["notes.txt"]
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    write_outputs(result, empty, report=False)
+    (empty / "report").mkdir()
+    (empty / "report" / "photo.jpg").write_bytes(b"x")
+    with pytest.raises(ValueError, match="holds report/photo.jpg"):
+        write_outputs(result, empty)
+    # an input inside, however the inputs were named
+    for named in ([inputs / "f0.png"], [str(inputs / "*.png")], [inputs]):
+        with pytest.raises(ValueError, match="holds the input"):
+            check_output_folder(inputs, named)
+    monkeypatch.chdir(empty)
+    with pytest.raises(ValueError, match="current folder"):
+        check_output_folder(".")
+
+
+def test_the_folders_keep_a_replaced_folders_permissions(result, tmp_path):
+    out = tmp_path / "calib"
+    out.mkdir()
+    out.chmod(0o750)
+    write_outputs(result, out, report=False)
+    assert stat.S_IMODE(out.stat().st_mode) == 0o750
+
+
+@pytest.mark.slow
+def test_worker_processes_after_numba_parallel_code_in_the_parent(inputs):
+    """The parent has run numba's parallel code (the rendering, the refinement): forked workers would die."""
+    res = calibrate_images(inputs, "chessboard:9x6", jobs=2)
+    assert [v.status for v in res.views].count("used") == 8 and len(res.unreadable) == 1
+
+
+KILLER = '''
+import os, signal, sys
+from sogdd.calib import calibrate_images, detection
+
+real = detection.read_image
+
+def read_or_die(path, **kw):  # the out-of-memory killer, deterministically, in the worker
+    if str(path).endswith("f3.png"):
+        os.kill(os.getpid(), signal.SIGKILL)
+    return real(path, **kw)
+
+detection.read_image = read_or_die  # forked workers inherit it (this fresh process ran no parallel code)
+res = calibrate_images(sys.argv[1], "chessboard:9x6", jobs=2)
+for v in res.views:
+    print(v.name, v.status, v.reason, sep="|")
+'''
+
+
+@pytest.mark.slow
+def test_a_worker_that_dies_costs_only_its_image(rendered_frames, tmp_path):
+    proc = subprocess.run([sys.executable, "-c", textwrap.dedent(KILLER), str(rendered_frames)],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    rows = [line.split("|") for line in proc.stdout.splitlines()]
+    fates = {name: (status, reason) for name, status, reason in rows}
+    assert fates["f3.png"][0] == "unreadable" and "worker process died" in fates["f3.png"][1]
+    assert sum(s == "used" for s, _ in fates.values()) == 7
+
+
+@pytest.mark.slow
+def test_detection_on_a_dask_cluster(inputs):
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                                  dashboard_address=None) as cluster:
+        res = calibrate_images(inputs, "chessboard:9x6", scheduler=cluster.scheduler_address)
+    assert [v.status for v in res.views].count("used") == 8 and len(res.unreadable) == 1
+
+
+def test_the_session_is_the_library_entry_point():
+    import sogdd.calib
+
+    for name in ("calibrate_images", "write_outputs", "check_output_folder", "ImageCalibration", "ViewRecord"):
+        assert getattr(sogdd.calib, name) is getattr(session if hasattr(session, name) else detection, name)
