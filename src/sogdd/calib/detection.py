@@ -41,21 +41,6 @@ _GREY = (0.0, 255.0)
 _PRELOAD = ("sogdd.calib.detection",)
 
 
-def _start_method() -> str | None:
-    """How worker processes start: the platform's default, unless that is ``fork`` and this process has run
-    numba's parallel code on GNU OpenMP, whose forked children die when they run such code themselves (the
-    refinement does): then from a fresh server process (``forkserver``). Forking otherwise keeps what spawned
-    workers need, a ``__main__`` guard in the caller's script, out of the command's and most callers' way."""
-    import multiprocessing
-
-    import numba
-
-    try:
-        layer = numba.threading_layer()
-    except ValueError:  # no parallel code has run here
-        return None
-    return "forkserver" if layer == "omp" and multiprocessing.get_start_method() == "fork" else None
-
 #: what became of an input: its board used or rejected by the fit; a board of another kind or size
 #: seen and ignored; no board; a file that could not be read (or whose worker died)
 ViewStatus = Literal["used", "rejected", "ignored", "no board", "unreadable"]
@@ -289,7 +274,7 @@ def detect_files(paths: Sequence[str | os.PathLike], spec: BoardSpec, *, jobs: i
 
     try:
         run_tasks(detect_view, args, done, jobs=min(int(jobs), max(1, len(names))), scheduler=scheduler,
-                  started=started, died=_died, start_method=_start_method(), preload=_PRELOAD)
+                  started=started, died=_died, preload=_PRELOAD)
     finally:
         for bar in bars:
             bar.close()

@@ -15,11 +15,16 @@ and no reach into the executor's private state. The watch is a thread, so it
 runs when the worker's main thread releases the GIL; the numba kernels release
 it (``nogil``) and so does OpenCV.
 
-Start method. The platform's default (``fork`` on Linux up to Python 3.13), or
-the one a caller names: a forked child of a parent that has run numba's
+Start method (:func:`safe_start_method`, the package's one rule). Forking is fast (the
+workers inherit the imports and numba's compiled code) and needs no ``__main__``
+guard in the caller's script, so it is the default, except where the parent's
+state makes forked children fail: a child of a parent that has run numba's
 ``parallel=True`` code on the GNU OpenMP layer terminates ("fork() called from a
-process already using GNU OpenMP") the moment it runs such code itself, so work
-that does (the calibration's corner refinement) asks for ``forkserver``.
+process already using GNU OpenMP") the moment it runs such code itself (the
+calibration's corner refinement does), so then workers come from a fresh
+``forkserver``; and a child of a parent in which PyTorch started its OpenMP pool
+hangs at its first parallel operation, so once PyTorch is imported they are
+spawned.
 """
 
 from __future__ import annotations
@@ -36,9 +41,35 @@ from multiprocessing.connection import Connection
 
 from .items import BatchItem
 
-__all__ = ["DIED", "died_item", "run_local"]
+__all__ = ["DIED", "died_item", "run_local", "safe_start_method"]
 
 DIED = "worker process died (killed by the system, e.g. out of memory)"
+
+
+def safe_start_method() -> str:
+    """How worker processes start, by this process's state (module doc): ``"spawn"`` once PyTorch is
+    imported, ``"forkserver"`` instead of ``"fork"`` once numba's parallel code has run on GNU OpenMP,
+    else the platform's default.
+
+    Examples
+    --------
+    >>> safe_start_method() in ("fork", "forkserver", "spawn")
+    True
+    """
+    import sys
+
+    if "torch" in sys.modules:
+        return "spawn"
+    default = multiprocessing.get_start_method()
+    if default != "fork" or "numba" not in sys.modules:
+        return default
+    import numba
+
+    try:
+        layer = numba.threading_layer()
+    except ValueError:  # no parallel code has run here
+        return default
+    return "forkserver" if layer == "omp" else default
 
 
 def died_item(a: tuple, message: str) -> BatchItem:
@@ -52,10 +83,10 @@ def run_local(work: Callable, args: Sequence[tuple], jobs: int, done: Callable, 
     """``work(*a)`` for each ``a`` in ``args`` on ``jobs`` worker processes; ``done`` gets each outcome.
 
     A task whose worker dies twice (module doc) gives ``died(a, DIED)`` instead.
-    ``start_method`` is multiprocessing's (None: the platform's default);
+    ``start_method`` is multiprocessing's (None: :func:`safe_start_method`);
     ``preload`` names modules a ``forkserver`` imports once for all its workers.
     """
-    ctx = multiprocessing.get_context(start_method)
+    ctx = multiprocessing.get_context(start_method or safe_start_method())
     if preload and ctx.get_start_method() == "forkserver":
         ctx.set_forkserver_preload(list(preload))
     pending = deque(args)
