@@ -37,6 +37,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from ...calib import detect_board, refine_corners
+
 __all__ = ["Detection", "Method", "METHODS", "available", "method_names"]
 
 
@@ -76,8 +78,6 @@ def _opencv(image: np.ndarray, pattern: tuple[int, int]) -> Detection:
 
 
 def _opencv_refine(image: np.ndarray, pattern: tuple[int, int]) -> Detection:
-    from sogdd.calib import refine_corners
-
     ok, pts = cv2.findChessboardCorners(image, pattern,
                                         flags=cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE)
     if not ok:
@@ -160,16 +160,8 @@ def _mrgingham(image: np.ndarray, pattern: tuple[int, int]) -> Detection:
     return _board(pts, pattern)
 
 
-def _detect_board():
-    try:
-        from sogdd.calib import detect_board
-    except ImportError:  # before the package exports it
-        from sogdd.calib.targets.chessboard import detect_board
-    return detect_board
-
-
 def _sogdd(image: np.ndarray, pattern: tuple[int, int]) -> Detection:
-    board = _detect_board()(image, pattern)
+    board = detect_board(image, pattern)
     if board is None:
         return _NONE
     return Detection(np.asarray(board.image_points, dtype=np.float64), np.asarray(board.labels, dtype=np.int64))
@@ -190,22 +182,6 @@ def _has_module(name: str) -> bool:
     return importlib.util.find_spec(name) is not None
 
 
-def _sogdd_available() -> bool:
-    try:
-        _detect_board()
-    except ImportError:
-        return False
-    return True
-
-
-def _refine_available() -> bool:
-    try:
-        from sogdd.calib import refine_corners  # noqa: F401
-    except ImportError:
-        return False
-    return True
-
-
 METHODS: dict[str, Method] = {m.name: m for m in (
     Method("sogdd", "board", _sogdd, "sogdd.calib.detect_board"),
     Method("opencv-refine", "board", _opencv_refine, "sogdd.calib.refine_corners"),
@@ -219,8 +195,6 @@ METHODS: dict[str, Method] = {m.name: m for m in (
 )}
 
 _PROBES: dict[str, Callable[[], bool]] = {
-    "sogdd": _sogdd_available,
-    "opencv-refine": _refine_available,
     "calib-targets": lambda: _has_module("calib_targets"),
     "chess-corners": lambda: _has_module("chess_corners"),
     "mrgingham": lambda: shutil.which("mrgingham") is not None,
