@@ -14,7 +14,7 @@ import pytest
 
 import sogdd
 from sogdd import collection
-from sogdd.collection import BatchInterrupted, expand_inputs, feature_path, relative_names, run_batch
+from sogdd.collection import BatchInterrupted, expand_inputs, feature_path, processes, relative_names, run_batch
 from sogdd.formats.features import read_features
 from sogdd.synthetic import pattern_image
 
@@ -64,7 +64,10 @@ def test_a_worker_killed_mid_image_loses_only_that_image(tmp_path, monkeypatch):
             os.kill(os.getpid(), signal.SIGKILL)
         return real(path, **kw)
 
-    monkeypatch.setattr(collection, "read_image", read_or_die)  # workers are forked: they inherit it
+    monkeypatch.setattr(collection, "read_image", read_or_die)
+    # forked workers inherit the patched reader (this test process may have run numba's parallel code,
+    # which would otherwise start them from a forkserver that does not have it)
+    monkeypatch.setattr(processes, "safe_start_method", lambda: "fork")
     t0 = time.perf_counter()
     items = run_batch(paths, tmp_path / "out", jobs=2)
     took = time.perf_counter() - t0

@@ -17,6 +17,7 @@ import pytest
 from sogdd import baselines
 from sogdd.baselines import learned_extra
 from sogdd.cli.main import main
+from sogdd.collection import processes
 from sogdd.evaluation import pools, specs
 from sogdd.evaluation.features import extract_features
 from sogdd.evaluation.sfm.pipeline import matcher_for
@@ -104,10 +105,30 @@ def test_sfm_matches_native_descriptors_with_mnn():
 
 
 def test_workers_are_spawned_once_torch_is_loaded(monkeypatch):
+    import numba
+
+    monkeypatch.setattr(numba, "threading_layer", lambda: "workqueue")
     monkeypatch.delitem(sys.modules, "torch", raising=False)
-    assert pools.start_method() == "fork"  # Linux: the workers inherit numba's compiled code
+    assert processes.safe_start_method() == "fork"  # Linux: the workers inherit numba's compiled code
     monkeypatch.setitem(sys.modules, "torch", object())
-    assert pools.start_method() == "spawn"
+    assert processes.safe_start_method() == "spawn"
+    with pools.process_pool(1) as ex:  # the evaluations' pool follows the rule
+        assert ex._mp_context.get_start_method() == "spawn"
+
+
+def test_workers_come_from_a_forkserver_once_numba_ran_on_gnu_openmp(monkeypatch):
+    """A child forked from a parent whose numba parallel code ran on GNU OpenMP dies at its own."""
+    import numba
+
+    monkeypatch.delitem(sys.modules, "torch", raising=False)
+    monkeypatch.setattr(numba, "threading_layer", lambda: "omp")
+    assert processes.safe_start_method() == "forkserver"
+
+    def never_ran():
+        raise ValueError("no threading layer")
+
+    monkeypatch.setattr(numba, "threading_layer", never_ran)
+    assert processes.safe_start_method() == "fork"
 
 
 # ---------------------------------------------------- with the learned extra
