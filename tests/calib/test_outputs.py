@@ -37,6 +37,7 @@ def cal():
 
 def test_camera_yaml_reads_back_through_opencv(cal, tmp_path):
     files = write_calibration(cal, tmp_path / "out")
+    assert files["camera.yaml"].read_text().startswith("%YAML")  # YAML, as its name says, not XML
     fs = cv2.FileStorage(str(files["camera.yaml"]), cv2.FILE_STORAGE_READ)
     assert fs.isOpened()
     np.testing.assert_allclose(fs.getNode("camera_matrix").mat(), cal.K, rtol=1e-12)

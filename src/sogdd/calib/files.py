@@ -110,7 +110,8 @@ def write_camera_yaml(cal: Calibration, path: str | os.PathLike) -> Path:
     path = Path(path)
 
     def write(tmp: Path) -> None:
-        fs = cv2.FileStorage(str(tmp), cv2.FILE_STORAGE_WRITE)
+        # the format by name: the temporary file's suffix is not .yaml
+        fs = cv2.FileStorage(str(tmp), cv2.FILE_STORAGE_WRITE | cv2.FILE_STORAGE_FORMAT_YAML)
         if not fs.isOpened():
             raise OSError(f"{path}: cannot be written")
         cv = cal.cross_validation
