@@ -40,3 +40,23 @@ def test_ray_neighbours_link_a_grid_of_x_corners():
     # the same light axis on both sides: no polarity flip, no neighbours
     same = XCorners(xy, np.full(len(xy), 100.0), np.full(len(xy), np.pi / 4), np.full(len(xy), np.pi / 4))
     assert (ray_neighbours(same)[0] < 0).all()
+
+
+def barrel_grid(n=7, cell=30.0, k=-0.1):
+    """A grid bent by strong barrel distortion ``x_d = x (1 + k r^2)`` about its centre: rows are curves."""
+    lab = np.array([(i, j) for j in range(n) for i in range(n)], float)
+    u = (lab - (n - 1) / 2) / ((n - 1) / 2) * 0.9 + [0.3, 0.1]
+    r2 = (u ** 2).sum(axis=1, keepdims=True)
+    return lab.astype(int), 200.0 + cell * (n - 1) / 2 / 0.9 * u * (1 + k * r2)
+
+
+def test_the_check_follows_curved_rows_but_still_flags_a_displaced_corner():
+    lab, xy = barrel_grid()
+    assert not check(xy, lab, tol=0.12, curved=False).all()  # beyond a local homography
+    assert check(xy, lab, tol=0.12).all()
+    for k in (24, 0, 3):  # the centre, a corner of the board, an edge
+        bad = xy.copy()
+        bad[k, 0] += 0.2 * np.sort(np.hypot(*(xy - xy[k]).T))[1]  # 0.2 of its cell
+        ok = check(bad, lab, tol=0.12)
+        # a displaced corner may spoil one neighbour's fit too (the detector checks twice)
+        assert not ok[k] and ok.sum() >= len(ok) - 2

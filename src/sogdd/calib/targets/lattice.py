@@ -20,7 +20,10 @@ distortion) predicts its position; the nearest free X-corner within
 directions, its light axis has the label's parity, and its strength is that of
 its neighbours within a factor :data:`CONTRAST_RATIO`. A label whose search
 fails stays free. :func:`check` is the last guard: each corner must be predicted
-by a homography of its neighbours (leaving it out) within a fraction of a cell.
+by a homography of its neighbours (leaving it out) within a fraction of a cell,
+or, where rows and columns are curves (a fisheye), by a second-order map of its
+neighbours within three labels (:func:`_fit_batch`: quadratic numerators over the
+homography's linear denominator).
 """
 
 from __future__ import annotations
@@ -46,12 +49,19 @@ SEARCH = 0.3
 CONTRAST_RATIO = 4.0
 #: opposite rays of a seed differ in length by at most this factor
 SEED_RATIO = 1.6
-#: neighbours examined per corner
-KNN = 12
+#: neighbours examined per corner: enough to reach past the saddles between the dots of a code inside
+#: the white squares (ECoCheck: 20 or more within a cell of a corner) to the next corner along each ray
+KNN = 32
+#: the second-order check (:func:`check`) fits the corners within this many labels ...
+CURVE_REACH = 3
+#: ... at least this many of them (14 unknowns: 24 equations or more)
+CURVE_MIN = 12
 
 _OFFS = np.array([(1, 0), (0, 1), (-1, 0), (0, -1)])
 #: the label offsets whose corners predict a label (a 5 x 5 block without its centre)
 _SUPPORT = np.array([(a, b) for a in range(-2, 3) for b in range(-2, 3) if (a, b) != (0, 0)])
+_CURVE_OFFS = np.array([(a, b) for a in range(-CURVE_REACH, CURVE_REACH + 1)
+                        for b in range(-CURVE_REACH, CURVE_REACH + 1) if (a, b) != (0, 0)])
 
 
 @dataclass
@@ -300,13 +310,23 @@ def grow(xc: XCorners, seed: int, nb: np.ndarray, free: np.ndarray, tree: cKDTre
     return Lattice(idx, labs)
 
 
-def check(xy: np.ndarray, labels: np.ndarray, *, tol: float = 0.1, reach: int = 2) -> np.ndarray:
-    """Mask of the corners that their neighbours predict: leave-one-out homography error <= ``tol`` cells.
+def check(xy: np.ndarray, labels: np.ndarray, *, tol: float = 0.1, reach: int = 2,
+          curved: bool = True) -> np.ndarray:
+    """Mask of the corners that their neighbours predict: leave-one-out error <= ``tol`` cells.
 
     For each corner, the homography fitted to the other corners within ``reach``
     labels predicts it; the error is divided by the local cell (the distance the
     same homography puts between labels ``+-0.5`` along each axis, the smaller
     one). A corner with fewer than 5 such neighbours (or all on one line) fails.
+
+    With ``curved`` (the default), a corner the homography misses gets a second
+    chance from a second-order map of its neighbours within :data:`CURVE_REACH`
+    labels (:func:`_curved_errors`): through a fisheye, rows and columns are
+    curves and cells shrink towards the rim, which a homography over five labels
+    cannot follow (on a 180-degree lens it misses true corners by 0.1-0.4 of a
+    cell). The map has 14 unknowns against 24 or more equations, and is fitted
+    without the corner, so a corner off the board's smooth lattice still stands
+    out; on a flat board seen through a pinhole it reduces to the homography.
 
     Examples
     --------
@@ -341,7 +361,67 @@ def check(xy: np.ndarray, labels: np.ndarray, *, tol: float = 0.1, reach: int = 
         i, j = labels[k]
         err_k = _loo_error(labels[idx].astype(np.float64), xy[idx], np.array([i, j], float), xy[k], tol)
         ok[k] = err_k <= tol
+    if curved and not ok.all():
+        bad = np.flatnonzero(~ok)
+        ok[bad] = _curved_errors(xy, labels, bad, tol) <= tol
     return ok
+
+
+def _label_grid(labels: np.ndarray, which: np.ndarray, offs: np.ndarray) -> np.ndarray:
+    """Indices of the corners at ``labels[which] + offs`` (len(which), K), -1 where there is none."""
+    pad = int(np.abs(offs).max())
+    lo = labels.min(axis=0) - pad
+    ext = labels.max(axis=0) - lo + pad + 1
+    grid = np.full(tuple(ext), -1, dtype=np.int64)
+    grid[labels[:, 0] - lo[0], labels[:, 1] - lo[1]] = np.arange(len(labels))
+    at = labels[which][:, None, :] - lo + offs[None].astype(np.int64)
+    return grid[at[..., 0], at[..., 1]]
+
+
+def _curved_errors(xy: np.ndarray, labels: np.ndarray, which: np.ndarray, tol: float) -> np.ndarray:
+    """Leave-one-out errors in cells of the corners ``which`` against second-order maps of their neighbours.
+
+    The map (:func:`_fit_batch`, ``order=2``) is fitted to the corners within
+    :data:`CURVE_REACH` labels, at least :data:`CURVE_MIN` of them, whose
+    monomials ``(i, j, 1, i^2, i j, j^2)`` span all six (three distinct
+    columns and rows: a row's curvature is measured, not guessed); the error is
+    divided by the local cell of the same map. A corner whose error exceeds
+    ``tol`` gets a second fit without the neighbour that fits worst. Corners
+    with too few neighbours get ``inf``.
+    """
+    err = np.full(len(which), np.inf)
+    if len(which) == 0:
+        return err
+    nbr = _label_grid(labels, which, _CURVE_OFFS)
+    w = (nbr >= 0).astype(np.float64)
+    mono = _monomials(_CURVE_OFFS.astype(np.float64), 2)
+    mom = np.einsum("nk,ka,kb->nab", w, mono, mono)
+    tr = np.trace(mom, axis1=1, axis2=2)
+    fit = (w.sum(axis=1) >= CURVE_MIN) & (np.linalg.eigvalsh(mom)[:, 0] > 1e-6 * np.maximum(tr, 1.0))
+    if not fit.any():
+        return err
+    nbr, w, at = nbr[fit], w[fit], which[fit]
+    offs = _CURVE_OFFS.astype(np.float64)
+    e = _cells_batch(xy, nbr, w, offs, at)
+    # a neighbour that is itself off spoils the fit: fit again without the worst one
+    again = e > tol
+    if again.any():
+        f = _fit_batch(xy, nbr[again], w[again], offs, 2)
+        res = np.hypot(*(_eval_batch(f, offs, 2) - xy[np.maximum(nbr[again], 0)]).transpose(2, 0, 1))
+        w2 = w[again].copy()
+        w2[np.arange(len(w2)), np.argmax(np.where(w2 > 0, res, -np.inf), axis=1)] = 0.0
+        e[again] = np.minimum(e[again], _cells_batch(xy, nbr[again], w2, offs, at[again]))
+    err[fit] = e
+    return err
+
+
+def _cells_batch(xy: np.ndarray, nbr: np.ndarray, w: np.ndarray, offs: np.ndarray,
+                 at: np.ndarray) -> np.ndarray:
+    """Errors in local cells of ``xy[at]`` against second-order maps of the neighbours ``nbr``."""
+    P = _eval_batch(_fit_batch(xy, nbr, w, offs, 2), _HALF, 2)
+    cell = np.minimum(np.hypot(*(P[:, 1] - P[:, 2]).T), np.hypot(*(P[:, 3] - P[:, 4]).T))
+    e = np.hypot(*(P[:, 0] - xy[at]).T) / np.maximum(cell, 1e-9)
+    return np.where(np.isfinite(e), e, np.inf)
 
 
 def _batch_errors(xy: np.ndarray, nbr: np.ndarray, w: np.ndarray, offs: np.ndarray,
@@ -353,39 +433,79 @@ def _batch_errors(xy: np.ndarray, nbr: np.ndarray, w: np.ndarray, offs: np.ndarr
     return np.where(np.isfinite(err), err, np.inf)
 
 
-def predict_batch(xy: np.ndarray, nbr: np.ndarray, w: np.ndarray, offs: np.ndarray) -> np.ndarray:
-    """Positions at label offsets ``0, (+-1/2, 0), (0, +-1/2)`` from homographies of the neighbours, (n, 5, 2).
+def predict_batch(xy: np.ndarray, nbr: np.ndarray, w: np.ndarray, offs: np.ndarray, *,
+                  order: int = 1) -> np.ndarray:
+    """Positions at label offsets ``0, (+-1/2, 0), (0, +-1/2)`` from maps fitted to the neighbours, (n, 5, 2).
 
     ``nbr`` (n, K): indices into ``xy`` of the neighbours at label offsets ``offs``
-    (K, 2), -1 where there is none; ``w`` their 0/1 weights.
-    One least-squares homography (``h33 = 1``) per corner, all solved at once:
-    label offsets (within +-2) to positions relative to the neighbours' mean,
-    scaled by their mean distance (the normalisation of the DLT).
+    (K, 2), -1 where there is none; ``w`` their 0/1 weights. One least-squares map
+    per corner, all solved at once (:func:`_fit_batch`): ``order=1`` a homography,
+    ``order=2`` its second-order extension.
+    """
+    fit = _fit_batch(xy, nbr, w, offs, order)
+    return _eval_batch(fit, _HALF, order)
+
+
+#: the label offsets at which a fitted map is evaluated: the corner and half a label along each axis
+_HALF = np.array([[0, 0], [0.5, 0], [-0.5, 0], [0, 0.5], [0, -0.5]], float)
+
+
+def _monomials(a: np.ndarray, order: int) -> np.ndarray:
+    """``(i, j, 1)``, and for ``order=2`` also ``(i^2, i j, j^2)``, of label offsets ``a`` (..., 2)."""
+    i, j = a[..., 0], a[..., 1]
+    cols = [i, j, np.ones_like(i)]
+    if order == 2:
+        cols += [i * i, i * j, j * j]
+    return np.stack(cols, axis=-1)
+
+
+def _fit_batch(xy: np.ndarray, nbr: np.ndarray, w: np.ndarray, offs: np.ndarray,
+               order: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Least-squares rational maps from label offsets to positions, one per row of ``nbr``.
+
+    With ``m(i, j)`` the monomials of :func:`_monomials` (``M`` = 3 or 6 of
+    them), the map is
+
+        x = (p . m) / (1 + g1 i + g2 j),    y = (q . m) / (1 + g1 i + g2 j),
+
+    in positions relative to the neighbours' mean and scaled by their mean
+    distance from it (the normalisation of the DLT). ``order=1`` is the
+    homography with ``h33 = 1`` (8 unknowns); ``order=2`` adds the quadratic
+    terms to the numerators (14 unknowns): to second order in the label it
+    follows rows and columns that are curves (lens distortion) as well as
+    perspective, which it contains. The equations ``p . m - x (g1 i + g2 j) = x``
+    (and the same for ``y``) are linear; the normal equations get a ridge of
+    ``1e-12`` against exact degeneracy.
+
+    Returns ``(h (n, 2 M + 2), mean (n, 2), scale (n,))``.
     """
     dst = xy[np.maximum(nbr, 0)]  # (n, K, 2)
-    cnt = w.sum(axis=1)
+    cnt = np.maximum(w.sum(axis=1), 1.0)
     mean = np.einsum("nk,nkd->nd", w, dst) / cnt[:, None]
     rel = dst - mean[:, None, :]
     scale = np.einsum("nk,nk->n", w, np.hypot(rel[..., 0], rel[..., 1])) / cnt
     scale = np.maximum(scale, 1e-12)
     b = rel / scale[:, None, None]
+    m = np.broadcast_to(_monomials(offs, order), b.shape[:2] + (3 * order,))
+    z = np.zeros_like(m)
     a = np.broadcast_to(offs, b.shape)
-    K = a.shape[1]
-    one, zero = np.ones(K), np.zeros(K)
-    r1 = np.stack([a[..., 0], a[..., 1], np.broadcast_to(one, a.shape[:2]), np.broadcast_to(zero, a.shape[:2]),
-                   np.broadcast_to(zero, a.shape[:2]), np.broadcast_to(zero, a.shape[:2]),
-                   -b[..., 0] * a[..., 0], -b[..., 0] * a[..., 1]], axis=-1)
-    r2 = np.stack([np.broadcast_to(zero, a.shape[:2]), np.broadcast_to(zero, a.shape[:2]),
-                   np.broadcast_to(zero, a.shape[:2]), a[..., 0], a[..., 1], np.broadcast_to(one, a.shape[:2]),
-                   -b[..., 1] * a[..., 0], -b[..., 1] * a[..., 1]], axis=-1)
+    r1 = np.concatenate([m, z, -b[..., :1] * a], axis=-1)
+    r2 = np.concatenate([z, m, -b[..., 1:] * a], axis=-1)
     A = np.einsum("nk,nki,nkj->nij", w, r1, r1) + np.einsum("nk,nki,nkj->nij", w, r2, r2)
     rhs = np.einsum("nk,nki,nk->ni", w, r1, b[..., 0]) + np.einsum("nk,nki,nk->ni", w, r2, b[..., 1])
-    A = A + 1e-12 * np.eye(8)
+    A = A + 1e-12 * np.eye(A.shape[-1])
     h = np.linalg.solve(A, rhs[..., None])[..., 0]
-    H = np.concatenate([h, np.ones((len(h), 1))], axis=1).reshape(-1, 3, 3)
-    q = np.array([[0, 0, 1], [0.5, 0, 1], [-0.5, 0, 1], [0, 0.5, 1], [0, -0.5, 1]], float)
-    P = np.einsum("nij,mj->nmi", H, q)
-    return P[..., :2] / P[..., 2:] * scale[:, None, None] + mean[:, None, :]
+    return h, mean, scale
+
+
+def _eval_batch(fit: tuple[np.ndarray, np.ndarray, np.ndarray], q: np.ndarray, order: int) -> np.ndarray:
+    """The maps of :func:`_fit_batch` at label offsets ``q`` (Q, 2): positions (n, Q, 2)."""
+    h, mean, scale = fit
+    M = 3 * order
+    m = _monomials(q, order)  # (Q, M)
+    den = 1.0 + q @ h[:, 2 * M:].T  # (Q, n)
+    num = np.stack([h[:, :M] @ m.T, h[:, M:2 * M] @ m.T], axis=-1)  # (n, Q, 2)
+    return num / den.T[..., None] * scale[:, None, None] + mean[:, None, :]
 
 
 def _loo_error(src: np.ndarray, dst: np.ndarray, q: np.ndarray, p: np.ndarray, tol: float) -> float:
