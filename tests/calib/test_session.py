@@ -268,3 +268,79 @@ def test_the_session_is_the_library_entry_point():
 
     for name in ("calibrate_images", "write_outputs", "check_output_folder", "ImageCalibration", "ViewRecord"):
         assert getattr(sogdd.calib, name) is getattr(session if hasattr(session, name) else detection, name)
+
+
+# --------------------------------------------------------------------------------------------------
+# one board per image: a screen in the background showing the board is never a view
+
+SCENE_K = np.array([[560.0, 0, 322.0], [0, 560.0, 236.0], [0, 0, 1]])
+
+
+@pytest.fixture(scope="module")
+def scenes(tmp_path_factory):
+    """Four rendered views of a 9x6 board, one with a small copy of it (cells of 5 px, complete: a screen in
+    the background) pasted in the frame's corner farthest from the board, and one with two boards side by
+    side and a small copy below them."""
+    render = pytest.importorskip("sogdd.evaluation.calibration.render")
+    cam = render.Camera(SCENE_K, (-0.2, 0.06, 0.001, -0.0005, 0.0), (640, 480))
+    target = render.ChessboardTarget(9, 6, 1.0)
+    # face on, 112 units away: cells of 560 / 112 = 5 px round the image centre
+    screen = render.render_scene(cam, target, np.zeros(3), np.array([-4.0, -2.5, 112.0]), blur=0.6)[191:281,
+                                                                                                        262:382]
+    rng = np.random.default_rng(0)
+    folder = tmp_path_factory.mktemp("scenes")
+    for k, (rv, tv) in enumerate(render.random_sequence(cam, target, 4, seed=3)):
+        view = render.render_view(cam, target, rv, tv, blur=0.8, noise=2.0, rng=k)
+        img = view.image
+        if k == 0:
+            y, x = max([(5, 5), (5, 515), (385, 5), (385, 515)], key=lambda c: np.hypot(
+                *(view.corners - [c[1] + 60, c[0] + 45]).T).min())
+            img[y:y + 90, x:x + 120] = np.rint(screen).astype(np.uint8)
+        cv2.imwrite(str(folder / ("screen.png" if k == 0 else f"f{k}.png")), img)
+    left = render.render_scene(cam, target, np.array([0.2, 0.3, 0.0]), np.array([-10.5, -2.5, 25.0]), blur=0.8)
+    right = render.render_scene(cam, target, np.array([-0.15, -0.25, 0.1]), np.array([2.5, -2.5, 25.0]),
+                                blur=0.8)
+    two = np.where(np.arange(640) < 320, left, right)
+    two[380:470, 260:380] = screen
+    two = np.clip(np.rint(two + rng.normal(0, 2, two.shape)), 0, 255)
+    cv2.imwrite(str(folder / "two.png"), two.astype(np.uint8))
+    return folder
+
+
+def _fates(res):
+    return {v.name: v for v in res.views}
+
+
+def test_an_image_gives_one_view_the_best_board_and_says_what_else_it_saw(scenes):
+    res = calibrate_images(scenes, "chessboard:9x6")
+    fates = _fates(res)
+    assert list(fates) == ["f1.png", "f2.png", "f3.png", "screen.png", "screen.png#2", "two.png", "two.png#2",
+                           "two.png#3"]
+    cal = res.calibration
+    assert list(cal.names) == ["f1.png", "f2.png", "f3.png", "screen.png", "two.png"] and cal.n_used == 5
+    assert detection.cell_size(cal.boards[cal.names.index("screen.png")]) > 15  # the board, not the screen
+    small = fates["screen.png#2"]
+    assert small.status == "ignored" and small.view is None and small.corners == 54
+    assert "a small board (54 corners, cells of 5.0 px)" in small.reason
+    other = fates["two.png#2"]
+    assert other.status == "ignored" and other.reason.startswith("another board in the image (54 corners")
+    assert "cells of 5.0 px" in fates["two.png#3"].reason and fates["two.png#3"].status == "ignored"
+    assert abs(cal.K[0, 0] - 560.0) < 560 * 0.02
+    # a thumbnail per view of the calibration: none for an ignored board
+    assert len(res.thumbnails) == len(cal.names)
+
+
+def test_every_board_on_request_but_never_the_small_copy(scenes, tmp_path):
+    res = calibrate_images(scenes, "chessboard:9x6", boards="all")
+    fates = _fates(res)
+    assert list(res.calibration.names) == ["f1.png", "f2.png", "f3.png", "screen.png", "two.png", "two.png#2"]
+    assert fates["two.png#2"].status == "used" and fates["two.png#3"].status == "ignored"
+    assert fates["screen.png#2"].status == "ignored" and "cells of 5.0 px" in fates["screen.png#2"].reason
+    write_outputs(res, tmp_path / "o", report=False)
+    rows = {r["view"]: r for r in csv.DictReader(open(tmp_path / "o" / "views.csv"))}
+    assert rows["two.png#3"]["status"] == "ignored" and rows["two.png#3"]["corners_found"] == "54"
+    assert rows["two.png#3"]["used"] == "0" and rows["two.png#2"]["status"] == "used"
+    js = json.loads((tmp_path / "o" / "camera.json").read_text())
+    assert "cells of 5.0 px" in js["rejected_views"]["two.png#3"]
+    with pytest.raises(ValueError, match="^boards must be one of best, all, got 'every'$"):
+        calibrate_images(scenes, "chessboard:9x6", boards="every")

@@ -125,21 +125,61 @@ def test_a_board_smaller_than_the_option(frames, tmp_path, capsys, monkeypatch):
     assert not (tmp_path / "o").exists()
 
 
-def test_two_boards_in_one_image_are_two_views(frames, tmp_path, capsys, monkeypatch):
-    """Each board has its own pose: a second board in an image is the view NAME#2."""
+def test_two_boards_in_one_image_are_one_view_or_two_on_request(frames, tmp_path, capsys, monkeypatch):
+    """Each board has its own pose: with --boards all a second board in an image is the view NAME#2; by
+    default the image's view is its best board (the most corners), the other one a row "ignored"."""
     real = chessboard.detect_boards
 
     def two(img, pattern=None, **kw):
         (b,) = real(img, (9, 6), **kw)
-        left, right = b.labels[:, 0] < 4, b.labels[:, 0] >= 4
+        # split where the image says: boards that all showed one same grid would be a miscounted --board
+        cut = 2 + int(img.sum()) % 5
+        left, right = b.labels[:, 0] < cut, b.labels[:, 0] >= cut
         return [Board(b.image_points[left], b.labels[left]), Board(b.image_points[right], b.labels[right])]
 
     monkeypatch.setattr(chessboard, "detect_boards", two)
-    code, _, err = _run(capsys, frames, "--board", "chessboard:9x6", "--out", tmp_path / "o", "--no-report")
+    code, _, err = _run(capsys, frames, "--board", "chessboard:9x6", "--out", tmp_path / "o", "--no-report",
+                        "--boards", "all")
     assert code == 0, err
     views = list(csv.DictReader(open(tmp_path / "o" / "views.csv")))
     assert [v["view"] for v in views[:2]] == ["f0.png", "f0.png#2"] and len(views) == 16
-    assert views[0]["corners_found"] == "24" and views[1]["corners_found"] == "30"
+    found = [int(v["corners_found"]) for v in views]
+    assert all(a > b and a + b == 54 for a, b in zip(found[::2], found[1::2])), found  # the larger first
+    assert {v["status"] for v in views} == {"used"}
+    code, text, err = _run(capsys, frames, "--board", "chessboard:9x6", "--out", tmp_path / "o", "--no-report")
+    assert code == 0, err
+    assert "8 of 8 views used" in text
+    views = list(csv.DictReader(open(tmp_path / "o" / "views.csv")))
+    assert [(v["view"], int(v["corners_found"]), v["status"]) for v in views[:2]] == [
+        ("f0.png", found[0], "used"), ("f0.png#2", found[1], "ignored")]
+    assert views[1]["reason"].startswith(f"another board in the image ({found[1]} corners, cells of")
+
+
+def test_a_screen_showing_the_board_is_a_row_ignored_never_a_view(frames, tmp_path, capsys):
+    """A copy of the board with cells of 5 px (a monitor in the background) beside a view's board."""
+    render = pytest.importorskip("sogdd.evaluation.calibration.render")
+    cam = render.Camera(K_TRUE, DIST, (640, 480))
+    target = render.ChessboardTarget(9, 6, 1.0)
+    img = render.render_scene(cam, target, np.array([0.2, 0.3, 0.0]), np.array([-6.0, -4.5, 22.0]), blur=0.8)
+    # face on, 112 units away: cells of 560 / 112 = 5 px, round the image centre; put in the bottom right
+    screen = render.render_scene(cam, target, np.zeros(3), np.array([-4.0, -2.5, 112.0]), blur=0.6)
+    img[380:470, 510:630] = screen[191:281, 262:382]
+    imgs = tmp_path / "imgs"
+    shutil.copytree(frames, imgs)
+    cv2.imwrite(str(imgs / "screen.png"), np.rint(img).astype(np.uint8))
+    for extra in ((), ("--boards", "all")):
+        out = tmp_path / f"o{len(extra)}"
+        code, text, err = _run(capsys, imgs, "--board", "chessboard:9x6", "--out", out, "--no-report", *extra)
+        assert code == 0, err
+        assert "9 of 9 views used" in text and "ignored screen.png#2: a small board" in text
+        views = {v["view"]: v for v in csv.DictReader(open(out / "views.csv"))}
+        assert len(views) == 10 and views["screen.png"]["status"] == "used"
+        small = views["screen.png#2"]
+        assert (small["status"], small["used"], small["corners_found"]) == ("ignored", "0", "54")
+        assert "(54 corners, cells of 5.0 px)" in small["reason"]
+    with pytest.raises(SystemExit) as info:
+        _run(capsys, imgs, "--board", "chessboard:9x6", "--out", tmp_path / "x", "--boards", "two")
+    assert info.value.code == 2 and "--boards: invalid choice: 'two'" in capsys.readouterr().err
 
 
 def test_too_few_views(frames, tmp_path, capsys):

@@ -14,6 +14,7 @@ import os
 import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from fractions import Fraction
 from typing import Literal
 
 import cv2
@@ -28,8 +29,9 @@ from .targets import charuco, chessboard
 from .targets.board import Board
 from .targets.spec import BoardSpec, grid_dims
 
-__all__ = ["READ_OPTIONS", "THUMB_WIDTH", "Thumbnail", "ViewRecord", "ViewResult", "ViewStatus",
-           "check_read_options", "detect_files", "detect_view", "make_thumbnail", "view_records"]
+__all__ = ["BOARD_CHOICES", "READ_OPTIONS", "SMALL_CELL", "THUMB_WIDTH", "BoardChoice", "Thumbnail",
+           "ViewRecord", "ViewResult", "ViewStatus", "cell_size", "check_read_options", "detect_files",
+           "detect_view", "make_thumbnail", "pick_boards", "view_records"]
 
 #: the keyword arguments of :func:`sogdd.read_image` that ``read_options`` may hold
 READ_OPTIONS = ("max_pixels", "allow_corrupt", "ignore_orientation")
@@ -41,9 +43,21 @@ _GREY = (0.0, 255.0)
 _PRELOAD = ("sogdd.calib.detection",)
 
 
-#: what became of an input: its board used or rejected by the fit; a board of another kind or size
-#: seen and ignored; no board; a file that could not be read (or whose worker died)
+#: what became of an input: its board used or rejected by the fit; a board of another kind or size, or a
+#: board beside the image's view (:func:`pick_boards`), seen and ignored; no board; a file that could not be
+#: read (or whose worker died)
 ViewStatus = Literal["used", "rejected", "ignored", "no board", "unreadable"]
+
+#: which boards of an image are views: the one that matches the specification best, or every one
+#: (a scene built with several targets); :func:`pick_boards`
+BoardChoice = Literal["best", "all"]
+BOARD_CHOICES: tuple[BoardChoice, ...] = ("best", "all")
+
+#: a board whose median cell is under this fraction of that of its image's largest board is never a view:
+#: the targets of one scene lie at comparable distances (a third is one three times as far), while a
+#: screen, a reflection or a background pattern taken for the board is about ten times smaller, and its
+#: coarse corners and ill-determined pose pull the camera off
+SMALL_CELL = Fraction(1, 3)
 
 
 @dataclass(frozen=True)
@@ -53,9 +67,11 @@ class ViewRecord:
 
     ``file`` is the input file; ``status`` a :data:`ViewStatus`; ``reason`` says
     why it was not used (the read error, what was seen instead of the board,
-    the fit's rejection), "" for a used view; ``view`` is its index in the
-    calibration's views (``Calibration.names``), None for an image that could not
-    be read.
+    the fit's rejection, why a board beside the view was ignored), "" for a used
+    view; ``view`` is its index in the calibration's views (``Calibration.names``),
+    None for an image that could not be read and for an ignored board beside
+    its image's view (:func:`pick_boards`), whose corners found ``corners``
+    counts (the calibration counts those of its views).
     """
 
     name: str
@@ -63,6 +79,7 @@ class ViewRecord:
     status: ViewStatus
     reason: str = ""
     view: int | None = None
+    corners: int | None = None
 
 
 def view_records(cal: Calibration) -> list[ViewRecord]:
@@ -152,6 +169,81 @@ def check_read_options(read_options: Mapping | None) -> dict:
             raise ValueError(f"read_options: unknown option {k!r} (known: {', '.join(READ_OPTIONS)})")
     max_pixels_limit(opts.get("max_pixels"))
     return opts
+
+
+def cell_size(board: Board) -> float:
+    """The board's median cell side in px: the median distance between corners whose labels are neighbours
+    (NaN without any).
+
+    Examples
+    --------
+    >>> b = Board(np.array([[0.0, 0], [10, 0], [0, 12], [10, 12]]), np.array([[0, 0], [1, 0], [0, 1], [1, 1]]))
+    >>> cell_size(b)
+    11.0
+    """
+    index = {lab: k for k, lab in enumerate(map(tuple, board.labels.tolist()))}
+    d = [float(np.hypot(*(board.image_points[index[(i + di, j + dj)]] - board.image_points[k])))
+         for (i, j), k in index.items() for di, dj in ((1, 0), (0, 1)) if (i + di, j + dj) in index]
+    return float(np.median(d)) if d else float("nan")
+
+
+def _describe(board: Board, cell: float) -> str:
+    return f"{len(board)} corners, cells of {cell:.1f} px"
+
+
+def pick_boards(boards: Sequence[Board], spec: BoardSpec, choice: BoardChoice = "best"
+                ) -> tuple[tuple[Board, ...], tuple[tuple[Board, str], ...]]:
+    """Which of an image's boards are views: ``(views, ignored)``, ``ignored`` holding ``(board, reason)``.
+
+    A board whose median cell (:func:`cell_size`) is under :data:`SMALL_CELL`
+    of that of the image's largest board is a screen, a reflection or a
+    pattern in the background: never a view. Of the others, ``"best"`` keeps
+    the one that matches ``spec`` best (complete first, then the most corners,
+    then the largest cells), ``"all"`` keeps every one (a scene built with
+    several targets). Views and ignored boards are both in that order, best
+    first; every reason gives the board's corners and cell size.
+
+    Examples
+    --------
+    >>> from sogdd.calib import parse_board
+    >>> grid = np.array([(i, j) for j in range(4) for i in range(6)])
+    >>> near, far, screen = Board(grid * 40.0, grid), Board(grid * 30.0, grid), Board(grid * 4.0, grid)
+    >>> views, ignored = pick_boards([screen, far, near], parse_board("chessboard:6x4"))
+    >>> [b is near for b in views]
+    [True]
+    >>> import textwrap
+    >>> for _, reason in ignored:
+    ...     print(textwrap.fill(reason, 100))
+    another board in the image (24 corners, cells of 30.0 px); one board per image, the best match (24
+    corners, cells of 40.0 px), unless all boards are asked for
+    a small board (24 corners, cells of 4.0 px), under 1/3 of the cells of the largest board in the
+    image (40.0 px): a screen, a reflection or a pattern in the background, never a view
+    >>> views, ignored = pick_boards([screen, far, near], parse_board("chessboard:6x4"), "all")
+    >>> [b is near for b in views], [b is far for b in views], [b is screen for b, _ in ignored]
+    ([True, False], [False, True], [True])
+    """
+    if choice not in BOARD_CHOICES:
+        raise ValueError(f"boards must be one of {', '.join(BOARD_CHOICES)}, got {choice!r}")
+    full = None if spec.pattern is None else spec.pattern[0] * spec.pattern[1]
+    cells = [cell_size(b) for b in boards]
+
+    def rank(k: int) -> tuple:
+        b = boards[k]
+        whole = len(b) == full if full is not None else b.size is not None and len(b) == b.size[0] * b.size[1]
+        return (whole, len(b), np.nan_to_num(cells[k], nan=0.0))
+
+    order = sorted(range(len(boards)), key=rank, reverse=True)
+    largest = max((c for c in cells if np.isfinite(c)), default=float("nan"))
+    small = [k for k in order if cells[k] < SMALL_CELL * largest]
+    views = [k for k in order if k not in small]
+    views, more = (views[:1], views[1:]) if choice == "best" else (views, [])
+    best = _describe(boards[views[0]], cells[views[0]]) if views else ""
+    ignored = [(k, f"another board in the image ({_describe(boards[k], cells[k])}); one board per image, the "
+                   f"best match ({best}), unless all boards are asked for") for k in more]
+    ignored += [(k, f"a small board ({_describe(boards[k], cells[k])}), under {SMALL_CELL} of the cells of "
+                    f"the largest board in the image ({largest:.1f} px): a screen, a reflection or a pattern "
+                    "in the background, never a view") for k in small]
+    return tuple(boards[k] for k in views), tuple((boards[k], why) for k, why in ignored)
 
 
 def _matches(size, pattern) -> bool:

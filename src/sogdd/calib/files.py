@@ -200,7 +200,8 @@ def write_views_csv(cal: Calibration, path: str | os.PathLike, *,
     ``rms`` is over the used corners (all corners of a rejected view, from its
     pose re-estimated with the final camera; empty without a pose); ``used`` is
     1 or 0 and ``reason`` says why a view was not used; ``status`` is ``used``,
-    ``rejected``, ``ignored`` (a board of another kind or size), ``no board`` or
+    ``rejected``, ``ignored`` (a board of another kind or size; a board beside
+    the image's view, its corners counted in ``corners_found``), ``no board`` or
     ``unreadable``. With ``views`` (every input's fate,
     :attr:`sogdd.calib.ImageCalibration.views`) every input is a row, the
     images that could not be read too; without it, the views of ``cal``.
@@ -211,7 +212,7 @@ def write_views_csv(cal: Calibration, path: str | os.PathLike, *,
     for row in views:
         v = row.view
         if v is None:
-            rows.append([row.name, 0, 0, "", 0, row.reason, row.status])
+            rows.append([row.name, row.corners or 0, 0, "", 0, row.reason, row.status])
             continue
         b, used = cal.boards[v], cal.corner_used[v]
         rows.append([row.name, 0 if b is None else len(b), 0 if used is None else int(used.sum()),

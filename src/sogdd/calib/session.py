@@ -4,8 +4,12 @@ The library's entry point, what ``sogdd calibrate`` runs. :func:`calibrate_image
 finds the board in every image (:mod:`.detection`: in this process, on local worker
 processes or on a Dask cluster), checks that the images agree (one size; the board
 the specification names, not one of another size), fits the camera (:func:`calibrate`)
-and accounts for every input (:class:`ImageCalibration`). :func:`write_outputs` writes
-the output folder (:func:`check_output_folder` says beforehand whether it may).
+and accounts for every input (:class:`ImageCalibration`). An image gives one view, the
+board that matches the specification best; other boards in it are reported, ignored
+(``boards="all"``: every board is a view, for a scene built with several targets); a much
+smaller board (a screen, a reflection or a pattern in the background) is never a view
+(:func:`~sogdd.calib.detection.pick_boards`). :func:`write_outputs` writes the output
+folder (:func:`check_output_folder` says beforehand whether it may).
 
 The output folder is complete or as it was, never a mix: everything is written
 into a new hidden folder beside it (``.<name>.new-<random>.sogdd.tmp``), which then
@@ -28,16 +32,27 @@ import signal
 import threading
 from collections.abc import Iterable, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from ..collection import expand_inputs, relative_names
 from ..formats.safe_write import TMP_SUFFIX, folder_holds
 from .cameras import CameraModel, check_model
-from .detection import THUMB_WIDTH, Thumbnail, ViewRecord, ViewResult, check_read_options, detect_files
+from .detection import (
+    BOARD_CHOICES,
+    THUMB_WIDTH,
+    BoardChoice,
+    Thumbnail,
+    ViewRecord,
+    ViewResult,
+    check_read_options,
+    detect_files,
+    pick_boards,
+)
 from .files import FILES, write_calibration
 from .fit import calibrate
 from .result import Calibration
+from .targets.board import Board
 from .targets.spec import BoardSpec, grid_dims, parse_board
 
 __all__ = ["OUTPUTS", "ImageCalibration", "calibrate_images", "check_output_folder", "write_outputs"]
@@ -56,12 +71,13 @@ class ImageCalibration:
     calibration : Calibration
         The camera and its diagnostics; its views are the boards found (and the
         images without one), named by their files relative to the inputs' common
-        folder (``name#2`` for an image's second board).
+        folder (``name#2`` for an image's second board, with ``boards="all"``).
     board : BoardSpec
     views : tuple of ViewRecord
         Every input, in input order, one record per board (an image without a
         board, or that could not be read, is one record too): its status and
-        why.
+        why. A board beside an image's view is a record of status ``ignored``
+        named ``name#2``, ... after the image's views, its size in the reason.
     thumbnails : tuple of Thumbnail or None
         Per view of ``calibration``, the small grey image the report draws on.
     """
@@ -78,7 +94,7 @@ class ImageCalibration:
 
 
 def _check_parameters(board: str | BoardSpec, square: float, model: str, jobs: int,
-                      min_views: int) -> BoardSpec:
+                      min_views: int, boards: str) -> BoardSpec:
     """Bad parameters fail before any image is read."""
     spec = parse_board(board) if isinstance(board, str) else board
     if not isinstance(spec, BoardSpec):
@@ -86,6 +102,8 @@ def _check_parameters(board: str | BoardSpec, square: float, model: str, jobs: i
     if not (isinstance(square, numbers.Real) and 0 < square < float("inf")):
         raise ValueError(f"square must be a positive size, got {square}")
     check_model(model)
+    if boards not in BOARD_CHOICES:
+        raise ValueError(f"boards must be one of {', '.join(BOARD_CHOICES)}, got {boards!r}")
     for name, v in (("jobs", jobs), ("min_views", min_views)):
         if not isinstance(v, numbers.Integral) or isinstance(v, bool) or v < 1:
             raise ValueError(f"{name} must be an integer >= 1, got {v!r}")
@@ -96,6 +114,7 @@ def calibrate_images(
     images: str | os.PathLike | Iterable[str | os.PathLike],
     board: str | BoardSpec = "chessboard:auto",
     *,
+    boards: BoardChoice = "best",
     square: float = 1.0,
     model: CameraModel = "pinhole",
     jobs: int = 1,
@@ -117,6 +136,16 @@ def calibrate_images(
     board : str or BoardSpec
         ``chessboard:COLSxROWS`` (inner corners), ``chessboard:auto`` or
         ``charuco:COLSxROWS:MARKER:DICT`` (:func:`sogdd.calib.parse_board`).
+    boards : {"best", "all"}
+        Which boards of an image are views. ``"best"``: one, the board that
+        matches ``board`` best (complete first, then the most corners, then the
+        largest cells); the others are records of status ``ignored``, each with
+        its corners and cell size. ``"all"``: every board, for a scene built
+        with several targets (``name``, ``name#2``, ...). Either way a board whose
+        cells are under a third of those of the image's largest board (a screen,
+        a reflection or a pattern in the background) is ignored, never a view
+        (:func:`~sogdd.calib.detection.pick_boards`). A ChArUco board is one per
+        image.
     square : float
         The side of a board square, in the unit the poses should have.
     model : {"pinhole", "rational", "fisheye"}
@@ -176,7 +205,7 @@ def calibrate_images(
     >>> [(v.name, v.status) for v in result.views][-2:]
     [('f5.png', 'used'), ('notes.png', 'unreadable')]
     """
-    spec = _check_parameters(board, square, model, jobs, min_views)
+    spec = _check_parameters(board, square, model, jobs, min_views, boards)
     opts = check_read_options(read_options)
     given = [images] if isinstance(images, (str, os.PathLike)) else list(images)
     paths = expand_inputs([os.fspath(g) for g in given], recursive=recursive)
@@ -185,12 +214,14 @@ def calibrate_images(
     names = relative_names(paths)  # collisions fail before any work
     results = detect_files(paths, spec, jobs=jobs, scheduler=scheduler, progress=progress, read_options=opts,
                            thumb_width=THUMB_WIDTH if thumbnails else None)
+    picked = [pick_boards(r.boards, spec, boards) for r in results]
+    results = [replace(r, boards=kept) for r, (kept, _) in zip(results, picked)]
     _check_results(results, spec)
-    boards, vnames, owners = _views(results, names)
-    cal = calibrate(boards, _image_size(results), square=float(square), model=model, names=vnames,
+    views, vnames, owners = _views(results, names)
+    cal = calibrate(views, _image_size(results), square=float(square), model=model, names=vnames,
                     reject=reject, min_views=min_views)
-    return ImageCalibration(cal, spec, tuple(_records(results, names, cal, spec)),
-                            tuple(results[i].thumbnail for i in owners))
+    records = _records(results, names, cal, spec, [ignored for _, ignored in picked])
+    return ImageCalibration(cal, spec, tuple(records), tuple(results[i].thumbnail for i in owners))
 
 
 def _check_results(results: list[ViewResult], spec: BoardSpec) -> None:
@@ -218,12 +249,13 @@ def _views(results: list[ViewResult], names: list[str]) -> tuple[list, list[str]
     return boards, vnames, owners
 
 
-def _records(results: list[ViewResult], names: list[str], cal: Calibration,
-             spec: BoardSpec) -> list[ViewRecord]:
-    """Every input's fate, in input order (the views in the calibration's order, which is the same)."""
+def _records(results: list[ViewResult], names: list[str], cal: Calibration, spec: BoardSpec,
+             ignored: list[tuple[tuple[Board, str], ...]]) -> list[ViewRecord]:
+    """Every input's fate, in input order (the views in the calibration's order, which is the same), an
+    image's ignored boards after its views."""
     out: list[ViewRecord] = []
     v = 0
-    for r, n in zip(results, names):
+    for r, n, beside in zip(results, names, ignored):
         if r.error:
             out.append(ViewRecord(n, r.path, "unreadable", r.error))
             continue
@@ -239,6 +271,9 @@ def _records(results: list[ViewResult], names: list[str], cal: Calibration,
             out.append(ViewRecord(cal.names[v], r.path, "used" if used else "rejected",
                                   "" if used else cal.reasons[v], v))
             v += 1
+        # numbered on from the image's views: every record has its own name (camera.json keys them by it)
+        out += [ViewRecord(f"{n}#{k}", r.path, "ignored", why, None, len(b))
+                for k, (b, why) in enumerate(beside, start=len(r.boards) + 1)]
     return out
 
 

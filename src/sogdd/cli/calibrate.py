@@ -10,6 +10,13 @@ Boards (--board):
                                 MARKER times the square's side, OpenCV dictionary
                                 DICT, e.g. charuco:5x7:0.7:DICT_5X5_100
 
+An image is one view: the board that matches --board best (complete, then most
+corners, then largest cells). Other boards in it are rows of views.csv with
+status "ignored", their corners and cell size in the reason; --boards all makes
+each of them a view (NAME#2, ...) for a scene built with several targets. A
+board whose cells are under a third of the image's largest board's (a screen, a
+reflection or a pattern in the background) is never a view.
+
 Writes into --out: camera.yaml (OpenCV FileStorage), camera.json, views.csv (per
 input: corners found, RMS, used or not and why; an image that could not be read
 too), corners.csv (view,i,j,x,y,residual,used) and report.html with its figures
@@ -36,6 +43,9 @@ def configure(p: argparse.ArgumentParser) -> None:
     p.add_argument("--board", default="chessboard:auto", metavar="SPEC",
                    help="chessboard:COLSxROWS (inner corners), chessboard:auto, or "
                         "charuco:COLSxROWS:MARKER:DICT (see above)")
+    p.add_argument("--boards", choices=("best", "all"), default="best",
+                   help="boards per image: the best match of --board (the others ignored, in views.csv), or "
+                        "all of them (several targets; small copies of the board are still ignored)")
     p.add_argument("--square", type=float, default=1.0, help="side of a board square, in your unit (e.g. mm)")
     p.add_argument("--model", choices=("pinhole", "rational", "fisheye"), default="pinhole",
                    help="camera model: k1,k2,p1,p2,k3; OpenCV's rational k1..k6,p1,p2; or OpenCV's "
@@ -77,9 +87,10 @@ def run(args: argparse.Namespace) -> int:
     check_input_files(paths)  # a device or a FIFO would be read for ever
     check_output_folder(args.out, paths)  # before any work
     try:
-        result = calibrate_images(paths, spec, square=args.square, model=args.model, jobs=args.jobs,
-                                  scheduler=args.scheduler, min_views=args.min_views, reject=args.reject,
-                                  read_options=reading, thumbnails=args.report, progress=not args.quiet)
+        result = calibrate_images(paths, spec, boards=args.boards, square=args.square, model=args.model,
+                                  jobs=args.jobs, scheduler=args.scheduler, min_views=args.min_views,
+                                  reject=args.reject, read_options=reading, thumbnails=args.report,
+                                  progress=not args.quiet)
         written = write_outputs(result, args.out, report=args.report, inputs=paths)
     except KeyboardInterrupt:
         print(f"sogdd: interrupted; {args.out} left as it was", file=sys.stderr)
