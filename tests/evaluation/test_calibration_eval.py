@@ -185,3 +185,13 @@ def test_points_only_do_not_pair_with_corners_outside_the_frame():
     pts = np.concatenate([xy[1:], [xy[0] + [6.0, 0.0]]])
     s = score_view(pts, None, xy, lab, inside)
     assert s.n_correct == 29 and s.errors.max() == 0
+
+
+def test_the_figure_of_sequences_without_a_calibration(tmp_path):
+    """The stress scenes are scored but not calibrated: no projection difference to put on a log axis."""
+    from sogdd.report.calibration_section import calibration_figure
+
+    rows = [{"sequence": "stress", "method": m, "corner": {"mean": 0.03}, "calibration": None}
+            for m in ("sogdd", "opencv")]
+    path = calibration_figure({"synthetic": rows}, tmp_path / "c.png")
+    assert path.stat().st_size > 1000

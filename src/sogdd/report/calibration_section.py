@@ -135,17 +135,21 @@ def calibration_figure(res: dict, path: str | Path) -> Path:
     methods = list(dict.fromkeys(r["method"] for r in rows))
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.2))
     width = 0.8 / max(1, len(methods))
+    positive = [False, False]
     for k, m in enumerate(methods):
         by = {r["sequence"]: r for r in rows if r["method"] == m}
         xs = [i + (k - (len(methods) - 1) / 2) * width for i in range(len(seqs))]
         err = [_nan(by.get(s, {}).get("corner", {}).get("mean")) for s in seqs]
         pd = [_nan((by.get(s, {}).get("calibration") or {}).get("projection_difference")) for s in seqs]
-        axes[0].bar(xs, err, width, label=m)
-        axes[1].bar(xs, pd, width, label=m)
-    for ax, title in zip(axes, ("mean corner error (px)", "projection difference to the true camera (px)")):
+        for a, values in enumerate((err, pd)):
+            axes[a].bar(xs, values, width, label=m)
+            positive[a] |= any(v > 0 for v in values)  # NaN compares False
+    for ax, title, pos in zip(axes, ("mean corner error (px)", "projection difference to the true camera (px)"),
+                              positive):
         ax.set_xticks(range(len(seqs)))
         ax.set_xticklabels(seqs)
-        ax.set_yscale("log")
+        if pos:  # a log axis needs a positive value (the stress scenes are not calibrated: no differences)
+            ax.set_yscale("log")
         ax.set_title(title)
         ax.grid(True, axis="y", alpha=0.3)
     axes[0].axhline(0.015, color="k", ls="--", lw=0.8, label="0.015 px")

@@ -7,7 +7,7 @@ from numba import njit
 
 from ..._jit import JIT
 
-__all__ = ["undistort_point"]
+__all__ = ["fisheye_theta_point", "undistort_point"]
 
 
 @njit(**JIT)
@@ -34,3 +34,23 @@ def undistort_point(xd, yd, x, y, k1, k2, p1, p2, k3):
         if not (abs(x) < 1e6 and abs(y) < 1e6):
             break
     return np.nan, np.nan
+
+
+@njit(**JIT)
+def fisheye_theta_point(td, th, k1, k2, k3, k4):
+    """The fisheye's ray angle of the distorted angle ``td`` by Newton's method from ``th`` (NaN if it
+    does not converge or the model folds): :func:`.models.fisheye_theta` for one sample."""
+    for _ in range(100):
+        t2 = th * th
+        f = th * (1 + t2 * (k1 + t2 * (k2 + t2 * (k3 + t2 * k4)))) - td
+        df = 1 + t2 * (3 * k1 + t2 * (5 * k2 + t2 * (7 * k3 + t2 * 9 * k4)))
+        if not df > 0:
+            break
+        step = f / df
+        th -= step
+        # quadratic convergence, as in undistort_point: a step below 1e-12 leaves an error far below it
+        if abs(step) < 1e-12:
+            return th
+        if not abs(th) < 1e3:
+            break
+    return np.nan

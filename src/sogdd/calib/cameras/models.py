@@ -13,7 +13,8 @@ from typing import Literal
 import cv2
 import numpy as np
 
-__all__ = ["MODELS", "CameraModel", "check_model", "check_size", "distort", "project", "to_pixels", "undistort"]
+__all__ = ["MODELS", "CameraModel", "check_model", "check_size", "distort", "fisheye_theta", "fisheye_theta_d",
+           "project", "to_pixels", "undistort"]
 
 #: the camera models, by name
 CameraModel = Literal["pinhole", "rational", "fisheye"]
@@ -145,6 +146,62 @@ def undistort(pixels: np.ndarray, K: np.ndarray, dist: np.ndarray, model: Camera
         valid &= np.isfinite(x[:, 0])
     x[~valid] = np.nan
     return x, valid
+
+
+def fisheye_theta_d(theta: np.ndarray, k: np.ndarray) -> np.ndarray:
+    """The fisheye model's distorted angle :math:`\\theta_d = \\theta (1 + k_1 \\theta^2 + k_2 \\theta^4
+    + k_3 \\theta^6 + k_4 \\theta^8)` of ray angles ``theta`` (radians from the optical axis).
+
+    With ``k = 0`` the model is equidistant: :math:`\\theta_d = \\theta`, the pixel radius is
+    :math:`f \\theta`.
+
+    Examples
+    --------
+    >>> fisheye_theta_d(np.array([0.5, 1.5]), np.zeros(4)).tolist()
+    [0.5, 1.5]
+    >>> round(float(fisheye_theta_d(np.array([1.0]), np.array([0.1, 0, 0, 0]))[0]), 12)
+    1.1
+    """
+    th = np.asarray(theta, dtype=np.float64)
+    k1, k2, k3, k4 = (float(v) for v in np.asarray(k, dtype=np.float64).ravel()[:4])
+    t2 = th * th
+    return th * (1 + t2 * (k1 + t2 * (k2 + t2 * (k3 + t2 * k4))))
+
+
+def fisheye_theta(theta_d: np.ndarray, k: np.ndarray, *, iterations: int = 50) -> np.ndarray:
+    """The ray angle :math:`\\theta` of distorted angles :math:`\\theta_d`: the inverse of
+    :func:`fisheye_theta_d` by Newton's method from :math:`\\theta = \\theta_d`; NaN where it does not
+    converge or the model folds (:math:`d\\theta_d / d\\theta \\le 0`).
+
+    Works for any angle, 90 degrees and beyond (a ray's direction is
+    :math:`(\\sin\\theta \\cos\\phi, \\sin\\theta \\sin\\phi, \\cos\\theta)`), unlike
+    :func:`undistort`, whose rays live on the plane ``z = 1``.
+
+    Examples
+    --------
+    >>> fisheye_theta(np.array([0.3, 1.55]), np.zeros(4)).tolist()
+    [0.3, 1.55]
+    >>> k = np.array([0.05, -0.01, 0.0, 0.0])
+    >>> bool(abs(fisheye_theta(fisheye_theta_d(np.array([1.4]), k), k)[0] - 1.4) < 1e-13)
+    True
+    """
+    td = np.asarray(theta_d, dtype=np.float64)
+    k1, k2, k3, k4 = (float(v) for v in np.asarray(k, dtype=np.float64).ravel()[:4])
+    th = td.copy()
+    for _ in range(iterations):
+        t2 = th * th
+        f = th * (1 + t2 * (k1 + t2 * (k2 + t2 * (k3 + t2 * k4)))) - td
+        df = 1 + t2 * (3 * k1 + t2 * (5 * k2 + t2 * (7 * k3 + t2 * 9 * k4)))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            step = np.where(df > 0, f / df, np.nan)
+        th = th - step
+        if np.all(~np.isfinite(step) | (np.abs(step) < 1e-15)):
+            break
+    t2 = th * th
+    df = 1 + t2 * (3 * k1 + t2 * (5 * k2 + t2 * (7 * k3 + t2 * 9 * k4)))
+    with np.errstate(invalid="ignore"):
+        ok = np.isfinite(th) & (df > 0) & (np.abs(fisheye_theta_d(th, [k1, k2, k3, k4]) - td) < 1e-12)
+    return np.where(ok, th, np.nan)
 
 
 def check_model(model: str) -> None:

@@ -13,6 +13,12 @@ and the pixel is ``(u, v, 1) = K (x'', y'', 1)``: ``x`` = column, ``y`` = row,
 pixel centres at integers, so pixel ``(x, y)`` covers
 ``[x - 1/2, x + 1/2) x [y - 1/2, y + 1/2)``.
 
+A fisheye (``Camera(..., model="fisheye")``, OpenCV's ``cv2.fisheye`` model,
+``dist = (k1, k2, k3, k4)``) maps a ray at angle :math:`\\theta` from the axis to the
+radius :math:`\\theta_d = \\theta (1 + k_1 \\theta^2 + \\dots + k_4 \\theta^8)` (normalised;
+``k = 0``: equidistant, :math:`r = f \\theta`), along the ray's azimuth; it sees rays at 90
+degrees and beyond.
+
 Target
 ------
 :class:`ChessboardTarget` ``(cols, rows, square)`` has ``cols x rows`` inner
@@ -22,7 +28,12 @@ corners (OpenCV's ``patternSize``); inner corner ``(i, j)`` lies at
 ``[-square, cols square] x [-square, rows square]``; square ``(a, b)``
 (``a = floor(u / square) + 1``) is dark when ``a + b`` is even (the top-left
 square is dark). A white margin of ``margin`` (default one square) surrounds the
-squares; beyond it lies a uniform background.
+squares; beyond it lies a uniform background. Options: ``edge < 1`` cuts the
+outermost squares to ``edge`` cells (no margin by default: the paper's edge cuts
+them); ``dots`` prints a dot matrix in the inner white squares (ECoCheck-like).
+A second board (``behind``) can show where the first board's paper does not: it
+replaces the background there (so it must not come between the camera and the
+first board; placed beside it in the image it is exact either way).
 
 Rendering
 ---------
@@ -42,7 +53,12 @@ Then, in this order: Gaussian blur of ``blur`` px (``cv2.GaussianBlur`` on the
 pixel grid, a blur of the optics), illumination falloff (the image times
 ``1 - falloff (r / r_max)^2``, ``r`` from the image centre, ``r_max`` the
 half-diagonal: vignetting at the sensor), Gaussian noise of ``noise`` grey
-levels, rounding to ``uint8``.
+levels, rounding to ``uint8``, and with ``jpeg`` a JPEG encoding and decoding at
+that quality (``cv2.imencode``: 8 x 8 block artefacts). A fisheye's sample is
+unprojected exactly too: :math:`\\theta` by Newton's method on
+:math:`\\theta_d(\\theta)` (exact at once for the equidistant model), its ray
+:math:`(\\sin\\theta \\cos\\phi, \\sin\\theta \\sin\\phi, \\cos\\theta)` meets the
+board plane at any angle in front of it.
 
 Ground truth is the projection of the board's inner corners through the same
 model (:meth:`Camera.project`); blur is symmetric and the falloff is smooth, so
@@ -64,7 +80,7 @@ from .raster import sample_coords as _sample_coords
 from .target import ChessboardTarget, in_frame
 
 __all__ = ["Camera", "ChessboardTarget", "RenderedView", "render_view", "render_scene", "add_noise",
-           "render_charuco", "random_sequence", "pose_matrix", "in_frame"]
+           "render_charuco", "random_sequence", "pose_matrix", "in_frame", "jpeg_roundtrip"]
 
 _LEVELS = (35.0, 215.0, 110.0)  # dark square, light paper, background
 
@@ -87,10 +103,14 @@ class RenderedView:
     tvec: np.ndarray = field(default_factory=lambda: np.zeros(3))
     ids: np.ndarray | None = None
 
+Behind = tuple[ChessboardTarget, np.ndarray, np.ndarray]
+
+
 def render_view(camera: Camera, target: ChessboardTarget, rvec: np.ndarray, tvec: np.ndarray, *,
                 supersample: int = 4, blur: float = 0.0, noise: float = 0.0, falloff: float = 0.0,
                 rng: np.random.Generator | int | None = None, border: float = 4.0,
-                levels: tuple[float, float, float] = _LEVELS) -> RenderedView:
+                levels: tuple[float, float, float] = _LEVELS, behind: Behind | None = None,
+                jpeg: int | None = None) -> RenderedView:
     """Render ``target`` seen by ``camera`` at pose ``(rvec, tvec)`` (board -> camera), with exact ground truth.
 
     Parameters
@@ -112,6 +132,11 @@ def render_view(camera: Camera, target: ChessboardTarget, rvec: np.ndarray, tvec
         A corner nearer than this to the frame's edge is not ``inside``.
     levels : (dark, light, background)
         Grey levels of the dark squares, the paper and the background.
+    behind : (ChessboardTarget, rvec, tvec), optional
+        A second board, seen where ``target``'s paper is not (module doc); its ground truth is
+        its own projection, ``camera.project(behind[0].object_points(), behind[1], behind[2])``.
+    jpeg : int, optional
+        JPEG quality (1-100): the rounded image is encoded and decoded (``cv2.imencode``).
 
     Returns
     -------
@@ -127,9 +152,13 @@ def render_view(camera: Camera, target: ChessboardTarget, rvec: np.ndarray, tvec
     for name, val in (("noise", noise), ("border", border)):
         if not (val >= 0 and math.isfinite(val)):
             raise ValueError(f"{name} must be a finite value >= 0, got {val}")
+    if jpeg is not None and not 1 <= int(jpeg) <= 100:
+        raise ValueError(f"jpeg must be a quality in [1, 100], got {jpeg}")
     clean = render_scene(camera, target, rvec, tvec, supersample=supersample, blur=blur, falloff=falloff,
-                         levels=levels)
+                         levels=levels, behind=behind)
     img = add_noise(clean, noise, rng)
+    if jpeg is not None:
+        img = jpeg_roundtrip(img, int(jpeg))
     corners = camera.project(target.object_points(), rvec, tvec)
     return RenderedView(img, corners, target.labels(), in_frame(corners, camera.size, border),
                         np.asarray(rvec, dtype=np.float64).reshape(3).copy(),
@@ -138,7 +167,7 @@ def render_view(camera: Camera, target: ChessboardTarget, rvec: np.ndarray, tvec
 
 def render_scene(camera: Camera, target: ChessboardTarget, rvec: np.ndarray, tvec: np.ndarray, *,
                  supersample: int = 4, blur: float = 0.0, falloff: float = 0.0,
-                 levels: tuple[float, float, float] = _LEVELS) -> np.ndarray:
+                 levels: tuple[float, float, float] = _LEVELS, behind: Behind | None = None) -> np.ndarray:
     """The noise-free image of :func:`render_view` before rounding, (H, W) float64.
 
     Several noise draws of one view share it (:func:`add_noise`).
@@ -158,9 +187,34 @@ def render_scene(camera: Camera, target: ChessboardTarget, rvec: np.ndarray, tve
     if not 0 <= falloff < 1:
         raise ValueError(f"falloff must be in [0, 1), got {falloff}")
     R, t = pose_matrix(rvec, tvec)
+    second = None
+    if behind is not None:
+        R2, t2 = pose_matrix(behind[1], behind[2])
+        second = (R2, t2, _board(behind[0], levels))
+    return _finish(_render(camera, R, t, s, _board(target, levels), second), blur, falloff)
+
+
+def _board(target: ChessboardTarget, levels: tuple[float, float, float]) -> np.ndarray:
+    """The raster kernel's board array (:mod:`.raster`)."""
     dark, light, bg = (float(v) for v in levels)
-    board = np.array([target.square, target.cols, target.rows, target.margin, dark, light, bg])
-    return _finish(_render(camera, R, t, s, board), blur, falloff)
+    return np.array([target.square, target.cols, target.rows, target.margin, dark, light, bg,
+                     target.edge, target.dots, target.dot])
+
+
+def jpeg_roundtrip(image: np.ndarray, quality: int = 75) -> np.ndarray:
+    """A uint8 image encoded as JPEG at ``quality`` and decoded (``cv2.imencode``, ``cv2.imdecode``).
+
+    Examples
+    --------
+    >>> img = np.tile(np.repeat([40, 200], 5).astype(np.uint8), (16, 2))
+    >>> out = jpeg_roundtrip(img, 75)
+    >>> out.shape, out.dtype, bool(np.any(out != img))
+    ((16, 20), dtype('uint8'), True)
+    """
+    ok, buf = cv2.imencode(".jpg", np.asarray(image, dtype=np.uint8), [cv2.IMWRITE_JPEG_QUALITY, int(quality)])
+    if not ok:
+        raise ValueError("cv2.imencode could not encode the image as JPEG")
+    return cv2.imdecode(buf, cv2.IMREAD_GRAYSCALE)
 
 
 def add_noise(image: np.ndarray, noise: float = 0.0,

@@ -19,6 +19,11 @@ partial    1280 x 960   10 x 10      40-70       1.0    2      0.4      15
 (the ``partial`` sequence's last 6 views are cut by the frame, 30-75 % of their
 corners inside). The quick set (``--quick``) is two small sequences for tests
 and CI: 640 x 480, a 7 x 7 board, 3 views each, one of them partial.
+
+Run by name only (not in the default set): ``stress``
+(:class:`.stress.StressSequence`: 3 views of each of :mod:`.stress`' scenes, 640 x 480:
+outer squares cut by the paper's edge, a small second board in the background, an
+equidistant fisheye of 193 degrees, dot codes in the white squares, JPEG at quality 75).
 """
 
 from __future__ import annotations
@@ -29,7 +34,7 @@ import numpy as np
 
 from .render import Camera, ChessboardTarget, random_sequence
 
-__all__ = ["Sequence", "SEQUENCES", "QUICK", "sequences", "camera_for"]
+__all__ = ["Sequence", "SEQUENCES", "QUICK", "BY_NAME", "sequences", "camera_for"]
 
 _DIST = (-0.22, 0.08, 0.0008, -0.0006)
 
@@ -100,8 +105,19 @@ QUICK: dict[str, Sequence] = {s.name: s for s in (
 )}
 
 
-def sequences(names: list[str] | None = None, *, quick: bool = False) -> list[Sequence]:
-    """The sequences to run: ``names`` of :data:`SEQUENCES` (None: all), or the quick set.
+def _by_name() -> dict:
+    from .stress import StressSequence
+
+    return {"stress": StressSequence()}
+
+
+#: sequences run only when named (``--sequences stress``): not in the default set
+BY_NAME: tuple[str, ...] = ("stress",)
+
+
+def sequences(names: list[str] | None = None, *, quick: bool = False) -> list:
+    """The sequences to run: ``names`` of :data:`SEQUENCES` or :data:`BY_NAME` (None: all of
+    :data:`SEQUENCES`), or the quick set.
 
     Raises ``ValueError`` naming the known sequences for an unknown name.
 
@@ -111,11 +127,16 @@ def sequences(names: list[str] | None = None, *, quick: bool = False) -> list[Se
     ['sharp', 'blur']
     >>> [s.n_views for s in sequences(quick=True)]
     [3, 3]
+    >>> [(s.name, s.n_views) for s in sequences(["stress"])]
+    [('stress', 15)]
     """
     table = QUICK if quick else SEQUENCES
     if names is None:
         return list(table.values())
+    if not quick and any(n in BY_NAME for n in names):
+        table = {**table, **_by_name()}
     bad = [n for n in names if n not in table]
     if bad:
-        raise ValueError(f"unknown sequence(s) {', '.join(bad)}; known: {', '.join(table)}")
+        known = list(table) + ([n for n in BY_NAME if n not in table] if not quick else [])
+        raise ValueError(f"unknown sequence(s) {', '.join(bad)}; known: {', '.join(known)}")
     return [table[n] for n in names]
