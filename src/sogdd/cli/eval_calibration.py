@@ -14,6 +14,14 @@ Real photos (``--data`` or ``$SOGDD_DATA/calibration``, skipped with
 ``--no-real``): boards found, label distance after one global offset per set,
 RMS reprojection, fx against BoofCV's calibration.
 
+Real photos from other cameras (``--photos``, instead of the above; ``--sets``
+to choose sets, ``--views N`` the first N photos of each): every set under
+``--data``, each camera of a rig on its own; per set and board method:
+complete, partial and extra boards, corners per board, wrong labels against
+hand labels, RMS reprojection and ``fx, fy, cx, cy`` of a calibration from the
+complete boards beside a reference camera (photos.json, photos.md):
+:mod:`sogdd.evaluation.calibration.photos`.
+
 Methods (``--methods``, comma-separated; all by default): sogdd, opencv-refine, hr-grid,
 opencv, opencv-sb, calib-targets, mrgingham, chess-corners, hr. A comparator
 that is not installed is skipped with a note (``pip install calib-targets
@@ -32,13 +40,50 @@ from ._common import HelpFormatter, add_output_arguments, print_json, reporter, 
 __all__ = ["register_calibration", "run_calibration"]
 
 
-def _names(text: str | None) -> list[str] | None:
+def _names(text: str | None, option: str = "--sequences") -> list[str] | None:
     if text is None:
         return None
     names = [t.strip() for t in text.split(",") if t.strip()]
     if not names:
-        raise ValueError("--sequences: no sequence names given")
+        raise ValueError(f"{option}: no names given")
     return names
+
+
+def evaluate_photos(args, argv_text: str) -> dict:
+    """The ``--photos`` evaluation that ``args`` asks for, as one dict (also what photos.json holds)."""
+    from .._version import __version__
+    from ..evaluation.calibration.comparators import method_names
+    from ..evaluation.calibration.photo_sets import photo_sets
+    from ..evaluation.calibration.photos import photo_methods, run_photos
+    from ..evaluation.calibration.protocol import availability, data_root
+
+    clash = [f for f in ("quick", "sequences", "no_real", "no_rendered") if getattr(args, f, None)]
+    if clash or args.draws != 1:
+        drop = (clash or ["draws"])[0].replace("_", "-")
+        raise ValueError(f"--photos runs the real photos only; drop --{drop}")
+    if args.views is not None and args.views < 3:
+        raise ValueError(f"--views must be >= 3 (a calibration needs 3 views), got {args.views}")
+    root = data_root(args.data)
+    if root is None:
+        raise ValueError("--photos: no $SOGDD_DATA/calibration; pass --data DIR")
+    sets = photo_sets(root, _names(args.sets, "--sets"))
+    methods, notes = availability(photo_methods(method_names(args.methods) if args.methods else None))
+    res = run_photos(sets, methods, views=args.views, progress=reporter(args))
+    return {"version": __version__, "command": argv_text, "methods": methods, **res,
+            "notes": notes + res["notes"]}
+
+
+def _run_photos(args) -> int:
+    from ..evaluation.calibration.photos import photos_markdown, write_photos
+
+    res = evaluate_photos(args, command_text(args))
+    if args.out:
+        write_photos(res, Path(args.out), merge=args.merge)
+    if args.json:
+        print_json(res)
+    else:
+        write_stdout(photos_markdown(res).encode())
+    return 0
 
 
 def evaluate(args, argv_text: str) -> dict:
@@ -50,6 +95,8 @@ def evaluate(args, argv_text: str) -> dict:
 
     if args.no_rendered and args.no_real:
         raise ValueError("--no-rendered and --no-real leave nothing to run")
+    if getattr(args, "sets", None):
+        raise ValueError("--sets needs --photos")
     if args.merge and not args.out:
         raise ValueError("--merge needs --out")
     if args.draws < 1:
@@ -78,6 +125,8 @@ def evaluate(args, argv_text: str) -> dict:
 def run_calibration(args) -> int:
     from ..report.calibration_section import results_markdown, write_results
 
+    if getattr(args, "photos", False):
+        return _run_photos(args)
     res = evaluate(args, command_text(args))
     if args.out:
         write_results(res, Path(args.out), merge=args.merge)
@@ -99,7 +148,8 @@ def command_text(args) -> str:
     "sogdd eval calibration --quick --sequences sharp --no-real --out 'out dir'"
     """
     parts = ["sogdd", "eval", "calibration"] + (["--quick"] if getattr(args, "quick", False) else [])
-    for name in ("sequences", "methods", "draws", "views", "data"):
+    parts += ["--photos"] if getattr(args, "photos", False) else []
+    for name in ("sequences", "sets", "methods", "draws", "views", "data"):
         val = getattr(args, name, None)
         if val is not None and not (name == "draws" and val == 1):
             parts += [f"--{name}", str(val)]
@@ -127,6 +177,11 @@ def register_calibration(eval_subparsers) -> None:
     c.add_argument("--data", metavar="DIR", help="calibration photos [default: $SOGDD_DATA/calibration]")
     c.add_argument("--no-real", action="store_true", help="skip the real calibration photos")
     c.add_argument("--no-rendered", action="store_true", help="skip the rendered sequences (real photos only)")
+    c.add_argument("--photos", action="store_true",
+                   help="real photos from other cameras instead: every set under --data, boards counted per "
+                        "method (photos.json, photos.md)")
+    c.add_argument("--sets", metavar="A,B",
+                   help="with --photos: only these sets (a rig's name: all its cameras) [default: all]")
     add_output_arguments(c, "calibration.json, calibration.md and calibration.png")
     c.add_argument("--merge", action="store_true",
                    help="add to the calibration.json already in --out (rows of the same sequence or photo set "
