@@ -4,11 +4,14 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
+from scipy.optimize import least_squares
+from scipy.sparse import coo_matrix
 
 from .cameras import MODELS, project
+from .cameras.models import fisheye_theta
 from .targets.board import Board
 
-__all__ = ["fisheye_fixed", "fit_camera", "fit_camera_checked", "jacobian_std", "solve_pose"]
+__all__ = ["fisheye_fixed", "fit_camera", "fit_fisheye", "fit_camera_checked", "jacobian_std", "solve_pose"]
 
 # (JᵀJ with unit columns) beyond this condition number leaves some parameters undetermined: its
 # inverse would carry the rounding of the other parameters, about 1e-16 times this, into them
@@ -16,13 +19,17 @@ _COND_MAX = 1e12
 
 
 def fit_camera(obj: list[np.ndarray], img: list[np.ndarray], size: tuple[int, int], model: str, flags: int):
-    """One OpenCV calibration: ``(K, dist, rvecs (V, 3), tvecs (V, 3), std (array or None))``."""
+    """One calibration: ``(K, dist, rvecs (V, 3), tvecs (V, 3), std (array or None))``.
+
+    Pinhole and rational: ``cv2.calibrateCameraExtended``. Fisheye: :func:`fit_fisheye`,
+    which also starts from ``cv2.fisheye.calibrate``'s answer where OpenCV gives one,
+    so it is never worse than OpenCV's where OpenCV works, and works where OpenCV's
+    initialisation fails (rays near and beyond 90 degrees); its standard deviations
+    come from :func:`jacobian_std` (None here). Raises ``cv2.error`` when no fit is possible.
+    """
     crit = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 100, 1e-12)
     if model == "fisheye":
-        f = flags | cv2.fisheye.CALIB_RECOMPUTE_EXTRINSIC | cv2.fisheye.CALIB_FIX_SKEW
-        o = [p.reshape(1, -1, 3) for p in obj]
-        i = [p.reshape(1, -1, 2) for p in img]
-        _, K, D, rv, tv = cv2.fisheye.calibrate(o, i, size, np.eye(3), np.zeros(4), flags=f, criteria=crit)
+        K, D, rv, tv = fit_fisheye(obj, img, size, flags, start=_opencv_fisheye(obj, img, size, flags, crit))
         std = None
     else:
         f = flags | (cv2.CALIB_RATIONAL_MODEL if model == "rational" else 0)
@@ -51,11 +58,17 @@ def solve_pose(board: Board, square: float, K, dist, model):
     """A view's pose given the intrinsics (solvePnP), or None."""
     obj = board.object_points(square)
     img = board.image_points
+    if model == "fisheye":
+        # from the rays, as the fisheye fit starts: cv2.fisheye.solvePnP fails beyond 90 degrees
+        intr = np.r_[K[0, 0], K[1, 1], K[0, 2], K[1, 2], np.ravel(dist)[:4]].astype(np.float64)
+        X, uv = np.asarray(obj, np.float64), np.asarray(img, np.float64)
+        pose = _pose_from_rays(X, _rays(uv, intr))
+        if pose is None:
+            return None
+        _, p, _ = _fisheye_lsq(intr, pose[None], X, uv, np.zeros(len(X), int), np.zeros(8, bool), 50, False)
+        return (p[0, :3], p[0, 3:]) if np.all(np.isfinite(p)) else None
     try:
-        if model == "fisheye":
-            ok, rv, tv = cv2.fisheye.solvePnP(obj.reshape(-1, 1, 3), img.reshape(-1, 1, 2), K, dist)
-        else:
-            ok, rv, tv = cv2.solvePnP(obj, img, K, dist, flags=cv2.SOLVEPNP_ITERATIVE)
+        ok, rv, tv = cv2.solvePnP(obj, img, K, dist, flags=cv2.SOLVEPNP_ITERATIVE)
     except cv2.error:
         return None
     return (rv.ravel(), tv.ravel()) if ok else None
@@ -146,3 +159,253 @@ def jacobian_std(obj: list[np.ndarray], img: list[np.ndarray], K: np.ndarray, di
     std = np.zeros(len(theta))
     std[free] = np.sqrt(np.clip(np.diag(cov), 0, None))
     return std[:4 + nd]
+
+
+# --------------------------------------------------------------------------------------------------
+# the fisheye fit: OpenCV's fisheye model, fitted by sogdd's own least squares
+
+# the equidistant starts' fields of view across the image's larger side (degrees): lenses from a
+# wide angle to beyond a half sphere
+_FISHEYE_FOVS = (100.0, 130.0, 160.0, 190.0, 220.0)
+# rays farther than this from a view's mean ray are left out of its first pose: projected to a plane
+# they stretch without bound towards 90 degrees, where a guessed focal length errs the most
+_POSE_RAY_MAX = np.deg2rad(70.0)
+# a start's short fit: enough steps to rank the starts, robust to the few gross corners that the
+# rejection in fit.py has not yet removed
+_START_STEPS = 25
+_START_LOSS_SCALE = 3.0  # px
+_STARTS_FITTED = 2
+
+
+def _robust_cost(r: np.ndarray) -> float:
+    """``least_squares``' soft-L1 cost of residuals ``r`` (scale :data:`_START_LOSS_SCALE`):
+    :math:`\\sum_i s^2 (\\sqrt{1 + (r_i / s)^2} - 1)`; infinite where any is not finite."""
+    z = (np.asarray(r) / _START_LOSS_SCALE) ** 2
+    c = float(np.sum(_START_LOSS_SCALE ** 2 * (np.sqrt(1 + z) - 1)))
+    return c if np.isfinite(c) else np.inf
+
+
+def _opencv_fisheye(obj, img, size, flags, crit):
+    """``cv2.fisheye.calibrate``'s solution as a start ``(intrinsics (8,), poses (V, 6))``, or None
+    where it raises or returns something non-finite (its homography-based initialisation fails for
+    rays near and beyond 90 degrees)."""
+    f = flags | cv2.fisheye.CALIB_RECOMPUTE_EXTRINSIC | cv2.fisheye.CALIB_FIX_SKEW
+    o = [p.astype(np.float64).reshape(1, -1, 3) for p in obj]
+    i = [p.astype(np.float64).reshape(1, -1, 2) for p in img]
+    try:
+        _, K, D, rv, tv = cv2.fisheye.calibrate(o, i, size, np.eye(3), np.zeros(4), flags=f, criteria=crit)
+    except cv2.error:
+        return None
+    intr = np.r_[K[0, 0], K[1, 1], K[0, 2], K[1, 2], np.ravel(D)[:4]]
+    poses = np.c_[np.array([np.ravel(r) for r in rv]), np.array([np.ravel(t) for t in tv])]
+    ok = np.all(np.isfinite(intr)) and np.all(np.isfinite(poses)) and intr[0] > 0 and intr[1] > 0
+    return (intr, poses) if ok else None
+
+
+def _rodrigues(rv: np.ndarray) -> np.ndarray:
+    """Rotation matrices (V, 3, 3) of rotation vectors (V, 3): :math:`R = I + \\sin\\alpha\\,[k]_\\times
+    + (1 - \\cos\\alpha)[k]_\\times^2`, :math:`\\alpha = \\lVert r \\rVert`, :math:`k = r / \\alpha`."""
+    a = np.linalg.norm(rv, axis=1)
+    k = rv / np.where(a > 1e-12, a, 1.0)[:, None]
+    Kx = np.zeros((len(rv), 3, 3))
+    Kx[:, 0, 1], Kx[:, 0, 2], Kx[:, 1, 2] = -k[:, 2], k[:, 1], -k[:, 0]
+    Kx = Kx - Kx.transpose(0, 2, 1)
+    s, c = np.sin(a)[:, None, None], (1 - np.cos(a))[:, None, None]
+    return np.eye(3) + s * Kx + c * (Kx @ Kx)
+
+
+def _fisheye_residuals(intr: np.ndarray, poses: np.ndarray, X: np.ndarray, uv: np.ndarray,
+                       view: np.ndarray) -> np.ndarray:
+    """Projected minus observed pixels (2N,) of all views at once: :func:`~sogdd.calib.cameras.project`'s
+    fisheye (:math:`\\theta = \\operatorname{atan2}(r, Z)`), vectorised over the views."""
+    R = _rodrigues(poses[:, :3])[view]
+    p = np.einsum("nij,nj->ni", R, X) + poses[view, 3:]
+    r = np.hypot(p[:, 0], p[:, 1])
+    t2 = np.arctan2(r, p[:, 2]) ** 2
+    k1, k2, k3, k4 = intr[4:8]
+    thd = np.sqrt(t2) * (1 + t2 * (k1 + t2 * (k2 + t2 * (k3 + t2 * k4))))
+    scale = np.where(r > 1e-12, thd / np.where(r > 1e-12, r, 1.0), 1.0 / np.where(p[:, 2] != 0, p[:, 2], 1.0))
+    u = intr[0] * p[:, 0] * scale + intr[2] - uv[:, 0]
+    v = intr[1] * p[:, 1] * scale + intr[3] - uv[:, 1]
+    return np.stack([u, v], axis=1).ravel()
+
+
+def _sparsity(view: np.ndarray, n_views: int, n_intr: int):
+    """Which parameters each residual depends on: every intrinsic, and its own view's 6 pose terms."""
+    rows = np.arange(2 * len(view))
+    cols_pose = n_intr + 6 * np.repeat(view, 2)[:, None] + np.arange(6)
+    r = np.r_[np.repeat(rows, n_intr), np.repeat(rows, 6)]
+    c = np.r_[np.tile(np.arange(n_intr), len(rows)), cols_pose.ravel()]
+    return coo_matrix((np.ones(len(r), np.int8), (r, c)), shape=(len(rows), n_intr + 6 * n_views)).tocsr()
+
+
+def _fisheye_lsq(intr0, poses0, X, uv, view, free, max_nfev, robust: bool):
+    """Least squares over the free intrinsics and every pose (TRF, finite differences on the sparse
+    Jacobian); returns ``(intrinsics, poses, cost)``."""
+    V, nf = len(poses0), int(free.sum())
+
+    def fun(x):
+        intr = intr0.copy()
+        intr[free] = x[:nf]
+        return _fisheye_residuals(intr, x[nf:].reshape(V, 6), X, uv, view)
+
+    x0 = np.r_[intr0[free], poses0.ravel()]
+    kw = {"loss": "soft_l1", "f_scale": _START_LOSS_SCALE} if robust else {}
+    sol = least_squares(fun, x0, jac_sparsity=_sparsity(view, V, nf), method="trf", tr_solver="lsmr",
+                        x_scale="jac", max_nfev=max_nfev, xtol=1e-10, ftol=1e-10, gtol=1e-10,
+                        tr_options={"atol": 1e-10, "btol": 1e-10}, **kw)
+    intr = intr0.copy()
+    intr[free] = sol.x[:nf]
+    return intr, sol.x[nf:].reshape(V, 6), float(sol.cost)
+
+
+def _rays(uv: np.ndarray, intr: np.ndarray) -> np.ndarray:
+    """Unit rays (N, 3) of pixels under the fisheye intrinsics: :math:`\\theta_d = \\lVert ((u - c_x)/f_x,
+    (v - c_y)/f_y) \\rVert`, :math:`\\theta = \\theta_d^{-1}`, the ray
+    :math:`(\\sin\\theta\\cos\\phi, \\sin\\theta\\sin\\phi, \\cos\\theta)` (NaN where the model folds)."""
+    xd = (uv - intr[2:4]) / intr[:2]
+    th = fisheye_theta(np.hypot(xd[:, 0], xd[:, 1]), intr[4:8])
+    phi = np.arctan2(xd[:, 1], xd[:, 0])
+    return np.stack([np.sin(th) * np.cos(phi), np.sin(th) * np.sin(phi), np.cos(th)], axis=1)
+
+
+def _to_axis(m: np.ndarray) -> np.ndarray:
+    """A rotation matrix taking the unit vector ``m`` to the optical axis (0, 0, 1)."""
+    axis = np.cross(m, [0.0, 0.0, 1.0])
+    s, c = np.linalg.norm(axis), float(m[2])
+    if s < 1e-12:
+        return np.eye(3) if c > 0 else np.diag([1.0, -1.0, -1.0])
+    return cv2.Rodrigues(axis / s * np.arctan2(s, c))[0]
+
+
+def _pose_from_rays(obj: np.ndarray, rays: np.ndarray):
+    """A view's pose ``(6,)`` from its corners' rays, or None.
+
+    The rays are turned so that their mean lies on the axis (a board seen at
+    and beyond 90 degrees then lies in front of a virtual pinhole), those
+    within 70 degrees of it are projected to the plane :math:`z = 1`, and
+    ``cv2.solvePnP`` (IPPE for a flat board) gives the pose :math:`(R', t')`
+    of the turned camera; with :math:`R_m` the turn, :math:`R = R_m^T R'`,
+    :math:`t = R_m^T t'`.
+    """
+    ok = np.all(np.isfinite(rays), axis=1)
+    if ok.sum() < 4:
+        return None
+    m = rays[ok].mean(axis=0)
+    if np.linalg.norm(m) < 1e-6:
+        return None
+    Rm = _to_axis(m / np.linalg.norm(m))
+    d = rays @ Rm.T
+    sel = ok & (d[:, 2] > np.cos(_POSE_RAY_MAX))
+    if sel.sum() < 4:
+        return None
+    xy = (d[sel, :2] / d[sel, 2:]).astype(np.float64)
+    o = np.asarray(obj, np.float64)[sel]
+    method = cv2.SOLVEPNP_IPPE if np.ptp(o[:, 2]) < 1e-9 else cv2.SOLVEPNP_ITERATIVE
+    try:
+        good, rv, tv = cv2.solvePnP(o, xy, np.eye(3), None, flags=method)
+    except cv2.error:
+        return None
+    if not good:
+        return None
+    R = Rm.T @ cv2.Rodrigues(rv)[0]
+    return np.r_[cv2.Rodrigues(R)[0].ravel(), Rm.T @ tv.ravel()]
+
+
+def _initial_poses(obj, img, intr: np.ndarray, X, uv, view) -> np.ndarray | None:
+    """Every view's pose under the intrinsics ``intr``: from its rays, then refined (the intrinsics
+    held); None if any view has none."""
+    poses = []
+    for o, i in zip(obj, img):
+        pose = _pose_from_rays(o, _rays(np.asarray(i, np.float64), intr))
+        if pose is None:
+            return None
+        poses.append(pose)
+    # all views at once: with the intrinsics held the Jacobian is block-diagonal, 6 columns per view
+    _, p, _ = _fisheye_lsq(intr, np.array(poses), X, uv, view, np.zeros(8, bool), _START_STEPS, robust=True)
+    return p
+
+
+def fit_fisheye(obj: list[np.ndarray], img: list[np.ndarray], size: tuple[int, int], flags: int = 0,
+                start: tuple[np.ndarray, np.ndarray] | None = None):
+    """Fit OpenCV's fisheye model to views by least squares, for lenses up to and beyond 180 degrees.
+
+    The model is ``cv2.fisheye``'s (skew 0): a point :math:`X_c = R_v X + t_v`
+    at angle :math:`\\theta = \\operatorname{atan2}(\\sqrt{X_c^2 + Y_c^2}, Z_c)`
+    from the axis lands at :math:`u = f_x \\theta_d X_c / r + c_x`,
+    :math:`v = f_y \\theta_d Y_c / r + c_y`, with
+    :math:`\\theta_d = \\theta (1 + k_1 \\theta^2 + k_2 \\theta^4 + k_3 \\theta^6 + k_4 \\theta^8)`.
+    The fit minimises :math:`\\sum_{v,c} \\lVert x_{vc} - \\pi(X_c) \\rVert^2` over
+    ``fx, fy, cx, cy, k1..k4`` (those ``flags`` do not fix) and each view's
+    ``rvec, tvec`` with ``scipy.optimize.least_squares``, the Jacobian sparse (a
+    view's residuals depend on the 8 intrinsics and its own 6 pose terms only).
+
+    It starts from equidistant lenses (:math:`k = 0`, :math:`(c_x, c_y)` the
+    image centre, :math:`f` giving 100 to 220 degrees across the image's
+    larger side), each view's pose from its rays under that lens
+    (:func:`_pose_from_rays`, then refined alone), and from ``start`` (e.g.
+    ``cv2.fisheye.calibrate``'s answer); the two starts of the lowest robust
+    (soft-L1) cost get a short robust fit of everything, and the better is fitted
+    to convergence by plain least squares. Unlike OpenCV's initialisation
+    (homographies of the normalised points, a focal guess from the image
+    size), nothing here needs the rays in front of the camera.
+
+    Parameters
+    ----------
+    obj, img : list of (N_v, 3) and (N_v, 2) arrays
+        Board points and their pixels, per view.
+    size : (width, height)
+    flags : int
+        ``cv2.fisheye`` flags; ``CALIB_FIX_K1..K4`` hold those at 0,
+        ``CALIB_FIX_FOCAL_LENGTH`` and ``CALIB_FIX_PRINCIPAL_POINT`` at the start's.
+    start : (intrinsics (8,), poses (V, 6)), optional
+        One more start.
+
+    Returns
+    -------
+    K : (3, 3), dist : (4,), rvecs : (V, 3), tvecs : (V, 3)
+
+    Raises
+    ------
+    cv2.error
+        When no start could be built (no view's pose from its rays), as OpenCV's own fit would fail.
+
+    Examples
+    --------
+    >>> K = np.array([[200.0, 0, 320], [0, 200, 240], [0, 0, 1]])
+    >>> obj = np.array([(i, j, 0.0) for j in range(4) for i in range(6)])
+    >>> rng = np.random.default_rng(0)
+    >>> poses = []
+    >>> for a in np.linspace(0, 2 * np.pi, 8, endpoint=False):  # boards 80 degrees off the axis
+    ...     d = np.array([np.sin(1.4) * np.cos(a), np.sin(1.4) * np.sin(a), np.cos(1.4)])
+    ...     R = cv2.Rodrigues(np.cross([0, 0, 1.0], d) / np.sin(1.4) * 1.4)[0]
+    ...     poses.append((cv2.Rodrigues(R @ cv2.Rodrigues(np.array([0.2, -0.3, 0.1]))[0])[0].ravel(),
+    ...                   8 * d - R @ np.array([2.5, 1.5, 0])))
+    >>> img = [project(obj, K, np.zeros(4), "fisheye", r, t) + rng.normal(0, 0.05, (24, 2)) for r, t in poses]
+    >>> Kf, D, rv, tv = fit_fisheye([obj] * 8, img, (640, 480))
+    >>> bool(abs(Kf[0, 0] - 200) < 1 and abs(Kf[0, 2] - 320) < 1)
+    True
+    """
+    fixed = fisheye_fixed(flags)
+    free = ~fixed
+    X = np.concatenate([np.asarray(o, np.float64).reshape(-1, 3) for o in obj])
+    uv = np.concatenate([np.asarray(i, np.float64).reshape(-1, 2) for i in img])
+    view = np.repeat(np.arange(len(obj)), [len(o) for o in obj])
+    w, h = size
+    starts = [] if start is None else [start]
+    for fov in _FISHEYE_FOVS:
+        f0 = max(w, h) / 2 / np.deg2rad(fov / 2)
+        intr = np.array([f0, f0, (w - 1) / 2, (h - 1) / 2, 0.0, 0.0, 0.0, 0.0])
+        poses = _initial_poses(obj, img, intr, X, uv, view)
+        if poses is not None:
+            starts.append((intr, poses))
+    if not starts:
+        raise cv2.error("the fisheye fit found no start: no view's pose could be found from its rays")
+    # rank the starts by their robust cost as they are (each view's pose already fitted to its lens),
+    # and fit the intrinsics from the best few only: the fits cost far more than the ranking
+    order = np.argsort([_robust_cost(_fisheye_residuals(i, p, X, uv, view)) for i, p in starts])
+    ranked = [_fisheye_lsq(*starts[n], X, uv, view, free, _START_STEPS, True) for n in order[:_STARTS_FITTED]]
+    intr, poses, _ = min(ranked, key=lambda s: s[2] if np.isfinite(s[2]) else np.inf)
+    intr, poses, _ = _fisheye_lsq(intr, poses, X, uv, view, free, 500, robust=False)
+    K = np.array([[intr[0], 0.0, intr[2]], [0.0, intr[1], intr[3]], [0.0, 0.0, 1.0]])
+    return K, intr[4:8].copy(), poses[:, :3].copy(), poses[:, 3:].copy()

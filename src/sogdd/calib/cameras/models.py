@@ -73,7 +73,9 @@ def project(points3d: np.ndarray, K: np.ndarray, dist: np.ndarray, model: Camera
     :math:`X_c = R(\\mathrm{rvec}) X + \\mathrm{tvec}`, :math:`(x, y) = (X_c/Z_c, Y_c/Z_c)`,
     :math:`(x_d, y_d) =` :func:`distort` :math:`(x, y)`, :math:`u = f_x x_d + s\\,y_d + c_x`,
     :math:`v = f_y y_d + c_y` (``s = K[0, 1]``, the skew). Matches ``cv2.projectPoints``
-    and ``cv2.fisheye.projectPoints``.
+    and ``cv2.fisheye.projectPoints``. The fisheye takes the ray angle from the 3-D point,
+    :math:`\\theta = \\operatorname{atan2}(\\sqrt{X_c^2 + Y_c^2}, Z_c)`, so that rays at and beyond
+    90 degrees (``Z_c <= 0``) project too: :math:`(x_d, y_d) = (\\theta_d / r)(X_c, Y_c)`.
 
     Examples
     --------
@@ -87,6 +89,17 @@ def project(points3d: np.ndarray, K: np.ndarray, dist: np.ndarray, model: Camera
         p = p @ R.T
     if tvec is not None:
         p = p + np.asarray(tvec, dtype=np.float64).reshape(1, 3)
+    if model == "fisheye":
+        # theta = atan2(r, Z), not atan(r / Z): a fisheye sees rays at and beyond 90 degrees, where
+        # X/Z, Y/Z are infinite or point the wrong way; for Z > 0 both agree
+        r = np.hypot(p[:, 0], p[:, 1])
+        d = np.zeros(4)
+        d[: min(4, np.size(dist))] = np.asarray(dist, dtype=np.float64).ravel()[:4]
+        thd = fisheye_theta_d(np.arctan2(r, p[:, 2]), d)
+        safe = np.where(r > 1e-12, r, 1.0)
+        on_axis = 1.0 / np.where(p[:, 2] != 0, p[:, 2], 1.0)  # theta_d / r -> 1 / Z as r -> 0
+        scale = np.where(r > 1e-12, thd / safe, on_axis)
+        return to_pixels(p[:, :2] * scale[:, None], K)
     xy = p[:, :2] / p[:, 2:3]
     return to_pixels(distort(xy, dist, model), K)
 
