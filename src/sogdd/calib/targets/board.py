@@ -30,8 +30,10 @@ class Board:
     quality : (N,) float64
         Per-corner quality in ``[0, 1]`` (1 is best).
     size : tuple of int or None
-        ``(columns, rows)`` of inner corners when the whole board was seen and
-        its size is known, else None.
+        ``(columns, rows)`` of inner corners when the board's size is known and
+        its corners span the whole pattern, so that the labels are absolute (a
+        corner inside may still be missing: ``len(board) < columns * rows``);
+        else None.
     outline : (M, 2) float64
         A polygon around the detected corners, in image coordinates.
     ids : (N,) int64 or None
