@@ -53,7 +53,7 @@ from scipy.spatial import cKDTree
 
 from .board import Board
 from .lattice import Lattice, check, grow, ray_neighbours, seeds
-from .refine import half_widths, refine_grey
+from .refine import MAX_WINDOW, MIN_HALF, half_widths, refine_grey
 from .xcorners import XCorners, check_search, default_scale, search, to_grey
 
 __all__ = ["detect_board", "detect_boards"]
@@ -140,11 +140,34 @@ def _edges(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray) -> tuple[float,
     return float(np.mean(ok)), has
 
 
-def _orphans(xc: XCorners, idx: np.ndarray, xy: np.ndarray, cells: np.ndarray) -> float:
+def _ring_contrast(grey: np.ndarray, xy: np.ndarray, light: np.ndarray, cell: float) -> np.ndarray:
+    """How much the light wedges of X-corners stay lighter than the dark ones out to a third of a cell.
+
+    With ``u`` the light axis and ``v`` perpendicular to it (the dark wedges'
+    bisector), at radii ``r = (0.15, 0.3) cell``:
+    ``c = min_r [min(I(p +- r u)) - max(I(p +- r v))]``. A board's corner keeps
+    its full contrast at both radii (its wedges are squares a cell wide); a
+    saddle between the dots or bits of a code inside a white square is light all
+    round a few pixels out, so its ``c`` is small or negative.
+    """
+    u = np.stack([np.cos(light), np.sin(light)], axis=1)
+    v = np.stack([-u[:, 1], u[:, 0]], axis=1)
+    out = np.full(len(xy), np.inf)
+    for r in (0.15 * cell, 0.3 * cell):
+        lo = np.minimum(_bilinear(grey, xy + r * u), _bilinear(grey, xy - r * u))
+        hi = np.maximum(_bilinear(grey, xy + r * v), _bilinear(grey, xy - r * v))
+        out = np.minimum(out, lo - hi)
+    return out
+
+
+def _orphans(grey: np.ndarray, xc: XCorners, idx: np.ndarray, xy: np.ndarray, cells: np.ndarray) -> float:
     """Strong X-corners inside the board's outline that are none of its corners, per board corner.
 
     A true board uses every inner corner in its outline; a lattice of wrong steps
-    (a knight's move, a diagonal) leaves most of them out.
+    (a knight's move, a diagonal) leaves most of them out. Only X-corners with
+    the wedges of a board corner count (:func:`_ring_contrast` at least half the
+    board's median): the saddles between the dots of a code inside a white
+    square (ECoCheck, ChArUco's markers) are strong but light all round.
     """
     import cv2
 
@@ -155,6 +178,9 @@ def _orphans(xc: XCorners, idx: np.ndarray, xy: np.ndarray, cells: np.ndarray) -
     cell = float(np.median(cells[np.isfinite(cells)])) if np.isfinite(cells).any() else 1.0
     d, _ = cKDTree(xy).query(xc.xy[cand])
     cand = cand[d > 0.3 * cell]
+    if len(cand):
+        own = float(np.median(_ring_contrast(grey, xy, xc.light[idx], cell)))
+        cand = cand[_ring_contrast(grey, xc.xy[cand], xc.light[cand], cell) >= 0.5 * max(own, 1e-9)]
     inside = [cv2.pointPolygonTest(hull, (float(x), float(y)), True) > 0.3 * cell for x, y in xc.xy[cand]]
     return float(np.count_nonzero(inside)) / max(len(xy), 1)
 
@@ -169,6 +195,68 @@ def _local_cells(xy: np.ndarray, labels: np.ndarray) -> np.ndarray:
             if m is not None:
                 out[k] = min(out[k], float(np.hypot(*(xy[m] - xy[k]))))
     return out
+
+
+#: radii (in cells) and directions at which a border corner's surroundings are compared with their mirror image
+_OUT_STEPS = np.arange(0.1, 0.96, 0.05)
+_OUT_DIRS = np.stack([np.cos(np.arange(16) * np.pi / 16), np.sin(np.arange(16) * np.pi / 16)], axis=1)
+
+
+def _edge_halves(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, half: np.ndarray,
+                 cells: np.ndarray) -> np.ndarray:
+    """Half-widths of the refinement windows, cut for the corners on the board's border.
+
+    Beyond a border corner ``p`` (one without all four lattice neighbours) the
+    outer squares may be narrower than a cell, or end at the paper's edge with
+    the background right beyond, or at the frame's edge; the point symmetry
+    ``I(p + d) = I(p - d)`` holds only while ``p + d`` stays on the squares. Along
+    each of 32 rays ``u`` (16 directions and their opposites) the symmetric
+    extent ``r(u)`` is the first radius ``t cell`` (``t`` in :data:`_OUT_STEPS`)
+    at which ``|I(p + r u) - I(p - r u)| > 0.2 c``, with ``c`` the spread of the
+    image on the ring of radius 0.2 cell (10th to 90th percentile: the corner's
+    contrast): where a blurred edge that is not the corner's own begins. The
+    square window of half-width ``h`` reaches ``h (|u_x| + |u_y|)`` along ``u``, and
+    its Gaussian weight is still 0.6 at its rim, so
+    ``h <= 0.8 min_u r(u) / (|u_x| + |u_y|)`` keeps it on the squares (a ray
+    symmetric out to 0.95 cell sets no bound: the window's own rule holds). An inner
+    corner keeps its window: the asymmetry check is there to drop it when
+    something covers it. ``xy`` must be refined already (:func:`_refine_board`).
+    """
+    pos = {tuple(q) for q in labels.tolist()}
+    border = np.array([any((i + a, j + b) not in pos for a, b in ((1, 0), (-1, 0), (0, 1), (0, -1)))
+                       for i, j in labels.tolist()], dtype=bool)
+    k = np.flatnonzero(border & np.isfinite(cells))
+    if len(k) == 0:
+        return half
+    p, cell = xy[k][:, None, None, :], cells[k][:, None, None, None]
+    d = _OUT_STEPS[None, :, None, None] * cell * _OUT_DIRS[None, None, :, :]  # (n, t, u, 2)
+    ring = _bilinear(grey, xy[k][:, None, :] + 0.2 * cells[k][:, None, None] * np.r_[_OUT_DIRS, -_OUT_DIRS])
+    c = np.percentile(ring, 90, axis=1) - np.percentile(ring, 10, axis=1)
+    bad = np.abs(_bilinear(grey, p + d) - _bilinear(grey, p - d)) > 0.2 * c[:, None, None]  # (n, t, u)
+    r = np.where(bad.any(axis=1), _OUT_STEPS[np.argmax(bad, axis=1)], np.inf) * cells[k][:, None]  # (n, u)
+    reach = np.abs(_OUT_DIRS[:, 0]) + np.abs(_OUT_DIRS[:, 1])
+    limit = np.floor(np.minimum(0.8 * np.min(r / reach, axis=1), MAX_WINDOW)).astype(np.int64)
+    out = half.copy()
+    out[k] = np.minimum(half[k], np.maximum(limit, MIN_HALF))
+    return out
+
+
+def _refine_board(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The corners refined with windows of 0.65 of their local cell, those on the border cut to the board.
+
+    The symmetric extent of :func:`_edge_halves` is measured at the corners
+    refined with the full window (at the X-corners' coarse positions the
+    mirror images differ along the corner's own edge lines); the corners whose
+    window it cuts are refined again, from their start, with the cut window.
+    """
+    cells = _local_cells(xy, labels)
+    half = half_widths(xy, None, cells)
+    out, quality = refine_grey(grey, xy, half, half.astype(np.float64))
+    cut = _edge_halves(grey, np.where(quality[:, None] > 0, out, xy), labels, half, cells)
+    redo = np.flatnonzero(cut < half)
+    if len(redo):
+        out[redo], quality[redo] = refine_grey(grey, xy[redo], cut[redo], cut[redo].astype(np.float64))
+    return out, quality
 
 
 def _axes(xy: np.ndarray, labels: np.ndarray) -> np.ndarray:
@@ -233,8 +321,7 @@ def _finish(grey: np.ndarray, xc: XCorners, lat: Lattice, pattern: tuple[int, in
     xy = xc.xy[idx]
     quality = np.ones(len(xy))
     if refine:
-        half = half_widths(xy, None, _local_cells(xy, labels))
-        xy, quality = refine_grey(grey, xy, half, half.astype(np.float64))
+        xy, quality = _refine_board(grey, xy, labels)
         keep = _symmetric(quality)
         idx, labels, xy, quality = idx[keep], labels[keep], xy[keep], quality[keep]
     for _ in range(2):
@@ -244,7 +331,7 @@ def _finish(grey: np.ndarray, xc: XCorners, lat: Lattice, pattern: tuple[int, in
         idx, labels, xy, quality = idx[keep], labels[keep], xy[keep], quality[keep]
     if len(xy) < min_corners or min(len(np.unique(labels[:, 0])), len(np.unique(labels[:, 1]))) < 3:
         return None
-    if _orphans(xc, idx, xy, _local_cells(xy, labels)) > MAX_ORPHANS:
+    if _orphans(grey, xc, idx, xy, _local_cells(xy, labels)) > MAX_ORPHANS:
         return None
     share, linked = _edges(grey, xy, labels)
     if share < EDGE_SHARE:
