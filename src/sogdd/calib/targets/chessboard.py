@@ -247,7 +247,8 @@ def _refine_board(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray) -> tuple
     The symmetric extent of :func:`_edge_halves` is measured at the corners
     refined with the full window (at the X-corners' coarse positions the
     mirror images differ along the corner's own edge lines); the corners whose
-    window it cuts are refined again, from their start, with the cut window.
+    window it cuts are refined again, from their start, with the cut window,
+    and take that fit where it is the more point-symmetric one (higher quality).
     """
     cells = _local_cells(xy, labels)
     half = half_widths(xy, None, cells)
@@ -255,7 +256,11 @@ def _refine_board(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray) -> tuple
     cut = _edge_halves(grey, np.where(quality[:, None] > 0, out, xy), labels, half, cells)
     redo = np.flatnonzero(cut < half)
     if len(redo):
-        out[redo], quality[redo] = refine_grey(grey, xy[redo], cut[redo], cut[redo].astype(np.float64))
+        xy2, q2 = refine_grey(grey, xy[redo], cut[redo], cut[redo].astype(np.float64))
+        # the cut window only where it is the more point-symmetric fit: a border corner whose full window
+        # stayed on the squares (the measure of the extent is noisy) keeps it, and its accuracy
+        better = q2 > quality[redo]
+        out[redo[better]], quality[redo[better]] = xy2[better], q2[better]
     return out, quality
 
 
