@@ -8,9 +8,12 @@ The steps (:func:`detect_boards`):
 2. boards grown from seeds by prediction (:mod:`sogdd.calib.targets.lattice`), strongest
    seed first, each corner used by one board at most;
 3. every corner refined at full resolution with a window of 0.65 of its local cell
-   (:func:`sogdd.calib.refine_corners`); a corner whose refinement fails, or whose
-   window is far less point-symmetric than the board's others (:data:`ASYMMETRY`;
-   an occluder, the frame's edge), is dropped;
+   (:func:`sogdd.calib.refine_corners`), the window cut to where the squares
+   around it are point-symmetric for the corners on the border and for those
+   far less point-symmetric than the board's others (:func:`_refine_board`: a
+   code in the white squares); a corner whose refinement fails, or whose window
+   stays far less point-symmetric (:data:`ASYMMETRY`; an occluder, the frame's
+   edge), is dropped;
 4. the check: each corner must be predicted by a homography of its neighbours
    within :data:`CHECK_TOL` of a cell (:func:`sogdd.calib.targets.lattice.check`); a corner
    that is not is dropped, twice over;
@@ -160,14 +163,19 @@ def _ring_contrast(grey: np.ndarray, xy: np.ndarray, light: np.ndarray, cell: fl
     return out
 
 
-def _orphans(grey: np.ndarray, xc: XCorners, idx: np.ndarray, xy: np.ndarray, cells: np.ndarray) -> float:
+def _orphans(grey: np.ndarray, xc: XCorners, idx: np.ndarray, xy: np.ndarray, cells: np.ndarray,
+             grown: np.ndarray | None = None) -> float:
     """Strong X-corners inside the board's outline that are none of its corners, per board corner.
 
     A true board uses every inner corner in its outline; a lattice of wrong steps
     (a knight's move, a diagonal) leaves most of them out. Only X-corners with
     the wedges of a board corner count (:func:`_ring_contrast` at least half the
     board's median): the saddles between the dots of a code inside a white
-    square (ECoCheck, ChArUco's markers) are strong but light all round.
+    square (ECoCheck, ChArUco's markers) are strong but light all round. The
+    X-corners ``grown`` (indices into ``xc``: the lattice as grown, before the
+    refinement and the check dropped some of it) are not left out by the
+    lattice and do not count: a corner dropped for its asymmetry (an occluder,
+    a code in its squares) says nothing about the lattice's steps.
     """
     import cv2
 
@@ -175,6 +183,8 @@ def _orphans(grey: np.ndarray, xc: XCorners, idx: np.ndarray, xy: np.ndarray, ce
     strong = xc.strength >= 0.5 * float(np.median(xc.strength[idx]))
     lo, hi = xy.min(axis=0), xy.max(axis=0)
     cand = np.flatnonzero(strong & np.all((xc.xy >= lo) & (xc.xy <= hi), axis=1))
+    if grown is not None:
+        cand = np.setdiff1d(cand, grown)
     cell = float(np.median(cells[np.isfinite(cells)])) if np.isfinite(cells).any() else 1.0
     d, _ = cKDTree(xy).query(xc.xy[cand])
     cand = cand[d > 0.3 * cell]
@@ -203,8 +213,8 @@ _OUT_DIRS = np.stack([np.cos(np.arange(16) * np.pi / 16), np.sin(np.arange(16) *
 
 
 def _edge_halves(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, half: np.ndarray,
-                 cells: np.ndarray) -> np.ndarray:
-    """Half-widths of the refinement windows, cut for the corners on the board's border.
+                 cells: np.ndarray, also: np.ndarray | None = None) -> np.ndarray:
+    """Half-widths of the refinement windows, cut for the corners on the board's border (and ``also``).
 
     Beyond a border corner ``p`` (one without all four lattice neighbours) the
     outer squares may be narrower than a cell, or end at the paper's edge with
@@ -219,12 +229,17 @@ def _edge_halves(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, half: np.
     its Gaussian weight is still 0.6 at its rim, so
     ``h <= 0.8 min_u r(u) / (|u_x| + |u_y|)`` keeps it on the squares (a ray
     symmetric out to 0.95 cell sets no bound: the window's own rule holds). An inner
-    corner keeps its window: the asymmetry check is there to drop it when
-    something covers it. ``xy`` must be refined already (:func:`_refine_board`).
+    corner keeps its window unless ``also`` (bool, one per corner) names it: an
+    inner corner whose window is far less point-symmetric than the board's
+    others (a code printed in its white squares, which differs between the two
+    squares mirrored through it) is measured the same way. ``xy`` must be
+    refined already (:func:`_refine_board`).
     """
     pos = {tuple(q) for q in labels.tolist()}
     border = np.array([any((i + a, j + b) not in pos for a, b in ((1, 0), (-1, 0), (0, 1), (0, -1)))
                        for i, j in labels.tolist()], dtype=bool)
+    if also is not None:
+        border |= also
     k = np.flatnonzero(border & np.isfinite(cells))
     if len(k) == 0:
         return half
@@ -241,26 +256,47 @@ def _edge_halves(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, half: np.
     return out
 
 
+def _recut(grey: np.ndarray, start: np.ndarray, out: np.ndarray, quality: np.ndarray, half: np.ndarray,
+           cut: np.ndarray) -> None:
+    """Refine again, from ``start``, the corners whose window ``cut`` narrows; keep the more symmetric fit.
+
+    ``out`` and ``quality`` are updated in place where the cut window's fit has
+    the higher quality (the measure of the extent is noisy: a corner whose full
+    window stayed on the squares keeps it, and its accuracy).
+    """
+    redo = np.flatnonzero(cut < half)
+    if len(redo):
+        xy2, q2 = refine_grey(grey, start[redo], cut[redo], cut[redo].astype(np.float64))
+        better = q2 > quality[redo]
+        out[redo[better]], quality[redo[better]] = xy2[better], q2[better]
+
+
 def _refine_board(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The corners refined with windows of 0.65 of their local cell, those on the border cut to the board.
+    """The corners refined with windows of 0.65 of their local cell, cut to the plain squares where needed.
 
     The symmetric extent of :func:`_edge_halves` is measured at the corners
     refined with the full window (at the X-corners' coarse positions the
     mirror images differ along the corner's own edge lines); the corners whose
-    window it cuts are refined again, from their start, with the cut window,
-    and take that fit where it is the more point-symmetric one (higher quality).
+    window it cuts are refined again, from their start, with the cut window
+    (:func:`_recut`). First the border corners; then the corners that
+    :func:`_symmetric` would drop against the board's median with the border
+    cut (before it, the median itself may be that of windows reaching beyond
+    the squares): a code in the white squares (ECoCheck's dots), which differs
+    between the two squares mirrored through the corner, breaks the symmetry
+    beyond its clear margin only, so a window within that margin fits the
+    corner; an occluder over the corner leaves the cut fit asymmetric too.
     """
     cells = _local_cells(xy, labels)
     half = half_widths(xy, None, cells)
     out, quality = refine_grey(grey, xy, half, half.astype(np.float64))
-    cut = _edge_halves(grey, np.where(quality[:, None] > 0, out, xy), labels, half, cells)
-    redo = np.flatnonzero(cut < half)
-    if len(redo):
-        xy2, q2 = refine_grey(grey, xy[redo], cut[redo], cut[redo].astype(np.float64))
-        # the cut window only where it is the more point-symmetric fit: a border corner whose full window
-        # stayed on the squares (the measure of the extent is noisy) keeps it, and its accuracy
-        better = q2 > quality[redo]
-        out[redo[better]], quality[redo[better]] = xy2[better], q2[better]
+    at = np.where(quality[:, None] > 0, out, xy)
+    _recut(grey, xy, out, quality, half, _edge_halves(grey, at, labels, half, cells))
+    asym = (quality > 0) & ~_symmetric(quality)
+    if asym.any():
+        # measured on their own: the border corners' windows are cut already
+        cut = half.copy()
+        cut[asym] = _edge_halves(grey, at[asym], labels[asym], half[asym], cells[asym], also=asym[asym])
+        _recut(grey, xy, out, quality, half, cut)
     return out, quality
 
 
@@ -336,7 +372,7 @@ def _finish(grey: np.ndarray, xc: XCorners, lat: Lattice, pattern: tuple[int, in
         idx, labels, xy, quality = idx[keep], labels[keep], xy[keep], quality[keep]
     if len(xy) < min_corners or min(len(np.unique(labels[:, 0])), len(np.unique(labels[:, 1]))) < 3:
         return None
-    if _orphans(grey, xc, idx, xy, _local_cells(xy, labels)) > MAX_ORPHANS:
+    if _orphans(grey, xc, idx, xy, _local_cells(xy, labels), grown=lat.index) > MAX_ORPHANS:
         return None
     share, linked = _edges(grey, xy, labels)
     if share < EDGE_SHARE:
