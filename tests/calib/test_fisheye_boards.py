@@ -92,3 +92,21 @@ def test_fisheye_boards_are_found_whole_with_right_labels(view):
     # symmetric there) or to the X-corner search; none to the lattice
     assert len(b) >= 0.85 * len(corners)
     assert np.median(err) < 0.3
+
+
+#: small boards at the rim of the lens, the frames of a 180-degree calibration set: the cells are sheared
+#: and foreshortened there, and the rows bend beyond what a second-order map follows
+RIM_6X4 = {
+    "rim-6x4": dict(cols=6, rows=4, off_axis=55, azimuth=0, dist=0.2, square=0.05),
+    "rim-6x4-tilted": dict(cols=6, rows=4, off_axis=55, azimuth=0, dist=0.2, square=0.05, tilt=(20, -10)),
+}
+
+
+@pytest.mark.parametrize("name", sorted(RIM_6X4))
+def test_small_boards_at_the_rim_are_found_complete(name):
+    img, corners, labels = fisheye_view(**RIM_6X4[name], seed=55)
+    boards = [b for b in detect_boards(img, (6, 4)) if b.size == (6, 4)]
+    assert len(boards) == 1 and len(boards[0]) == len(corners)
+    truth = {tuple(q): p for q, p in zip(labels.tolist(), corners)}
+    err = [np.hypot(*(truth[tuple(q)] - p)) for q, p in zip(boards[0].labels.tolist(), boards[0].image_points)]
+    assert max(err) < 1.0  # no wrong label

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from sogdd.calib.targets.lattice import apply, check, homography, ray_neighbours
+from sogdd.calib.targets.lattice import _curved_errors, _edges_follow, apply, check, homography, ray_neighbours
 from sogdd.calib.targets.xcorners import XCorners
 
 
@@ -60,3 +60,26 @@ def test_the_check_follows_curved_rows_but_still_flags_a_displaced_corner():
         ok = check(bad, lab, tol=0.12)
         # a displaced corner may spoil one neighbour's fit too (the detector checks twice)
         assert not ok[k] and ok.sum() >= len(ok) - 2
+
+
+def test_the_third_order_check_follows_a_stronger_lens_and_flags_a_displaced_corner():
+    """A board of 7 x 4 corners through barrel distortion twice as strong: the second order misses it."""
+    lab, xy = barrel_grid(k=-0.2)
+    keep = lab[:, 1] < 4
+    lab, xy = lab[keep], xy[keep]
+    assert np.max(_curved_errors(xy, lab, np.arange(len(xy)), 0.12, 2)) > 0.2  # beyond the second order
+    assert np.max(_curved_errors(xy, lab, np.arange(len(xy)), 0.12, 3)) < 0.01  # a cubic of the label
+    assert check(xy, lab, tol=0.12).all()
+    for k in (8, 0, 27):  # inside, a corner of the board, the far corner
+        bad = xy.copy()
+        bad[k, 1] += 0.25 * np.sort(np.hypot(*(xy - xy[k]).T))[1]
+        assert not check(bad, lab, tol=0.12)[k]
+
+
+def test_edges_follow_a_sheared_cell_by_the_light_axis():
+    axes = np.array([[np.cos(a), np.sin(a)] for a in np.radians([30.0, 100.0])])  # 70 degrees apart
+    light = np.radians(65.0)  # the bisector
+    assert _edges_follow(light, np.radians(35.0), axes)  # the edge lines on the axes
+    assert _edges_follow(light, np.radians(60.0), axes)  # a spread 25 degrees too wide (a biased estimate)
+    assert not _edges_follow(light + np.radians(15.0), np.radians(50.0), axes)  # the light axis turned
+    assert not _edges_follow(light, np.radians(85.0), axes)  # edge lines 50 degrees off

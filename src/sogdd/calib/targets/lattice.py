@@ -17,13 +17,13 @@ each free label next to the labelled ones, a homography fitted to the labelled
 corners within two labels (a local homography follows perspective and lens
 distortion) predicts its position; the nearest free X-corner within
 :data:`SEARCH` cells of it is taken if its edge lines follow the local lattice
-directions, its light axis has the label's parity, and its strength is that of
-its neighbours within a factor :data:`CONTRAST_RATIO`. A label whose search
-fails stays free. :func:`check` is the last guard: each corner must be predicted
-by a homography of its neighbours (leaving it out) within a fraction of a cell,
-or, where rows and columns are curves (a fisheye), by a second-order map of its
-neighbours within three labels (:func:`_fit_batch`: quadratic numerators over the
-homography's linear denominator).
+directions (:func:`_edges_follow`), its light axis has the label's parity, and its
+strength is that of its neighbours within a factor :data:`CONTRAST_RATIO`. A label
+whose search fails stays free. :func:`check` is the last guard: each corner must be
+predicted by a homography of its neighbours (leaving it out) within a fraction of a
+cell, or, where rows and columns are curves (a fisheye), by a second- or else a
+third-order map of its neighbours within three labels (:func:`_fit_batch`:
+polynomial numerators over the homography's linear denominator).
 """
 
 from __future__ import annotations
@@ -56,6 +56,9 @@ KNN = 32
 CURVE_REACH = 3
 #: ... at least this many of them (14 unknowns: 24 equations or more)
 CURVE_MIN = 12
+#: the third-order check (:func:`check`) fits at least this many corners within :data:`CURVE_REACH` labels
+#: (22 unknowns: 26 equations or more; a corner of a board of four rows has 15 such neighbours)
+CUBIC_MIN = 13
 
 _OFFS = np.array([(1, 0), (0, 1), (-1, 0), (0, -1)])
 #: the label offsets whose corners predict a label (a 5 x 5 block without its centre)
@@ -185,6 +188,29 @@ def apply(H: np.ndarray, p: np.ndarray) -> np.ndarray:
     return q[:, :2] / q[:, 2:]
 
 
+def _edges_follow(light: float, spread: float, axes: np.ndarray) -> bool:
+    """Whether an X-corner's edge lines ``light +- spread`` follow the lattice directions ``axes`` (2, 2).
+
+    Each edge line within :data:`EDGE_TOL` of one axis (lines, mod pi); or,
+    where the cells are strongly sheared, the light axis within
+    ``EDGE_TOL / 2`` of a bisector of the axes and each edge line within
+    ``2 EDGE_TOL``. The second rule is there because the spread comes from
+    the ratio of the Hessian's eigenvalues, which the smoothing biases towards
+    45 degrees where the cell is small and foreshortened (at the rim of a
+    fisheye the edge lines of true corners come out 20-30 degrees off), while
+    the light axis, an eigenvector, stays within a few degrees.
+    """
+    ang = np.arctan2(axes[:, 1], axes[:, 0])
+    e = np.array([light - spread, light + spread])
+    d = np.abs(_wrap_pi(e[:, None] - ang[None, :]))  # (edge, axis)
+    straight = min(max(d[0, 0], d[1, 1]), max(d[0, 1], d[1, 0]))
+    if straight < EDGE_TOL:
+        return True
+    mid = ang[0] + 0.5 * _wrap_pi(ang[1] - ang[0])  # a bisector of the two axis lines
+    bis = float(np.min(np.abs(_wrap_pi(light - mid - np.array([0.0, np.pi / 2])))))
+    return bis < EDGE_TOL / 2 and straight < 2 * EDGE_TOL
+
+
 class _Grower:
     """The state of one board's growth: labels, positions, the free X-corners."""
 
@@ -217,10 +243,7 @@ class _Grower:
     def accept(self, lab: tuple[int, int], k: int, axes: np.ndarray) -> bool:
         """The checks of a candidate ``k`` for ``lab`` (module doc)."""
         xc = self.xc
-        ang = np.arctan2(axes[:, 1], axes[:, 0])
-        e = xc.edges[k]
-        d = np.abs(_wrap_pi(e[:, None] - ang[None, :]))  # (edge, axis)
-        if not ((d[0, 0] < EDGE_TOL and d[1, 1] < EDGE_TOL) or (d[0, 1] < EDGE_TOL and d[1, 0] < EDGE_TOL)):
+        if not _edges_follow(xc.light[k], xc.spread[k], axes):
             return False
         _, idx = self.support(lab, 1)
         if len(idx) == 0:
@@ -240,6 +263,16 @@ class _Grower:
                 if (abs(dl - np.pi / 2) if turn else dl) >= POLARITY_TOL:
                     return False
         return True
+
+    def search(self, lab: tuple[int, int], p: np.ndarray, radius: float,
+               axes: np.ndarray) -> tuple[float, int] | None:
+        """The nearest free X-corner within ``radius`` of ``p`` that :meth:`accept` takes for ``lab``:
+        ``(distance, index)``, or None."""
+        near = self.tree.query_ball_point(p, radius)
+        for dd, k in sorted((float(np.hypot(*(self.xc.xy[k] - p))), k) for k in near if self.free[k]):
+            if self.accept(lab, k, axes):
+                return dd, k
+        return None
 
     def frontier(self) -> list[tuple[int, int]]:
         out = set()
@@ -280,12 +313,9 @@ class _Grower:
                 continue
             p, axes = pts[0], np.array([pts[1] - pts[2], pts[3] - pts[4]])
             cell = float(min(np.hypot(*axes[0]), np.hypot(*axes[1])))
-            near = self.tree.query_ball_point(p, SEARCH * cell)
-            near = sorted((float(np.hypot(*(self.xc.xy[k] - p))), k) for k in near if self.free[k])
-            for dd, k in near:
-                if self.accept(lab, k, axes):
-                    claims.setdefault(k, []).append((dd, lab))
-                    break
+            k = self.search(lab, p, SEARCH * cell, axes)
+            if k is not None:
+                claims.setdefault(k[1], []).append((k[0], lab))
         added = 0
         for k, cl in claims.items():
             if len(cl) == 1:  # a corner two labels claim is left for a later round
@@ -327,6 +357,11 @@ def check(xy: np.ndarray, labels: np.ndarray, *, tol: float = 0.1, reach: int = 
     cell). The map has 14 unknowns against 24 or more equations, and is fitted
     without the corner, so a corner off the board's smooth lattice still stands
     out; on a flat board seen through a pinhole it reduces to the homography.
+    A corner the second order misses too gets a third chance from the
+    third-order map (22 unknowns, :data:`CUBIC_MIN` neighbours or more): radial
+    distortion ``x (1 + k r^2)`` is a cubic of the label, which the second
+    order misses by up to 0.3 of a cell at the rim of a 180-degree lens and the
+    third follows to a few hundredths, with the same ``tol``.
 
     Examples
     --------
@@ -361,9 +396,11 @@ def check(xy: np.ndarray, labels: np.ndarray, *, tol: float = 0.1, reach: int = 
         i, j = labels[k]
         err_k = _loo_error(labels[idx].astype(np.float64), xy[idx], np.array([i, j], float), xy[k], tol)
         ok[k] = err_k <= tol
-    if curved and not ok.all():
+    for order in (2, 3) if curved else ():
         bad = np.flatnonzero(~ok)
-        ok[bad] = _curved_errors(xy, labels, bad, tol) <= tol
+        if len(bad) == 0:
+            break
+        ok[bad] = _curved_errors(xy, labels, bad, tol, order) <= tol
     return ok
 
 
@@ -378,47 +415,57 @@ def _label_grid(labels: np.ndarray, which: np.ndarray, offs: np.ndarray) -> np.n
     return grid[at[..., 0], at[..., 1]]
 
 
-def _curved_errors(xy: np.ndarray, labels: np.ndarray, which: np.ndarray, tol: float) -> np.ndarray:
-    """Leave-one-out errors in cells of the corners ``which`` against second-order maps of their neighbours.
+def _curved_errors(xy: np.ndarray, labels: np.ndarray, which: np.ndarray, tol: float,
+                   order: int = 2) -> np.ndarray:
+    """Leave-one-out errors in cells of the corners ``which`` against second- or third-order maps of their
+    neighbours.
 
-    The map (:func:`_fit_batch`, ``order=2``) is fitted to the corners within
-    :data:`CURVE_REACH` labels, at least :data:`CURVE_MIN` of them, whose
-    monomials ``(i, j, 1, i^2, i j, j^2)`` span all six (three distinct
-    columns and rows: a row's curvature is measured, not guessed); the error is
-    divided by the local cell of the same map. A corner whose error exceeds
-    ``tol`` gets a second fit without the neighbour that fits worst. Corners
-    with too few neighbours get ``inf``.
+    The map (:func:`_fit_batch`) is fitted to the corners within
+    :data:`CURVE_REACH` labels, at least :data:`CURVE_MIN` of them for
+    ``order=2`` (14 unknowns) and :data:`CUBIC_MIN` for ``order=3`` (22
+    unknowns), whose monomials (:func:`_monomials`) span all of theirs
+    (``order + 1`` distinct columns and rows: a row's curvature is measured,
+    not guessed); the error is divided by the local cell of the same map. A
+    corner whose error exceeds ``tol`` gets a second fit without the neighbour
+    that fits worst. Corners with too few neighbours get ``inf``.
+
+    The third order is there for strong lenses: a radial distortion
+    ``x_d = x (1 + k r^2)`` of a board seen face on is a cubic of the label,
+    which a second-order map misses by up to 0.3 of a cell at the rim of a
+    180-degree fisheye; the cubic follows it to a few hundredths, so the
+    tolerance stays the same.
     """
     err = np.full(len(which), np.inf)
     if len(which) == 0:
         return err
     nbr = _label_grid(labels, which, _CURVE_OFFS)
     w = (nbr >= 0).astype(np.float64)
-    mono = _monomials(_CURVE_OFFS.astype(np.float64), 2)
+    offs = _CURVE_OFFS.astype(np.float64)
+    mono = _monomials(offs, order)
     mom = np.einsum("nk,ka,kb->nab", w, mono, mono)
     tr = np.trace(mom, axis1=1, axis2=2)
-    fit = (w.sum(axis=1) >= CURVE_MIN) & (np.linalg.eigvalsh(mom)[:, 0] > 1e-6 * np.maximum(tr, 1.0))
+    least = CURVE_MIN if order == 2 else CUBIC_MIN
+    fit = (w.sum(axis=1) >= least) & (np.linalg.eigvalsh(mom)[:, 0] > 1e-6 * np.maximum(tr, 1.0))
     if not fit.any():
         return err
     nbr, w, at = nbr[fit], w[fit], which[fit]
-    offs = _CURVE_OFFS.astype(np.float64)
-    e = _cells_batch(xy, nbr, w, offs, at)
-    # a neighbour that is itself off spoils the fit: fit again without the worst one
-    again = e > tol
+    e = _cells_batch(xy, nbr, w, offs, at, order)
+    # a neighbour that is itself off spoils the fit: fit again without the worst one, if enough are left
+    again = (e > tol) & (w.sum(axis=1) > least)
     if again.any():
-        f = _fit_batch(xy, nbr[again], w[again], offs, 2)
-        res = np.hypot(*(_eval_batch(f, offs, 2) - xy[np.maximum(nbr[again], 0)]).transpose(2, 0, 1))
+        f = _fit_batch(xy, nbr[again], w[again], offs, order)
+        res = np.hypot(*(_eval_batch(f, offs, order) - xy[np.maximum(nbr[again], 0)]).transpose(2, 0, 1))
         w2 = w[again].copy()
         w2[np.arange(len(w2)), np.argmax(np.where(w2 > 0, res, -np.inf), axis=1)] = 0.0
-        e[again] = np.minimum(e[again], _cells_batch(xy, nbr[again], w2, offs, at[again]))
+        e[again] = np.minimum(e[again], _cells_batch(xy, nbr[again], w2, offs, at[again], order))
     err[fit] = e
     return err
 
 
 def _cells_batch(xy: np.ndarray, nbr: np.ndarray, w: np.ndarray, offs: np.ndarray,
-                 at: np.ndarray) -> np.ndarray:
-    """Errors in local cells of ``xy[at]`` against second-order maps of the neighbours ``nbr``."""
-    P = _eval_batch(_fit_batch(xy, nbr, w, offs, 2), _HALF, 2)
+                 at: np.ndarray, order: int = 2) -> np.ndarray:
+    """Errors in local cells of ``xy[at]`` against maps of order ``order`` of the neighbours ``nbr``."""
+    P = _eval_batch(_fit_batch(xy, nbr, w, offs, order), _HALF, order)
     cell = np.minimum(np.hypot(*(P[:, 1] - P[:, 2]).T), np.hypot(*(P[:, 3] - P[:, 4]).T))
     e = np.hypot(*(P[:, 0] - xy[at]).T) / np.maximum(cell, 1e-9)
     return np.where(np.isfinite(e), e, np.inf)
@@ -451,11 +498,14 @@ _HALF = np.array([[0, 0], [0.5, 0], [-0.5, 0], [0, 0.5], [0, -0.5]], float)
 
 
 def _monomials(a: np.ndarray, order: int) -> np.ndarray:
-    """``(i, j, 1)``, and for ``order=2`` also ``(i^2, i j, j^2)``, of label offsets ``a`` (..., 2)."""
+    """``(i, j, 1)``, for ``order >= 2`` also ``(i^2, i j, j^2)``, for ``order=3`` also
+    ``(i^3, i^2 j, i j^2, j^3)``, of label offsets ``a`` (..., 2)."""
     i, j = a[..., 0], a[..., 1]
     cols = [i, j, np.ones_like(i)]
-    if order == 2:
+    if order >= 2:
         cols += [i * i, i * j, j * j]
+    if order >= 3:
+        cols += [i ** 3, i * i * j, i * j * j, j ** 3]
     return np.stack(cols, axis=-1)
 
 
@@ -486,7 +536,8 @@ def _fit_batch(xy: np.ndarray, nbr: np.ndarray, w: np.ndarray, offs: np.ndarray,
     scale = np.einsum("nk,nk->n", w, np.hypot(rel[..., 0], rel[..., 1])) / cnt
     scale = np.maximum(scale, 1e-12)
     b = rel / scale[:, None, None]
-    m = np.broadcast_to(_monomials(offs, order), b.shape[:2] + (3 * order,))
+    m0 = _monomials(offs, order)
+    m = np.broadcast_to(m0, b.shape[:2] + m0.shape[-1:])
     z = np.zeros_like(m)
     a = np.broadcast_to(offs, b.shape)
     r1 = np.concatenate([m, z, -b[..., :1] * a], axis=-1)
@@ -501,8 +552,8 @@ def _fit_batch(xy: np.ndarray, nbr: np.ndarray, w: np.ndarray, offs: np.ndarray,
 def _eval_batch(fit: tuple[np.ndarray, np.ndarray, np.ndarray], q: np.ndarray, order: int) -> np.ndarray:
     """The maps of :func:`_fit_batch` at label offsets ``q`` (Q, 2): positions (n, Q, 2)."""
     h, mean, scale = fit
-    M = 3 * order
     m = _monomials(q, order)  # (Q, M)
+    M = m.shape[1]
     den = 1.0 + q @ h[:, 2 * M:].T  # (Q, n)
     num = np.stack([h[:, :M] @ m.T, h[:, M:2 * M] @ m.T], axis=-1)  # (n, Q, 2)
     return num / den.T[..., None] * scale[:, None, None] + mean[:, None, :]
