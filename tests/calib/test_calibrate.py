@@ -7,43 +7,16 @@ import numpy as np
 import pytest
 
 from sogdd.calib.cameras import MODELS, distort, project, projection_difference, undistort
+from sogdd.calib.demo import DEMO_DIST, DEMO_K, DEMO_PATTERN, DEMO_SIZE, demo_boards, demo_poses
 from sogdd.calib.fit import calibrate
 from sogdd.calib.solvers import jacobian_std
 from sogdd.calib.targets.board import Board
 
-SIZE = (640, 480)
-K_TRUE = np.array([[600.0, 0, 322.0], [0, 598.0, 236.0], [0, 0, 1]])
-D_TRUE = np.array([-0.25, 0.08, 0.001, -0.0005, 0.0])
-COLS, ROWS = 9, 6
+SIZE, K_TRUE, D_TRUE = DEMO_SIZE, DEMO_K, DEMO_DIST
+COLS, ROWS = DEMO_PATTERN
 OBJ = np.array([(i, j, 0.0) for j in range(ROWS) for i in range(COLS)])
 LABELS = OBJ[:, :2].astype(int)
-
-
-def _poses(n: int, rng: np.random.Generator, K=K_TRUE, dist=D_TRUE, model="pinhole", size=SIZE,
-           spread: float = 1.0):
-    """``n`` board poses (tilt <= 35 degrees) whose corners all fall inside the frame."""
-    out = []
-    w, h = size
-    while len(out) < n:
-        tilt = np.deg2rad(35) * rng.uniform(0, 1)
-        axis = rng.normal(size=3)
-        axis[2] *= 0.3
-        rvec = axis / np.linalg.norm(axis) * tilt
-        z = rng.uniform(11, 18)
-        centre = np.array([w / 2, h / 2]) + spread * rng.uniform(-0.3, 0.3, 2) * [w, h]
-        ray = np.linalg.solve(K, [centre[0], centre[1], 1.0])
-        R, _ = cv2.Rodrigues(rvec)
-        tvec = ray * z - R @ np.array([(COLS - 1) / 2, (ROWS - 1) / 2, 0.0])
-        p = project(OBJ, K, dist, model, rvec, tvec)
-        if np.all((p > 5) & (p < [w - 6, h - 6])):
-            out.append((rvec, tvec, p))
-    return out
-
-
-def _boards(n=14, noise=0.05, seed=1, **kw):
-    rng = np.random.default_rng(seed)
-    poses = _poses(n, rng, **kw)
-    return [Board(p + rng.normal(0, noise, p.shape), LABELS) for _, _, p in poses]
+_poses, _boards = demo_poses, demo_boards
 
 
 def test_distort_and_project_match_opencv():

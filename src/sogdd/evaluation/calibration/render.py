@@ -80,7 +80,7 @@ from .raster import sample_coords as _sample_coords
 from .target import ChessboardTarget, in_frame
 
 __all__ = ["Camera", "ChessboardTarget", "RenderedView", "render_view", "render_scene", "add_noise",
-           "render_charuco", "random_sequence", "pose_matrix", "in_frame", "jpeg_roundtrip"]
+           "render_charuco", "random_sequence", "pose_matrix", "in_frame", "jpeg_roundtrip", "camera_for"]
 
 _LEVELS = (35.0, 215.0, 110.0)  # dark square, light paper, background
 
@@ -379,3 +379,25 @@ def _finish(img: np.ndarray, blur: float, falloff: float) -> np.ndarray:
         r2 = ((xx - (w - 1) / 2) ** 2 + (yy - (h - 1) / 2) ** 2) / (((w - 1) / 2) ** 2 + ((h - 1) / 2) ** 2)
         img = img * (1.0 - falloff * r2)
     return img
+
+
+#: the distortion of the evaluation's cameras (OpenCV's k1, k2, p1, p2)
+_DIST = (-0.22, 0.08, 0.0008, -0.0006)
+
+
+def camera_for(width: int, height: int, hfov_deg: float = 60.0, dist: tuple = _DIST) -> Camera:
+    """A camera of ``width x height`` with a horizontal field of view of ``hfov_deg`` degrees.
+
+    The principal point is a little off the image centre, and ``fy = 0.998 fx``,
+    so that neither is a free guess for a calibration.
+
+    Examples
+    --------
+    >>> cam = camera_for(640, 480)
+    >>> round(cam.fx, 3), cam.size
+    (554.256, (640, 480))
+    """
+    fx = (width / 2) / np.tan(np.radians(hfov_deg) / 2)
+    cx, cy = (width - 1) / 2 + 0.013 * width, (height - 1) / 2 - 0.011 * height
+    K = np.array([[fx, 0.0, cx], [0.0, 0.998 * fx, cy], [0.0, 0.0, 1.0]])
+    return Camera(K, dist, (width, height))

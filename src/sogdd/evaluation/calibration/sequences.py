@@ -32,30 +32,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .render import Camera, ChessboardTarget, random_sequence
+from .render import Camera, ChessboardTarget, camera_for, random_sequence
 
 __all__ = ["Sequence", "SEQUENCES", "QUICK", "BY_NAME", "sequences", "camera_for"]
-
-_DIST = (-0.22, 0.08, 0.0008, -0.0006)
-
-
-def camera_for(width: int, height: int, hfov_deg: float = 60.0, dist: tuple = _DIST) -> Camera:
-    """A camera of ``width x height`` with a horizontal field of view of ``hfov_deg`` degrees.
-
-    The principal point is a little off the image centre, and ``fy = 0.998 fx``,
-    so that neither is a free guess for a calibration.
-
-    Examples
-    --------
-    >>> cam = camera_for(640, 480)
-    >>> round(cam.fx, 3), cam.size
-    (554.256, (640, 480))
-    """
-    fx = (width / 2) / np.tan(np.radians(hfov_deg) / 2)
-    cx, cy = (width - 1) / 2 + 0.013 * width, (height - 1) / 2 - 0.011 * height
-    K = np.array([[fx, 0.0, cx], [0.0, 0.998 * fx, cy], [0.0, 0.0, 1.0]])
-    return Camera(K, dist, (width, height))
-
 
 @dataclass(frozen=True)
 class Sequence:

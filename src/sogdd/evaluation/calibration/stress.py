@@ -54,7 +54,16 @@ from typing import Literal
 import cv2
 import numpy as np
 
-from .render import Camera, ChessboardTarget, add_noise, in_frame, jpeg_roundtrip, random_sequence, render_scene
+from .render import (
+    Camera,
+    ChessboardTarget,
+    add_noise,
+    camera_for,
+    in_frame,
+    jpeg_roundtrip,
+    random_sequence,
+    render_scene,
+)
 
 __all__ = ["STRESS_SCENES", "StressName", "OtherBoard", "StressScene", "StressSequence", "stress_camera",
            "stress_scene", "stress_poses", "render_stress"]
@@ -110,7 +119,6 @@ def stress_camera(name: StressName) -> Camera:
     >>> cam.model, cam.size, round(cam.fx, 1)
     ('fisheye', (640, 480), 190.0)
     """
-    from .sequences import camera_for
 
     if name == "fisheye":
         K = np.array([[190.0, 0.0, 322.3], [0.0, 189.8, 237.9], [0.0, 0.0, 1.0]])
