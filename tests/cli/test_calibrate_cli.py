@@ -28,17 +28,10 @@ K_TRUE = np.array([[560.0, 0, 322.0], [0, 560.0, 236.0], [0, 0, 1]])
 DIST = (-0.2, 0.06, 0.001, -0.0005, 0.0)
 
 
-@pytest.fixture(scope="module")
-def frames(tmp_path_factory):
-    """Eight rendered 640x480 views of a 9x6 board (blur 0.8 px, noise 2 grey levels); read only."""
-    render = pytest.importorskip("sogdd.evaluation.calibration.render")
-    cam = render.Camera(K_TRUE, DIST, (640, 480))
-    target = render.ChessboardTarget(9, 6, 1.0)
-    folder = tmp_path_factory.mktemp("frames")
-    for k, (rv, tv) in enumerate(render.random_sequence(cam, target, 8, seed=3)):
-        view = render.render_view(cam, target, rv, tv, blur=0.8, noise=2.0, rng=k)
-        assert cv2.imwrite(str(folder / f"f{k}.png"), view.image)
-    return folder
+@pytest.fixture
+def frames(rendered_frames):
+    """The eight rendered views of the shared fixture (``tests/conftest.py``); read only."""
+    return rendered_frames
 
 
 def _run(capsys, *argv):

@@ -1,9 +1,10 @@
 """Boards in image files: each image read once, made grey once, its boards found; over many files.
 
 :func:`detect_view` is the unit of work: it reads one file (:func:`sogdd.read_image`),
-converts it to grey with the core's conversion (:func:`sogdd.image.to_gray255`), finds
-its boards by the specification, says what it saw where no board matched, and keeps a
-small grey thumbnail for the report, so no file is read twice. :func:`detect_files` runs
+finds its boards by the specification (the detector makes the image grey, once, by the
+core's conversion, :func:`sogdd.image.to_gray255`), says what it saw where no board
+matched, and keeps a small grey thumbnail for the report (the image shrunk, then made
+grey), so no file is read twice. :func:`detect_files` runs
 it over many files through :func:`sogdd.collection.run_tasks`: in this process, on local
 worker processes (a worker that dies costs only its image) or on a Dask cluster.
 """
@@ -36,8 +37,6 @@ __all__ = ["BOARD_CHOICES", "READ_OPTIONS", "SMALL_CELL", "THUMB_WIDTH", "BoardC
 #: the keyword arguments of :func:`sogdd.read_image` that ``read_options`` may hold
 READ_OPTIONS = ("max_pixels", "allow_corrupt", "ignore_orientation")
 
-# the grey image's scale, said to the detectors (a float image is otherwise taken to be on [0, 1])
-_GREY = (0.0, 255.0)
 
 # a forkserver imports this module once for all its workers
 _PRELOAD = ("sogdd.calib.detection",)
@@ -122,12 +121,17 @@ def make_thumbnail(image: np.ndarray, width: int = THUMB_WIDTH) -> Thumbnail:
     >>> t.image.shape, t.image.dtype.name, t.scale, int(t.image[0, 0])
     ((180, 240), 'uint8', 0.375, 100)
     """
-    grey = np.asarray(image)
-    if grey.ndim != 2 or grey.dtype != np.float64:
-        grey = to_gray255(validate_image(grey))
-    w = max(1, min(int(width), grey.shape[1]))
-    s = w / grey.shape[1]
-    small = cv2.resize(grey, (w, max(1, round(grey.shape[0] * s))), interpolation=cv2.INTER_AREA)
+    img = np.asarray(image)
+    w = max(1, min(int(width), img.shape[1]))
+    s = w / img.shape[1]
+    size = (w, max(1, round(img.shape[0] * s)))
+    if img.ndim == 2 and img.dtype == np.float64:
+        small = cv2.resize(img, size, interpolation=cv2.INTER_AREA)
+    elif img.dtype in (np.uint8, np.uint16, np.float32):
+        # shrunk, then made grey: the whole frame is made grey once, by the detector
+        small = to_gray255(validate_image(cv2.resize(img, size, interpolation=cv2.INTER_AREA)))
+    else:
+        small = cv2.resize(to_gray255(validate_image(img)), size, interpolation=cv2.INTER_AREA)
     return Thumbnail(np.clip(np.rint(small), 0, 255).astype(np.uint8), s)
 
 
@@ -250,9 +254,10 @@ def _matches(size, pattern) -> bool:
     return size is None or tuple(size) in (tuple(pattern), tuple(pattern)[::-1])
 
 
-def _read_grey(path: str, read_options: Mapping | None) -> np.ndarray:
-    """The image file as grey float64 on 0-255, by the core's conversion (the one the detector uses)."""
-    return to_gray255(validate_image(read_image(path, **(read_options or {}))))
+def _read(path: str, read_options: Mapping | None) -> np.ndarray:
+    """The image file as read (:func:`sogdd.read_image`), checked by the core's rules; the detectors make it
+    grey, once, by the core's conversion."""
+    return validate_image(read_image(path, **(read_options or {})))
 
 
 def detect_view(path: str | os.PathLike, spec: BoardSpec, read_options: Mapping | None = None,
@@ -280,25 +285,25 @@ def detect_view(path: str | os.PathLike, spec: BoardSpec, read_options: Mapping 
     """
     path = str(path)
     try:
-        grey = _read_grey(path, read_options)
+        image = _read(path, read_options)
     except (ValueError, OSError, cv2.error) as exc:
         msg = opencv_message(exc) if isinstance(exc, cv2.error) else " ".join(str(exc).split())
         return ViewResult(path, error=msg if path in msg else f"{path}: {msg}")
     except MemoryError:
         return ViewResult(path, error=f"{path}: out of memory")
-    size = (int(grey.shape[1]), int(grey.shape[0]))
-    thumb = make_thumbnail(grey, thumb_width) if thumb_width else None
+    size = (int(image.shape[1]), int(image.shape[0]))
+    thumb = make_thumbnail(image, thumb_width) if thumb_width else None
     if spec.kind == "charuco":
-        b = charuco.detect_charuco(grey, spec.charuco_board(), value_range=_GREY)
+        b = charuco.detect_charuco(image, spec.charuco_board())
         return ViewResult(path, (b,) if b is not None and len(b) else (), size,
                           seen="" if b is not None else "no ChArUco markers/corners", thumbnail=thumb)
-    found = _boards(path, grey, size, spec)
+    found = _boards(path, image, size, spec)
     return ViewResult(found.path, found.boards, size, seen=found.seen, other_size=found.other_size,
                       thumbnail=thumb)
 
 
 def _boards(path: str, grey: np.ndarray, size, spec: BoardSpec) -> ViewResult:
-    boards = [b for b in chessboard.detect_boards(grey, spec.pattern, value_range=_GREY) if len(b)]
+    boards = [b for b in chessboard.detect_boards(grey, spec.pattern) if len(b)]
     if spec.pattern is None:
         return ViewResult(path, tuple(boards), size, seen="" if boards else "no board")
     wrong = [b for b in boards if not _matches(b.size, spec.pattern)]
@@ -317,7 +322,7 @@ def _what_else(path: str, grey: np.ndarray, size, pattern) -> ViewResult:
     A complete grid that does not fit in the pattern (in either orientation)
     cannot be part of it: its size contradicts the pattern.
     """
-    others = [b for b in chessboard.detect_boards(grey, None, value_range=_GREY) if len(b)]
+    others = [b for b in chessboard.detect_boards(grey, None) if len(b)]
     for b in others:
         dims = b.size if b.size is not None else grid_dims(b)
         if dims is not None and not _fits(dims, pattern):

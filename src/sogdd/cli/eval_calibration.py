@@ -73,17 +73,21 @@ def evaluate_photos(args, argv_text: str) -> dict:
             "notes": notes + res["notes"]}
 
 
-def _run_photos(args) -> int:
-    from ..evaluation.calibration.photos import photos_markdown, write_photos
-
-    res = evaluate_photos(args, command_text(args))
+def _emit(args, res: dict, write, markdown) -> int:
+    """The result into ``--out`` (``write``), then on stdout as JSON or as ``markdown``."""
     if args.out:
-        write_photos(res, Path(args.out), merge=args.merge)
+        write(res, Path(args.out), merge=args.merge)
     if args.json:
         print_json(res)
     else:
-        write_stdout(photos_markdown(res).encode())
+        write_stdout(markdown(res).encode())
     return 0
+
+
+def _run_photos(args) -> int:
+    from ..evaluation.calibration.photos import photos_markdown, write_photos
+
+    return _emit(args, evaluate_photos(args, command_text(args)), write_photos, photos_markdown)
 
 
 def evaluate(args, argv_text: str) -> dict:
@@ -127,14 +131,7 @@ def run_calibration(args) -> int:
 
     if getattr(args, "photos", False):
         return _run_photos(args)
-    res = evaluate(args, command_text(args))
-    if args.out:
-        write_results(res, Path(args.out), merge=args.merge)
-    if args.json:
-        print_json(res)
-    else:
-        write_stdout(results_markdown(res).encode())
-    return 0
+    return _emit(args, evaluate(args, command_text(args)), write_results, results_markdown)
 
 
 def command_text(args) -> str:

@@ -14,6 +14,7 @@ import json
 import math
 from pathlib import Path
 
+from ..formats.safe_write import write_text
 from .tables import markdown_table
 
 __all__ = ["calibration_figure", "calibration_stage", "merge_results", "results_markdown", "write_results"]
@@ -116,8 +117,8 @@ def write_results(res: dict, out: str | Path, *, merge: bool = False) -> Path:
     path = out / _JSON
     if merge and path.is_file():
         res = merge_results(json.loads(path.read_text()), res)
-    path.write_text(json.dumps(res, indent=1))
-    (out / "calibration.md").write_text(results_markdown(res))
+    write_text(path, json.dumps(res, indent=1))
+    write_text(out / "calibration.md", results_markdown(res))
     if res.get("synthetic"):
         calibration_figure(res, out / _PNG)
     return path

@@ -42,6 +42,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from ...formats.safe_write import write_text
 from .comparators import METHODS, Detection
 from .metrics import score_view
 from .photo_sets import PhotoSet, hand_lattice
@@ -343,6 +344,6 @@ def write_photos(res: dict, out: str | Path, *, merge: bool = False) -> Path:
     path = out / _JSON
     if merge and path.is_file():
         res = merge_photos(json.loads(path.read_text()), res)
-    path.write_text(json.dumps(res, indent=1))
-    (out / _MD).write_text(photos_markdown(res))
+    write_text(path, json.dumps(res, indent=1))
+    write_text(out / _MD, photos_markdown(res))
     return path
