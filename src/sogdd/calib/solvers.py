@@ -8,7 +8,7 @@ from scipy.optimize import least_squares
 from scipy.sparse import coo_matrix
 
 from .cameras import MODELS, project
-from .cameras.models import fisheye_theta
+from .cameras.models import fisheye_distorted, fisheye_theta
 from .targets.board import Board
 
 __all__ = ["fisheye_fixed", "fit_camera", "fit_fisheye", "fit_camera_checked", "jacobian_std", "solve_pose"]
@@ -219,14 +219,9 @@ def _fisheye_residuals(intr: np.ndarray, poses: np.ndarray, X: np.ndarray, uv: n
     """Projected minus observed pixels (2N,) of all views at once: :func:`~sogdd.calib.cameras.project`'s
     fisheye (:math:`\\theta = \\operatorname{atan2}(r, Z)`), vectorised over the views."""
     R = _rodrigues(poses[:, :3])[view]
-    p = np.einsum("nij,nj->ni", R, X) + poses[view, 3:]
-    r = np.hypot(p[:, 0], p[:, 1])
-    t2 = np.arctan2(r, p[:, 2]) ** 2
-    k1, k2, k3, k4 = intr[4:8]
-    thd = np.sqrt(t2) * (1 + t2 * (k1 + t2 * (k2 + t2 * (k3 + t2 * k4))))
-    scale = np.where(r > 1e-12, thd / np.where(r > 1e-12, r, 1.0), 1.0 / np.where(p[:, 2] != 0, p[:, 2], 1.0))
-    u = intr[0] * p[:, 0] * scale + intr[2] - uv[:, 0]
-    v = intr[1] * p[:, 1] * scale + intr[3] - uv[:, 1]
+    xd = fisheye_distorted(np.einsum("nij,nj->ni", R, X) + poses[view, 3:], intr[4:8])
+    u = intr[0] * xd[:, 0] + intr[2] - uv[:, 0]
+    v = intr[1] * xd[:, 1] + intr[3] - uv[:, 1]
     return np.stack([u, v], axis=1).ravel()
 
 

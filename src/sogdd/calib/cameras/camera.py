@@ -14,7 +14,7 @@ from typing import Literal
 import cv2
 import numpy as np
 
-from .models import distort, fisheye_theta, fisheye_theta_d, to_pixels, undistort
+from .models import distort, fisheye_distorted, fisheye_theta, to_pixels, undistort
 
 __all__ = ["Camera", "pose_matrix"]
 
@@ -119,13 +119,9 @@ class Camera:
             R, t = pose_matrix(np.zeros(3) if rvec is None else rvec, np.zeros(3) if tvec is None else tvec)
             P = P @ R.T + t
         if self.model == "fisheye":
-            rho = np.hypot(P[:, 0], P[:, 1])
-            theta = np.arctan2(rho, P[:, 2])
-            with np.errstate(divide="ignore", invalid="ignore"):
-                # on the axis the direction (X, Y) / rho is 0/0 but its limit times theta_d is 0
-                scale = np.where(rho > 0, fisheye_theta_d(theta, self.dist) / rho,
-                                 np.where(P[:, 2] > 0, 0.0, np.nan))
-            return to_pixels(P[:, :2] * scale[:, None], self.K)
+            xd = fisheye_distorted(P, self.dist)
+            xd[(P[:, 0] == 0) & (P[:, 1] == 0) & (P[:, 2] <= 0)] = np.nan  # straight behind: no direction
+            return to_pixels(xd, self.K)
         with np.errstate(divide="ignore", invalid="ignore"):
             z = np.where(P[:, 2] > 0, P[:, 2], np.nan)
             return self.distort(np.stack([P[:, 0] / z, P[:, 1] / z], axis=1))

@@ -13,8 +13,8 @@ from typing import Literal
 import cv2
 import numpy as np
 
-__all__ = ["MODELS", "CameraModel", "check_model", "check_size", "distort", "fisheye_theta", "fisheye_theta_d",
-           "project", "to_pixels", "undistort"]
+__all__ = ["MODELS", "CameraModel", "check_model", "check_size", "distort", "fisheye_distorted",
+           "fisheye_theta", "fisheye_theta_d", "project", "to_pixels", "undistort"]
 
 #: the camera models, by name
 CameraModel = Literal["pinhole", "rational", "fisheye"]
@@ -90,16 +90,7 @@ def project(points3d: np.ndarray, K: np.ndarray, dist: np.ndarray, model: Camera
     if tvec is not None:
         p = p + np.asarray(tvec, dtype=np.float64).reshape(1, 3)
     if model == "fisheye":
-        # theta = atan2(r, Z), not atan(r / Z): a fisheye sees rays at and beyond 90 degrees, where
-        # X/Z, Y/Z are infinite or point the wrong way; for Z > 0 both agree
-        r = np.hypot(p[:, 0], p[:, 1])
-        d = np.zeros(4)
-        d[: min(4, np.size(dist))] = np.asarray(dist, dtype=np.float64).ravel()[:4]
-        thd = fisheye_theta_d(np.arctan2(r, p[:, 2]), d)
-        safe = np.where(r > 1e-12, r, 1.0)
-        on_axis = 1.0 / np.where(p[:, 2] != 0, p[:, 2], 1.0)  # theta_d / r -> 1 / Z as r -> 0
-        scale = np.where(r > 1e-12, thd / safe, on_axis)
-        return to_pixels(p[:, :2] * scale[:, None], K)
+        return to_pixels(fisheye_distorted(p, dist), K)
     xy = p[:, :2] / p[:, 2:3]
     return to_pixels(distort(xy, dist, model), K)
 
@@ -159,6 +150,29 @@ def undistort(pixels: np.ndarray, K: np.ndarray, dist: np.ndarray, model: Camera
         valid &= np.isfinite(x[:, 0])
     x[~valid] = np.nan
     return x, valid
+
+
+def fisheye_distorted(points: np.ndarray, dist: np.ndarray) -> np.ndarray:
+    """Distorted normalised coordinates (N, 2) of points (N, 3) in the camera frame, by the fisheye model:
+    :math:`(x_d, y_d) = (\\theta_d / r)(X, Y)` with :math:`r = \\sqrt{X^2 + Y^2}` and
+    :math:`\\theta = \\operatorname{atan2}(r, Z)` (:func:`fisheye_theta_d`).
+
+    ``atan2``, not ``atan(r / Z)``: a fisheye sees rays at and beyond 90 degrees, where ``X/Z, Y/Z`` are
+    infinite or point the wrong way; for ``Z > 0`` both agree. On the axis ``theta_d / r -> 1 / Z``.
+
+    Examples
+    --------
+    >>> fisheye_distorted(np.array([[1.0, 0.0, 0.0]]), np.zeros(4)).round(6).tolist()  # 90 degrees off axis
+    [[1.570796, 0.0]]
+    """
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    d = np.zeros(4)
+    d[: min(4, np.size(dist))] = np.asarray(dist, dtype=np.float64).ravel()[:4]
+    r = np.hypot(p[:, 0], p[:, 1])
+    thd = fisheye_theta_d(np.arctan2(r, p[:, 2]), d)
+    on_axis = 1.0 / np.where(p[:, 2] != 0, p[:, 2], 1.0)
+    scale = np.where(r > 1e-12, thd / np.where(r > 1e-12, r, 1.0), on_axis)
+    return p[:, :2] * scale[:, None]
 
 
 def fisheye_theta_d(theta: np.ndarray, k: np.ndarray) -> np.ndarray:
