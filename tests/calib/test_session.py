@@ -344,3 +344,22 @@ def test_every_board_on_request_but_never_the_small_copy(scenes, tmp_path):
     assert "cells of 5.0 px" in js["rejected_views"]["two.png#3"]
     with pytest.raises(ValueError, match="^boards must be one of best, all, got 'every'$"):
         calibrate_images(scenes, "chessboard:9x6", boards="every")
+
+
+def test_each_frame_is_made_grey_once(rendered_frames, monkeypatch):
+    """The detector converts the frame; the report's thumbnail is made from a shrunk copy, not a second
+    full-size conversion."""
+    import sogdd.image
+
+    real = sogdd.image.to_gray255
+    sizes = []
+
+    def counted(image, **kw):
+        sizes.append(np.shape(image)[:2])
+        return real(image, **kw)
+
+    monkeypatch.setattr(sogdd.image, "to_gray255", counted)
+    monkeypatch.setattr(detection, "to_gray255", counted)
+    r = detection.detect_view(rendered_frames / "f0.png", detection.BoardSpec("chessboard", pattern=(9, 6)))
+    assert len(r.boards) == 1 and r.thumbnail is not None
+    assert sizes.count((480, 640)) == 1, sizes
