@@ -1,0 +1,136 @@
+"""The result of a rig calibration: every camera, its pose in the first camera's frame, and their uncertainties."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..result import Calibration
+
+__all__ = ["RigCalibration", "RigCamera"]
+
+
+@dataclass(frozen=True)
+class RigCamera:
+    """One camera of a rig (in :class:`RigCalibration`).
+
+    Attributes
+    ----------
+    name : str
+        The camera's name (``--camera NAME``).
+    calibration : Calibration
+        This camera alone, as a one-camera calibration: its ``K``, ``dist``,
+        ``model`` and ``image_size`` from the joint fit; one view per frame of
+        the rig (named by this camera's image file of that frame; ``None`` board
+        where it saw none); the joint fit's residuals, ``corner_used``,
+        ``view_used`` and reasons; ``rvecs``/``tvecs`` the board's pose in *this*
+        camera's frame; ``std`` the intrinsics' standard deviations from the
+        joint covariance. ``NAME/camera.yaml``, ``views.csv`` and ``corners.csv``
+        are written from it.
+    R : (3, 3) float64
+    T : (3,) float64
+        The camera's pose: :math:`x_{cam} = R\\,x_{first} + T` (the first camera:
+        identity and zero), ``T`` in the unit of the board's square.
+    std : dict
+        Standard deviations from the joint covariance: ``fx, fy, cx, cy`` and each
+        distortion coefficient by name (px or unitless), ``"T"`` (3 floats, the
+        square's unit), ``"baseline"`` (of :math:`\\lVert T \\rVert`) and
+        ``"rotation_deg"`` (the RMS angle of the rotation's error,
+        :math:`\\sqrt{\\operatorname{tr} \\Sigma_\\omega}` in degrees, :math:`\\omega`
+        the rotation vector's error); 0 for the first camera's pose. NaN where the
+        fit cannot give them (``RigCalibration.notes`` says why).
+    """
+
+    name: str
+    calibration: Calibration
+    R: np.ndarray
+    T: np.ndarray
+    std: dict
+
+    @property
+    def K(self) -> np.ndarray:
+        """The camera matrix."""
+        return self.calibration.K
+
+    @property
+    def dist(self) -> np.ndarray:
+        """The distortion coefficients, named by ``MODELS[model]``."""
+        return self.calibration.dist
+
+    @property
+    def model(self) -> str:
+        """The camera model."""
+        return self.calibration.model
+
+    @property
+    def image_size(self) -> tuple[int, int]:
+        """``(width, height)``."""
+        return self.calibration.image_size
+
+    @property
+    def baseline(self) -> float:
+        """:math:`\\lVert T \\rVert`, the distance to the first camera (the square's unit)."""
+        return float(np.linalg.norm(self.T))
+
+
+@dataclass(frozen=True)
+class RigCalibration:
+    """A calibrated rig (the result of :func:`~sogdd.calib.rig.calibrate_rig`).
+
+    Attributes
+    ----------
+    cameras : tuple of RigCamera
+        The first one is the rig's reference: every pose is in its frame.
+    frames : tuple of str
+        A name per frame (the number the cameras' file names share, or the rank).
+    rvecs, tvecs : (F, 3) float64
+        The board's pose in each frame, in the first camera's frame
+        (:math:`x_{first} = R(\\mathrm{rvec}) X + \\mathrm{tvec}`); NaN for a frame
+        the fit did not use.
+    frame_used : (F,) bool
+    rms : float
+        RMS reprojection error over every used corner of every camera (px).
+    sigma : float
+        The corner noise the covariance is scaled by (px):
+        :math:`\\sqrt{\\lVert r \\rVert^2 / (2N - P)}`.
+    covariance : (P, P) float64
+        Of the fit's free parameters, :math:`\\sigma^2 (J^T J)^{-1}`; empty when
+        the fit is degenerate.
+    layout : dict of str to slice
+        Where each block lies in ``covariance``: ``"NAME.intrinsics"`` (``fx, fy,
+        cx, cy`` then the distortion coefficients), ``"NAME.pose"`` (rotation
+        vector then translation; not for the first camera), ``"frame.K.pose"``.
+    square : float
+        The board's square side (the unit of every translation).
+    notes : tuple of str
+        What the fit could not do, and what it decided (frames dropped, labels turned).
+    model_selection : mapping of str to object, optional
+        Per camera, how ``model="auto"`` chose its model.
+    """
+
+    cameras: tuple[RigCamera, ...]
+    frames: tuple[str, ...]
+    rvecs: np.ndarray
+    tvecs: np.ndarray
+    frame_used: np.ndarray
+    rms: float
+    sigma: float
+    covariance: np.ndarray
+    layout: dict
+    square: float = 1.0
+    notes: tuple[str, ...] = ()
+    model_selection: Mapping[str, object] | None = field(default=None)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """The cameras' names, the reference first."""
+        return tuple(c.name for c in self.cameras)
+
+    def camera(self, name: str) -> RigCamera:
+        """The camera called ``name`` (``KeyError`` naming the cameras otherwise)."""
+        for c in self.cameras:
+            if c.name == name:
+                return c
+        raise KeyError(f"no camera {name!r} in the rig; it has {', '.join(self.names)}")
