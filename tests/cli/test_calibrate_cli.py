@@ -254,7 +254,7 @@ def test_a_rerun_with_fewer_views_leaves_no_stale_figures(frames, tmp_path, caps
 
 def test_ctrl_c_leaves_the_output_folder_as_it_was(frames, tmp_path, capsys, monkeypatch):
     out = tmp_path / "calib"
-    assert _run(capsys, frames, "--board", "chessboard:9x6", "--out", out)[0] == 0
+    assert _run(capsys, frames, "--board", "chessboard:9x6", "--model", "pinhole", "--out", out)[0] == 0
     before = _tree(out)
 
     def interrupt(*a, **k):

@@ -5,6 +5,8 @@ A client of the core (:mod:`sogdd.detector` and its stages); the core never impo
 :mod:`.targets`: calibration boards, and how to find, label and refine them in an image.
 :mod:`.cameras`: the camera models and their maths (used by the evaluations too).
 :mod:`.solvers`: the OpenCV calls (one fit, one pose).
+:mod:`.rejection`: the fit of one model with its rejection rounds (shared by the fit and the model selection).
+:mod:`.model_selection`: :func:`select_model`, the lens model chosen by cross-validation over views.
 :mod:`.fit`: :func:`calibrate`, the fit of a camera to labelled boards with robust rejection.
 :mod:`.cross_validation`: the two halves' cross-validation.
 :mod:`.result`: :class:`Calibration`, the result with its diagnostics.
@@ -14,12 +16,14 @@ A client of the core (:mod:`sogdd.detector` and its stages); the core never impo
 :mod:`.files`: camera.yaml (OpenCV FileStorage), camera.json, views.csv, corners.csv.
 :mod:`.report`: the HTML report with its figures.
 :mod:`.demo`: a small known calibration for examples.
+:mod:`.rig`: camera rigs, several cameras calibrated together (:func:`~sogdd.calib.rig.calibrate_rig`).
 """
 
 from .cameras import MODELS, Camera, CameraModel, ProjectionDifference, projection_difference
 from .cross_validation import CrossValidation
 from .detection import ViewRecord, ViewStatus
 from .fit import calibrate
+from .model_selection import ModelSelection, select_model
 from .result import Calibration
 from .session import ImageCalibration, calibrate_images, check_output_folder, write_outputs
 from .targets import Board, BoardSpec, detect_board, detect_boards, detect_charuco, parse_board, refine_corners
@@ -33,6 +37,7 @@ __all__ = [
     "CameraModel",
     "CrossValidation",
     "ImageCalibration",
+    "ModelSelection",
     "ProjectionDifference",
     "ViewRecord",
     "ViewStatus",
@@ -45,5 +50,6 @@ __all__ = [
     "parse_board",
     "projection_difference",
     "refine_corners",
+    "select_model",
     "write_outputs",
 ]

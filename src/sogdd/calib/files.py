@@ -23,12 +23,14 @@ import numpy as np
 from .._version import __version__
 from ..formats.safe_write import atomic_write, check_not_inputs, write_text
 from .detection import ViewRecord, view_records
+from .model_selection import ModelSelection
 from .result import Calibration
 
 __all__ = [
     "FILES",
     "calibration_dict",
     "read_camera",
+    "selection_dict",
     "write_calibration",
     "write_camera_json",
     "write_camera_yaml",
@@ -81,6 +83,7 @@ def calibration_dict(cal: Calibration, views: Sequence[ViewRecord] | None = None
             "camera_matrix_a": cv.K_a.tolist(), "distortion_a": cv.dist_a.tolist(),
             "camera_matrix_b": cv.K_b.tolist(), "distortion_b": cv.dist_b.tolist(),
         },
+        "model_selection": selection_dict(cal.model_selection),
         "thresholds": {k: _num(v) for k, v in cal.thresholds.items()},
         "rejected_views": {n: r for n, r, u in zip(cal.names, cal.reasons, cal.view_used) if not u}
         if views is None else {v.name: v.reason or v.status for v in views if v.status != "used"},
@@ -89,6 +92,29 @@ def calibration_dict(cal: Calibration, views: Sequence[ViewRecord] | None = None
         "notes": list(cal.notes),
         "sogdd_version": __version__,
     }
+
+
+def selection_dict(sel: ModelSelection | None) -> dict | None:
+    """The model selection as plain JSON-able data (None without one): ``chosen``, ``rule``,
+    ``folds`` (each fold's held-out views), ``notes`` and ``table``, one row per candidate
+    (:class:`~sogdd.calib.model_selection.CandidateScore`'s fields; non-finite numbers as None).
+
+    Examples
+    --------
+    >>> from sogdd.calib.model_selection import CandidateScore, ModelSelection
+    >>> row = CandidateScore("pinhole4", 4, 0.1, 0.12, 0.01, 0.0, 0.0, True)
+    >>> d = selection_dict(ModelSelection("pinhole4", (row,), ((0, 2), (1, 3)), "the rule"))
+    >>> d["chosen"], d["table"][0]["cv_rms"], d["folds"]
+    ('pinhole4', 0.12, [[0, 2], [1, 3]])
+    """
+    if sel is None:
+        return None
+    rows = [{"model": r.model, "n_coefficients": r.n_coefficients, "fit_rms": _num(r.fit_rms),
+             "cv_rms": _num(r.cv_rms), "cv_se": _num(r.cv_se), "difference": _num(r.difference),
+             "difference_se": _num(r.difference_se), "within_noise": r.within_noise, "note": r.note}
+            for r in sel.table]
+    return {"chosen": sel.chosen, "rule": sel.rule, "folds": [list(f) for f in sel.folds],
+            "notes": list(sel.notes), "table": rows}
 
 
 # --------------------------------------------------------------------------------------------------

@@ -2,8 +2,10 @@
 
 :func:`calibrate` fits a camera model to the boards of several views
 (``cv2.calibrateCameraExtended`` for the pinhole and rational models,
-``cv2.fisheye.calibrate`` for the fisheye one), rejects corners and views whose
-residuals lie far beyond the rest (each with its reason), and measures how far
+``cv2.fisheye.calibrate`` for the fisheye one; ``model="auto"``: the model chosen
+by cross-validation, :mod:`~sogdd.calib.model_selection`), rejects corners and
+views whose residuals lie far beyond the rest (each with its reason,
+:mod:`~sogdd.calib.rejection`), and measures how far
 two calibrations from the two halves of the views disagree over the image
 (:mod:`~sogdd.calib.cross_validation`).
 """
@@ -11,62 +13,19 @@ two calibrations from the two halves of the views disagree over the image
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import replace
 
 import numpy as np
 
 from . import cross_validation as _cv
-from .cameras import MODELS, CameraModel, check_model, check_size, project
+from .cameras import MODELS, check_size
+from .model_selection import ModelChoice, check_model_choice, select_model
+from .rejection import State, check_boards, fit_with_rejection
 from .result import Calibration
-from .solvers import fisheye_fixed, fit_camera_checked, jacobian_std, solve_pose
+from .solvers import fisheye_fixed, jacobian_std
 from .targets.board import Board
 
 __all__ = ["calibrate"]
-
-# a robust standard deviation from the median absolute deviation (exact for a normal distribution)
-_MAD_SCALE = 1.4826
-
-
-# --------------------------------------------------------------------------------------------------
-# validation at the door
-
-
-def _check_boards(boards, names, image_size) -> tuple[list, list[str]]:
-    boards = list(boards)
-    names = [f"view {i}" for i in range(len(boards))] if names is None else [str(n) for n in names]
-    if len(names) != len(boards):
-        raise ValueError(f"{len(boards)} boards but {len(names)} view names")
-    w, h = image_size
-    for b, n in zip(boards, names):
-        if b is None:
-            continue
-        if not isinstance(b, Board):
-            raise ValueError(f"{n}: expected a Board or None, got {type(b).__name__}")
-        p = b.image_points
-        if not np.all(np.isfinite(p)):
-            raise ValueError(f"{n}: corner positions must be finite")
-        out = (p[:, 0] < -0.5) | (p[:, 0] > w - 0.5) | (p[:, 1] < -0.5) | (p[:, 1] > h - 0.5)
-        if out.any():
-            x, y = p[np.argmax(out)]
-            raise ValueError(f"{n}: corner at ({x:.1f}, {y:.1f}) lies outside the {w}x{h} image; "
-                             "image_size is (width, height) and must be the size of every view")
-        if len(np.unique(b.labels, axis=0)) != len(b):
-            raise ValueError(f"{n}: two corners share a board label")
-    if not any(b is not None and len(b) for b in boards):
-        raise ValueError("no corners: no view has a board")
-    return boards, names
-
-
-def _usable(board: Board | None, min_corners: int) -> str:
-    """Why a view cannot enter the calibration ("" if it can)."""
-    if board is None or len(board) == 0:
-        return "no board"
-    if len(board) < min_corners:
-        return f"too few corners ({len(board)} < {min_corners})"
-    lab = board.labels
-    if len(np.unique(lab[:, 0])) < 2 or len(np.unique(lab[:, 1])) < 2:
-        return "corners on one line of the board"
-    return ""
 
 
 def _std_dict(std, model: str) -> dict:
@@ -78,123 +37,6 @@ def _std_dict(std, model: str) -> dict:
     return {n: float(s) for n, s in zip(names, std)}
 
 
-def _robust_limit(values: np.ndarray, k: float, floor: float) -> float:
-    """``max(median + k * 1.4826 * MAD, floor)``."""
-    med = float(np.median(values))
-    mad = float(np.median(np.abs(values - med)))
-    return max(med + k * _MAD_SCALE * mad, floor)
-
-
-# --------------------------------------------------------------------------------------------------
-# calibration with rejection
-
-
-@dataclass
-class _State:
-    boards: list
-    names: list[str]
-    square: float
-    size: tuple[int, int]
-    model: str
-    flags: int
-    view_ok: np.ndarray
-    reasons: list[str]
-    corner_ok: list
-    corner_reasons: list
-
-
-def _solve(st: _State):
-    idx = np.flatnonzero(st.view_ok)
-    obj = [st.boards[v].object_points(st.square)[st.corner_ok[v]] for v in idx]
-    img = [st.boards[v].image_points[st.corner_ok[v]] for v in idx]
-    return idx, fit_camera_checked(obj, img, st.size, st.model, st.flags, f"{len(idx)} views")
-
-
-def _all_residuals(st: _State, idx, fit) -> list:
-    """Observed minus projected position of every corner of every view with a pose."""
-    K, D, rv, tv, _ = fit
-    out: list = [None] * len(st.boards)
-    poses = {v: (rv[n], tv[n]) for n, v in enumerate(idx)}
-    for v, b in enumerate(st.boards):
-        if b is None or len(b) == 0:
-            continue
-        pose = poses.get(v) or (solve_pose(b, st.square, K, D, st.model) if len(b) >= 4 else None)
-        if pose is None:
-            continue
-        proj = project(b.object_points(st.square), K, D, st.model, pose[0], pose[1])
-        out[v] = b.image_points - proj
-    return out
-
-
-def _reject_view(st: _State, res, limit_c: float, k: float, floor: float, min_views: int,
-                 min_corners: int) -> float:
-    """Reject the worst view beyond the view rule (one per iteration); return the view threshold."""
-    idx = np.flatnonzero(st.view_ok)
-    rms = np.full(len(st.boards), np.nan)
-    why: dict[int, str] = {}
-    for v in idx:
-        r = np.hypot(*res[v].T)
-        bad = r > limit_c
-        keep = st.corner_ok[v] & ~bad
-        rms[v] = float(np.sqrt(np.mean(r[keep] ** 2))) if keep.any() else np.inf
-        if bad.mean() > 0.5:
-            why[v] = f"most corners far off ({int(bad.sum())} of {len(r)} beyond {limit_c:.3g} px)"
-        elif keep.sum() < min_corners:
-            why[v] = f"too few corners left after rejection ({int(keep.sum())} < {min_corners})"
-    vals = rms[idx][np.isfinite(rms[idx])]
-    limit_v = max(_robust_limit(vals, k, floor), 3.0 * float(np.median(vals))) if len(vals) else floor
-    for v in idx:
-        if v not in why and rms[v] > limit_v:
-            why[v] = f"RMS {rms[v]:.3g} px far above the other views' (limit {limit_v:.3g} px)"
-    if why and len(idx) > min_views:
-        worst = max(why, key=lambda v: (rms[v] if np.isfinite(rms[v]) else np.inf, -v))
-        st.view_ok[worst] = False
-        st.reasons[worst] = why[worst]
-    return limit_v
-
-
-def _reject_corners(st: _State, res, limit_c: float, min_views: int, min_corners: int) -> int:
-    """Mark the used views' corners beyond ``limit_c`` rejected and re-admit those back within it
-    (a gross outlier drags its view's pose, and with it its neighbours, until it is gone);
-    return how many changed. A view left with fewer than ``min_corners`` goes as a whole
-    (while more than ``min_views`` remain; else its corners stay)."""
-    n = 0
-    for v in np.flatnonzero(st.view_ok):
-        r = np.hypot(*res[v].T)
-        ok = r <= limit_c
-        if ok.sum() < min_corners:
-            if st.view_ok.sum() > min_views:
-                st.view_ok[v] = False
-                st.reasons[v] = (f"too few corners left after rejection ({int(ok.sum())} < {min_corners} "
-                                 f"within {limit_c:.3g} px)")
-                n += 1
-            continue
-        n += int(np.sum(ok != st.corner_ok[v]))
-        st.corner_ok[v] = ok
-        st.corner_reasons[v] = {int(c): f"residual {r[c]:.3g} px beyond the limit {limit_c:.3g} px"
-                                for c in np.flatnonzero(~ok)}
-    return n
-
-
-def _iterate(st: _State, k: float, floor: float, min_views: int, min_corners: int, reject: bool,
-             max_iterations: int):
-    thresholds: dict = {}
-    for _ in range(max_iterations):
-        idx, fit = _solve(st)
-        res = _all_residuals(st, idx, fit)
-        if not reject:
-            return idx, fit, res, thresholds
-        used = np.concatenate([np.hypot(*res[v].T)[st.corner_ok[v]] for v in idx])
-        limit_c = _robust_limit(used, k, floor)
-        n_views = int(st.view_ok.sum())
-        limit_v = _reject_view(st, res, limit_c, k, floor, min_views, min_corners)
-        thresholds = {"corner": limit_c, "view_rms": limit_v}
-        if st.view_ok.sum() < n_views:
-            continue
-        if _reject_corners(st, res, limit_c, min_views, min_corners) == 0:
-            return idx, fit, res, thresholds
-    idx, fit = _solve(st)
-    return idx, fit, _all_residuals(st, idx, fit), thresholds
 
 
 def calibrate(
@@ -202,7 +44,7 @@ def calibrate(
     image_size: tuple[int, int],
     *,
     square: float = 1.0,
-    model: CameraModel = "pinhole",
+    model: ModelChoice = "pinhole",
     names: Sequence[str] | None = None,
     reject: bool = True,
     k: float = 5.0,
@@ -242,9 +84,16 @@ def calibrate(
         Of every view.
     square : float
         Board square size (any unit; the poses are in it).
-    model : {"pinhole", "rational", "fisheye"}
-        ``k1, k2, p1, p2, k3``; OpenCV's rational model (``CALIB_RATIONAL_MODEL``,
-        ``k1..k6, p1, p2``); or OpenCV's fisheye model (``k1..k4``).
+    model : {"pinhole", "pinhole4", "rational", "fisheye", "auto"}
+        ``k1, k2, p1, p2, k3``; ``k1, k2, p1, p2`` (k3 held at 0,
+        ``CALIB_FIX_K3``: OpenCV's four-coefficient vector); OpenCV's rational
+        model (``CALIB_RATIONAL_MODEL``, ``k1..k6, p1, p2``); OpenCV's fisheye
+        model (``k1..k4``); or ``"auto"``: the model
+        :func:`~sogdd.calib.model_selection.select_model` chooses by
+        cross-validation over the views (with the same rejection parameters),
+        then calibrated as if it had been given; the selection is
+        ``Calibration.model_selection`` (``flags`` must then be 0: they are
+        one model's).
     names : sequence of str, optional
         A name per view (e.g. the image files), used in reasons and errors.
     reject : bool
@@ -274,6 +123,7 @@ def calibrate(
 
     Examples
     --------
+    >>> from sogdd.calib.cameras import project
     >>> K = np.array([[600.0, 0, 320], [0, 600, 240], [0, 0, 1]])
     >>> obj = np.array([(i, j, 0.0) for j in range(6) for i in range(9)])
     >>> labels = obj[:, :2].astype(int)
@@ -283,32 +133,26 @@ def calibrate(
     >>> round(float(cal.K[0, 0]), 3), cal.rms < 1e-6, cal.n_used
     (600.0, True, 8)
     """
-    check_model(model)
+    check_model_choice(model)
     size = check_size(image_size)
     if not np.isfinite(square) or square <= 0:
         raise ValueError(f"square must be a positive size, got {square}")
     if min_views < 1 or min_corners < 4:
         raise ValueError("min_views must be >= 1 and min_corners >= 4")
-    boards, names = _check_boards(boards, names, size)
-    reasons = [_usable(b, min_corners) for b in boards]
-    usable = np.array([r == "" for r in reasons])
-    if usable.sum() < min_views:
-        _too_few(int(usable.sum()), min_views, reasons, names)
-    st = _State(boards, names, float(square), size, model, int(flags), usable.copy(), reasons,
-                [np.ones(len(b), bool) if b is not None else None for b in boards],
-                [{} for _ in boards])
-    idx, fit, res, thresholds = _iterate(st, k, floor, min_views, min_corners, reject, max_iterations)
+    boards, names = check_boards(boards, names, size)
+    common = dict(square=float(square), reject=reject, k=k, floor=floor, min_corners=min_corners,
+                  min_views=min_views, max_iterations=max_iterations)
+    if model == "auto":
+        if flags:
+            raise ValueError("flags are one model's (OpenCV's pinhole and fisheye flags differ): give a model, "
+                             "not auto, with flags")
+        sel = select_model(boards, size, names=names, **common)
+        st, idx, fit, res, thresholds = fit_with_rejection(boards, names, size, model=sel.chosen, flags=0,
+                                                           **common)
+        cal = _result(st, idx, fit, res, thresholds, min_views, cross_validate)
+        return replace(cal, model_selection=sel, notes=(*sel.notes, *cal.notes))
+    st, idx, fit, res, thresholds = fit_with_rejection(boards, names, size, model=model, flags=flags, **common)
     return _result(st, idx, fit, res, thresholds, min_views, cross_validate)
-
-
-def _too_few(n: int, need: int, reasons: list[str], names: list[str]) -> None:
-    seen = {}
-    for r, nm in zip(reasons, names):
-        if r:
-            seen.setdefault(r.split(" (")[0], []).append(nm)
-    why = "; ".join(f"{r}: {len(v)}" for r, v in seen.items())
-    raise ValueError(f"too few views: {n} usable view(s), calibration needs {need} ({need - n} more)"
-                     + (f"; rejected: {why}" if why else ""))
 
 
 _ONE_VIEW = ("one view: a view of a flat board gives two constraints on the intrinsics, too few to "
@@ -318,7 +162,7 @@ _DEGENERATE = ("the fit is degenerate: the views cannot tell some parameters apa
                "standard deviations are undefined")
 
 
-def _stds(st: _State, idx: np.ndarray, fit) -> tuple[np.ndarray | None, str]:
+def _stds(st: State, idx: np.ndarray, fit) -> tuple[np.ndarray | None, str]:
     """The final fit's standard deviations (or None) and why there are none ("" when there are)."""
     K, D, rv, tv, std = fit
     if len(idx) < 2:
@@ -333,7 +177,7 @@ def _stds(st: _State, idx: np.ndarray, fit) -> tuple[np.ndarray | None, str]:
     return std, ""
 
 
-def _result(st: _State, idx, fit, res, thresholds, min_views: int, cross_validate: bool) -> Calibration:
+def _result(st: State, idx, fit, res, thresholds, min_views: int, cross_validate: bool) -> Calibration:
     K, D, rv, tv, _ = fit
     V = len(st.boards)
     rvecs = np.full((V, 3), np.nan)

@@ -2,7 +2,8 @@
 
 The page shows every view's detections as a thumbnail (used corners green,
 rejected ones red), the residual vectors magnified, where the corners fell in
-the frame, the cross-validation difference map, and :func:`verdict`: what is
+the frame, the cross-validation difference map, the lens models compared
+(``model="auto"``), and :func:`verdict`: what is
 wrong with the calibration, if anything, and what to do about it.
 
 The report never reads an image file: the thumbnails come from :class:`Thumbnail`
@@ -227,6 +228,29 @@ def _camera_table(cal: Calibration) -> str:
     return f"<table><tr><th>parameter</th><th>value</th><th>std</th></tr>{cells}</table>"
 
 
+def _selection_table(cal: Calibration) -> str:
+    """The model selection's table (``model="auto"``), or "" without one."""
+    sel = cal.model_selection
+    if sel is None:
+        return ""
+
+    def num(v: float, d: int = 4) -> str:
+        return f"{v:.{d}f}" if np.isfinite(v) else ("failed" if v == np.inf else "")
+
+    rows = "".join(
+        f"<tr><td>{html.escape(r.model)}</td><td>{r.n_coefficients}</td><td>{num(r.fit_rms)}</td>"
+        f"<td>{num(r.cv_rms)}{' &plusmn; ' + num(r.cv_se) if np.isfinite(r.cv_se) else ''}</td>"
+        f"<td>{num(r.difference)}{' &plusmn; ' + num(r.difference_se) if np.isfinite(r.difference_se) else ''}"
+        f"</td><td>{'chosen' if r.model == sel.chosen else ('within noise' if r.within_noise else '')}</td>"
+        f"<td style='text-align:left'>{html.escape(r.note)}</td></tr>" for r in sel.table)
+    notes = "".join(f"<li>{html.escape(n)}</li>" for n in sel.notes)
+    return ("<h2>Lens model</h2>"
+            f"<p>{html.escape(sel.rule[:1].upper() + sel.rule[1:])}.</p>"
+            "<table><tr><th>model</th><th>coefficients</th><th>fit RMS (px)</th>"
+            "<th>cross-validated RMS &plusmn; SE (px)</th><th>difference to the best &plusmn; SE</th><th></th>"
+            f"<th></th></tr>{rows}</table>" + (f"<ul>{notes}</ul>" if notes else ""))
+
+
 def _html(cal: Calibration, title: str, cards: list[str], has_cv: bool) -> str:
     esc = html.escape
     colours = {"ok": "#1a7f37", "warn": "#9a6700", "bad": "#cf222e"}
@@ -244,7 +268,7 @@ def _html(cal: Calibration, title: str, cards: list[str], has_cv: bool) -> str:
              "background:#eee;text-align:center;line-height:60px}td,th{padding:2px 8px;text-align:right}")
     return (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{esc(title)}</title>"
             f"<style>{style}</style></head><body><h1>{esc(title)}</h1><p>{esc(summary)}</p><h2>Verdict</h2><ul>{items}</ul>"
-            f"<h2>Camera</h2>{_camera_table(cal)}"
+            f"<h2>Camera</h2>{_camera_table(cal)}{_selection_table(cal)}"
             "<h2>Residuals</h2><img src='report/residuals.png' alt='residual vectors'>"
             "<h2>Coverage</h2><img src='report/coverage.png' alt='coverage'>"
             f"{cvfig}<h2>Views</h2><p>Green: corners used; red: rejected; blue ring: the board's label origin."

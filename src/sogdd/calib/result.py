@@ -8,6 +8,7 @@ import numpy as np
 
 from .cameras import MODELS, CameraModel
 from .cross_validation import CrossValidation
+from .model_selection import ModelSelection
 
 __all__ = ["Calibration"]
 
@@ -19,7 +20,7 @@ class Calibration:
     Attributes
     ----------
     model : str
-        "pinhole", "rational" or "fisheye".
+        "pinhole4", "pinhole", "rational" or "fisheye".
     image_size : (width, height)
     K : (3, 3) float64
         Camera matrix ``[[fx, s, cx], [0, fy, cy], [0, 0, 1]]``.
@@ -68,6 +69,8 @@ class Calibration:
     std_note : str
         Why ``std`` is NaN ("" when it is not): one view, which cannot determine
         the intrinsics, or a degenerate fit (also in ``notes``).
+    model_selection : ModelSelection or None
+        How ``model`` was chosen, with ``model="auto"`` (None when it was given).
     """
 
     model: CameraModel
@@ -91,6 +94,7 @@ class Calibration:
     notes: tuple[str, ...] = ()
     square: float = 1.0
     std_note: str = ""
+    model_selection: ModelSelection | None = None
 
     @property
     def n_used(self) -> int:

@@ -11,7 +11,8 @@ from .cameras import MODELS, project
 from .cameras.models import fisheye_distorted, fisheye_theta
 from .targets.board import Board
 
-__all__ = ["fisheye_fixed", "fit_camera", "fit_fisheye", "fit_camera_checked", "jacobian_std", "solve_pose"]
+__all__ = ["fisheye_fixed", "fit_camera", "fit_fisheye", "fit_fisheye_from", "fit_camera_checked",
+           "jacobian_std", "solve_pose"]
 
 # (JᵀJ with unit columns) beyond this condition number leaves some parameters undetermined: its
 # inverse would carry the rounding of the other parameters, about 1e-16 times this, into them
@@ -21,7 +22,8 @@ _COND_MAX = 1e12
 def fit_camera(obj: list[np.ndarray], img: list[np.ndarray], size: tuple[int, int], model: str, flags: int):
     """One calibration: ``(K, dist, rvecs (V, 3), tvecs (V, 3), std (array or None))``.
 
-    Pinhole and rational: ``cv2.calibrateCameraExtended``. Fisheye: :func:`fit_fisheye`,
+    Pinhole and rational: ``cv2.calibrateCameraExtended`` (``pinhole4`` with ``CALIB_FIX_K3``: k3
+    held at 0, four coefficients returned). Fisheye: :func:`fit_fisheye`,
     which also starts from ``cv2.fisheye.calibrate``'s answer where OpenCV gives one,
     so it is never worse than OpenCV's where OpenCV works, and works where OpenCV's
     initialisation fails (rays near and beyond 90 degrees); its standard deviations
@@ -33,6 +35,7 @@ def fit_camera(obj: list[np.ndarray], img: list[np.ndarray], size: tuple[int, in
         std = None
     else:
         f = flags | (cv2.CALIB_RATIONAL_MODEL if model == "rational" else 0)
+        f |= cv2.CALIB_FIX_K3 if model == "pinhole4" else 0
         nd = len(MODELS[model])
         o = [p.astype(np.float64).reshape(-1, 1, 3) for p in obj]
         i = [p.astype(np.float64).reshape(-1, 1, 2) for p in img]
@@ -404,3 +407,35 @@ def fit_fisheye(obj: list[np.ndarray], img: list[np.ndarray], size: tuple[int, i
     intr, poses, _ = _fisheye_lsq(intr, poses, X, uv, view, free, 500, robust=False)
     K = np.array([[intr[0], 0.0, intr[2]], [0.0, intr[1], intr[3]], [0.0, 0.0, 1.0]])
     return K, intr[4:8].copy(), poses[:, :3].copy(), poses[:, 3:].copy()
+
+
+def fit_fisheye_from(obj: list[np.ndarray], img: list[np.ndarray], K: np.ndarray, dist: np.ndarray,
+                     flags: int = 0, max_nfev: int = 100):
+    """:func:`fit_fisheye`'s least squares from one start, a nearby camera ``(K, dist)`` (e.g. the fit of
+    a superset of the views): each view's pose from its rays under it, then everything fitted, at
+    most ``max_nfev`` evaluations (from a nearby start a lens the model fits converges in a few
+    tens; one it does not fit crawls for hundreds). For refits of subsets (cross-validation).
+
+    Returns ``(K, dist (4,), rvecs (V, 3), tvecs (V, 3))``; raises ``cv2.error`` when a view has no
+    pose from its rays under the start.
+
+    Examples
+    --------
+    >>> K = np.array([[200.0, 0, 320], [0, 200, 240], [0, 0, 1]])
+    >>> obj = np.array([(i, j, 0.0) for j in range(4) for i in range(6)])
+    >>> poses = [((0.3 * np.sin(a), 0.3 * np.cos(a), 0.1), (-2.5 + np.cos(a), -1.5, 6.0)) for a in range(6)]
+    >>> img = [project(obj, K, np.zeros(4), "fisheye", r, t) for r, t in poses]
+    >>> Kf, D, rv, tv = fit_fisheye_from([obj] * 6, img, K * [[1.02], [1.02], [1]], np.zeros(4))
+    >>> bool(abs(Kf[0, 0] - 200) < 1e-6)
+    True
+    """
+    X = np.concatenate([np.asarray(o, np.float64).reshape(-1, 3) for o in obj])
+    uv = np.concatenate([np.asarray(i, np.float64).reshape(-1, 2) for i in img])
+    view = np.repeat(np.arange(len(obj)), [len(o) for o in obj])
+    intr = np.r_[K[0, 0], K[1, 1], K[0, 2], K[1, 2], np.ravel(dist)[:4]].astype(np.float64)
+    poses = _initial_poses(obj, img, intr, X, uv, view)
+    if poses is None:
+        raise cv2.error("the fisheye refit found no pose for a view from its rays under the start")
+    intr, poses, _ = _fisheye_lsq(intr, poses, X, uv, view, ~fisheye_fixed(flags), int(max_nfev), robust=False)
+    Kf = np.array([[intr[0], 0.0, intr[2]], [0.0, intr[1], intr[3]], [0.0, 0.0, 1.0]])
+    return Kf, intr[4:8].copy(), poses[:, :3].copy(), poses[:, 3:].copy()

@@ -25,7 +25,8 @@ _ASPECT_REL = 0.01         # fx and fy may differ by 1 % (see verdict) ...
 _ASPECT_SIGMAS = 3.0       # ... and by 3 standard deviations of their difference
 _CANCEL_RATIO = 8.0        # distortion terms whose magnitudes add up to 8 times their net ...
 _CANCEL_PX = 20.0          # ... and to more than 20 px at the frame's corner are fitted noise
-_SERIES = {"pinhole": ((0, 3), (1, 5), (4, 7)), "fisheye": ((0, 3), (1, 5), (2, 7), (3, 9))}
+_SERIES = {"pinhole4": ((0, 3), (1, 5)), "pinhole": ((0, 3), (1, 5), (4, 7)),
+           "fisheye": ((0, 3), (1, 5), (2, 7), (3, 9))}
 
 
 def used_points(cal: Calibration) -> np.ndarray:
@@ -87,7 +88,9 @@ def verdict(cal: Calibration) -> list[tuple[str, str]]:
     fewer than half of the outer ring of an 8 x 6 grid of the frame cover
     "only the centre"; no view tilting the board 15 degrees or
     more leaves the focal length weak; more than a fifth of the views rejected
-    is reported. Without any finding the verdict is one "ok".
+    is reported; with ``model="auto"``, how the model was chosen (a "warn" when
+    too few views left the choice to the simplest model). Without a "warn" or
+    "bad" finding it opens with an "ok" saying the calibration looks sound.
 
     On the parameters, each "bad":
 
@@ -107,7 +110,7 @@ def verdict(cal: Calibration) -> list[tuple[str, str]]:
       increasing along the rays out to the frame's farthest corner: inside the
       corners' largest ray it is "bad", beyond them a "warn" (pixels farther
       out have no ray);
-    - for the series models (pinhole k1, k2, k3; fisheye k1..k4), terms
+    - for the series models (pinhole k1, k2[, k3]; fisheye k1..k4), terms
       :math:`f |k_i| x^{2i+1}` at the frame's corner (``x`` its ray: ``r`` or
       ``theta``) that add up to more than 20 px and to more than 8 times their
       sum: a lens's series is led by its first term (on the test lenses the
@@ -138,6 +141,7 @@ def verdict(cal: Calibration) -> list[tuple[str, str]]:
     out += _distortion_findings(cal)
     out += _coverage_findings(cal)
     out += _cross_validation_findings(cal)
+    out += _selection_findings(cal)
     rejected = total - n - sum(r == "no board" for r in cal.reasons)
     if rejected > 0.2 * total:
         out.append(("warn", f"{rejected} of {total} views rejected (see views.csv): check those images"))
@@ -184,6 +188,31 @@ def _cross_validation_findings(cal: Calibration) -> list[tuple[str, str]]:
         out.append(("warn", f"outside the corners the halves differ by up to {cv.max:.3g} px: the model "
                             "extrapolates there; do not trust it beyond the area the boards covered"))
     return out
+
+
+def _selection_findings(cal: Calibration) -> list[tuple[str, str]]:
+    """How ``model="auto"`` chose the model, in plain words (nothing for a model given)."""
+    sel = cal.model_selection
+    if sel is None:
+        return []
+    coef = ", ".join(MODELS[sel.chosen])
+    if not sel.folds:
+        return [("warn", f"the lens model ({sel.chosen}: {coef}) was not chosen by the data: too few views to "
+                         "compare the models; calibrate with more views")]
+    row = sel.row(sel.chosen)
+    others = [r for r in sel.table if r.model != sel.chosen]
+    no_better = [r.model for r in others if r.within_noise]
+    worse = [r.model for r in others if not r.within_noise and np.isfinite(r.cv_rms)]
+    failed = [r.model for r in others if not np.isfinite(r.cv_rms)]
+    text = (f"lens model {sel.chosen} ({coef}) chosen by {len(sel.folds)}-fold cross-validation: it predicts "
+            f"the corners of views it did not see to {row.cv_rms:.3f} px RMS")
+    if no_better:
+        text += f"; {', '.join(no_better)} did no better beyond the noise"
+    if worse:
+        text += f"; {', '.join(worse)} predicted worse"
+    if failed:
+        text += f"; {', '.join(failed)} could not be fitted"
+    return [("ok", text)]
 
 
 def cv_inside(cv) -> tuple[float, float]:
@@ -267,7 +296,7 @@ def radial_map(cal: Calibration, theta: np.ndarray) -> tuple[np.ndarray, np.ndar
         return rho, np.ones(len(theta))
     r = np.tan(theta)
     r2 = r * r
-    num = 1 + r2 * (d["k1"] + r2 * (d["k2"] + r2 * d["k3"]))
+    num = 1 + r2 * (d["k1"] + r2 * (d["k2"] + r2 * d.get("k3", 0.0)))
     den = 1 + r2 * (d.get("k4", 0.0) + r2 * (d.get("k5", 0.0) + r2 * d.get("k6", 0.0)))
     with np.errstate(divide="ignore", invalid="ignore"):
         return r * num / den, den

@@ -1,4 +1,5 @@
-"""Camera models (OpenCV's pinhole, rational and fisheye) in numpy: distortion, projection, unprojection.
+"""Camera models (OpenCV's pinhole with 4 or 5 coefficients, rational, fisheye) in numpy: distortion,
+projection, unprojection.
 
 The equations are OpenCV's (``cv2.projectPoints``, ``cv2.fisheye.projectPoints``),
 so that a camera from ``cv2.calibrateCamera`` is used as it was fitted; the
@@ -17,10 +18,12 @@ __all__ = ["MODELS", "CameraModel", "check_model", "check_size", "distort", "fis
            "fisheye_theta", "fisheye_theta_d", "project", "to_pixels", "undistort"]
 
 #: the camera models, by name
-CameraModel = Literal["pinhole", "rational", "fisheye"]
+CameraModel = Literal["pinhole4", "pinhole", "rational", "fisheye"]
 
-#: model name -> names of its distortion coefficients, in OpenCV's order
+#: model name -> names of its distortion coefficients, in OpenCV's order. "pinhole4" is OpenCV's
+#: four-coefficient vector (k3 = 0; mrcal's LENSMODEL_OPENCV4), valid wherever OpenCV takes one.
 MODELS: dict[str, tuple[str, ...]] = {
+    "pinhole4": ("k1", "k2", "p1", "p2"),
     "pinhole": ("k1", "k2", "p1", "p2", "k3"),
     "rational": ("k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6"),
     "fisheye": ("k1", "k2", "k3", "k4"),
@@ -29,7 +32,7 @@ MODELS: dict[str, tuple[str, ...]] = {
 def distort(xy: np.ndarray, dist: np.ndarray, model: CameraModel = "pinhole") -> np.ndarray:
     """Distort normalised image coordinates by OpenCV's model, (N, 2) -> (N, 2).
 
-    Pinhole and rational (``k1, k2, p1, p2, k3[, k4, k5, k6]``), with
+    Pinhole and rational (``k1, k2, p1, p2[, k3[, k4, k5, k6]]``, missing ones 0), with
     :math:`r^2 = x^2 + y^2`:
 
     .. math::
