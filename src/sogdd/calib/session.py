@@ -19,6 +19,7 @@ it was and removes the new one; a signal during the renames (milliseconds) is he
 until they are done, and the run completes. Only a missing folder, an empty one,
 or a previous output of this function (its files alone) is replaced: a folder
 holding anything else is refused, so a run never deletes a file it did not make.
+:func:`write_folder` is that contract for any writer of such a folder (the rig's too).
 """
 
 from __future__ import annotations
@@ -30,14 +31,13 @@ import secrets
 import shutil
 import signal
 import threading
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from pathlib import Path
 
 from ..collection import expand_inputs, relative_names
 from ..formats.safe_write import TMP_SUFFIX, folder_holds
-from .cameras import CameraModel, check_model
 from .detection import (
     BOARD_CHOICES,
     THUMB_WIDTH,
@@ -51,11 +51,13 @@ from .detection import (
 )
 from .files import FILES, write_calibration
 from .fit import calibrate
+from .model_selection import ModelChoice, check_model_choice
 from .result import Calibration
 from .targets.board import Board
 from .targets.spec import BoardSpec, grid_dims, parse_board
 
-__all__ = ["OUTPUTS", "ImageCalibration", "calibrate_images", "check_output_folder", "write_outputs"]
+__all__ = ["OUTPUTS", "ImageCalibration", "calibrate_images", "check_output_folder", "foreign_entry",
+           "write_folder", "write_outputs"]
 
 #: what :func:`write_outputs` writes: the four files, report.html and the report/ folder of figures
 OUTPUTS = (*FILES, "report.html", "report")
@@ -101,7 +103,7 @@ def _check_parameters(board: str | BoardSpec, square: float, model: str, jobs: i
         raise TypeError(f"board must be a specification string or a BoardSpec, got {type(board).__name__}")
     if not (isinstance(square, numbers.Real) and 0 < square < float("inf")):
         raise ValueError(f"square must be a positive size, got {square}")
-    check_model(model)
+    check_model_choice(model)
     if boards not in BOARD_CHOICES:
         raise ValueError(f"boards must be one of {', '.join(BOARD_CHOICES)}, got {boards!r}")
     for name, v in (("jobs", jobs), ("min_views", min_views)):
@@ -116,7 +118,7 @@ def calibrate_images(
     *,
     boards: BoardChoice = "best",
     square: float = 1.0,
-    model: CameraModel = "pinhole",
+    model: ModelChoice = "auto",
     jobs: int = 1,
     scheduler: str | None = None,
     min_views: int = 3,
@@ -148,8 +150,11 @@ def calibrate_images(
         image.
     square : float
         The side of a board square, in the unit the poses should have.
-    model : {"pinhole", "rational", "fisheye"}
-        The camera model (:func:`sogdd.calib.calibrate`).
+    model : {"auto", "pinhole4", "pinhole", "rational", "fisheye"}
+        The camera model (:func:`sogdd.calib.calibrate`); ``"auto"``: the one
+        cross-validation over the views chooses
+        (:func:`~sogdd.calib.model_selection.select_model`, its table in
+        ``calibration.model_selection``).
     jobs : int
         Images read and searched at a time, in worker processes (1: in this process).
     scheduler : str, optional
@@ -321,8 +326,9 @@ def _check_smaller(results: list[ViewResult], spec: BoardSpec) -> None:
 # the output folder
 
 
-def _is_previous_output(folder: Path) -> str | None:
-    """None if ``folder`` holds only what :func:`write_outputs` writes, else the first entry it did not."""
+def foreign_entry(folder: Path) -> str | None:
+    """None if ``folder`` holds only what :func:`write_outputs` writes, else the first entry it did not
+    (the rig's writer asks it of each camera's folder)."""
     for p in sorted(folder.iterdir()):
         if p.name.endswith(TMP_SUFFIX):
             continue
@@ -336,14 +342,18 @@ def _is_previous_output(folder: Path) -> str | None:
     return None
 
 
-def check_output_folder(out: str | os.PathLike, inputs: Iterable[str | os.PathLike] = ()) -> Path:
+def check_output_folder(out: str | os.PathLike, inputs: Iterable[str | os.PathLike] = (), *,
+                        previous: Callable[[Path], str | None] | None = None) -> Path:
     """Whether :func:`write_outputs` may write ``out``: a one-line ``ValueError`` if not, else its full path.
 
     ``out`` may be missing (it is created, with its parents), empty, or a
     previous output (:data:`OUTPUTS` and nothing else), which is replaced. It
     is refused when it is a file, holds an input (however the inputs were
     named: :func:`sogdd.formats.safe_write.folder_holds`), holds files this
-    function did not write, or is (or holds) the current folder.
+    function did not write, or is (or holds) the current folder. ``previous``
+    says what a previous output holds for another writer of such a folder (the
+    rig's): given the folder, None if it is one, else the first entry it did
+    not write.
 
     Examples
     --------
@@ -369,7 +379,7 @@ def check_output_folder(out: str | os.PathLike, inputs: Iterable[str | os.PathLi
         raise ValueError(f"output folder {given}: is (or holds) the current folder, which a run replaces; "
                          "choose another folder")
     if path.is_dir():
-        odd = _is_previous_output(path)
+        odd = (previous or foreign_entry)(path)
         if odd is not None:
             raise ValueError(f"output folder {given}: holds {odd}, which sogdd calibrate did not write; give a "
                              "new or empty folder, or a previous output to replace")
@@ -452,16 +462,7 @@ def write_outputs(result: ImageCalibration, out: str | os.PathLike, *, report: b
         A write failed (full disk, permissions): one line saying that ``out``
         was left as it was.
     """
-    path = check_output_folder(out, inputs)
-    given = os.fspath(out)
-    kept = f"{given} left as it was" if path.exists() else f"{given} not created"
-    made = _make_parents(path.parent)
-    new = None
-    try:
-        new = _beside(path, "new")
-        new.mkdir()  # the user's umask, as any folder they make
-        if path.exists():
-            os.chmod(new, path.stat().st_mode & 0o7777)
+    def fill(new: Path) -> dict[str, Path]:
         files = write_calibration(result.calibration, new, inputs=inputs, views=result.views)
         if report:
             from .report import write_report
@@ -471,6 +472,34 @@ def write_outputs(result: ImageCalibration, out: str | os.PathLike, *, report: b
                 result.calibration, new, images=result.thumbnails or None, views=result.views,
                 title=title or f"Camera calibration: {n} views, {result.board}")
             files["report"] = new / "report"
+        return files
+
+    return write_folder(out, fill, inputs=inputs)
+
+
+def write_folder(out: str | os.PathLike, fill: Callable[[Path], Mapping[str, object]], *,
+                 inputs: Sequence[str | os.PathLike] = (),
+                 previous: Callable[[Path], str | None] | None = None) -> dict[str, Path]:
+    """Write an output folder whole or not at all (module doc): ``fill(new)`` writes the files into a new
+    hidden folder beside ``out``, which then takes its place.
+
+    :func:`write_outputs` and the rig's writer share it. ``out`` is checked
+    first (:func:`check_output_folder`, with ``previous``); ``fill`` returns the
+    names it wrote (relative to the folder it was given); the result maps each
+    to its final path. A failure or an interrupt leaves ``out`` as it was (an
+    ``OSError`` is one line saying so).
+    """
+    path = check_output_folder(out, inputs, previous=previous)
+    given = os.fspath(out)
+    kept = f"{given} left as it was" if path.exists() else f"{given} not created"
+    made = _make_parents(path.parent)
+    new = None
+    try:
+        new = _beside(path, "new")
+        new.mkdir()  # the user's umask, as any folder they make
+        if path.exists():
+            os.chmod(new, path.stat().st_mode & 0o7777)
+        files = fill(new)
         _swap(new, path)
     except OSError as exc:
         _undo(new, made)

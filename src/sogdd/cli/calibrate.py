@@ -1,6 +1,7 @@
-"""sogdd calibrate: a camera calibration from images of a chessboard or ChArUco board.
+"""sogdd calibrate: a camera calibration from images of a chessboard or ChArUco board; or a rig's.
 
   sogdd calibrate 'frames/*.jpg' --board chessboard:9x6 --square 25 --out calib/
+  sogdd calibrate --camera left 'left/*.jpg' --camera right 'right/*.jpg' --board chessboard:9x6 --out rig/
 
 Boards (--board):
   chessboard:COLSxROWS          COLS x ROWS *inner* corners (OpenCV's patternSize:
@@ -26,6 +27,9 @@ folder, or a previous output of sogdd calibrate, which is replaced whole; a
 folder holding other files, or any input, is refused.
 An image that cannot be read is reported and the calibration uses the others
 (exit code 2 all the same). Ctrl-C leaves --out as it was (exit code 130).
+
+A rig of two or more cameras: --camera NAME PATTERN... once per camera instead
+of the images; how its frames are matched and what it writes is below.
 """
 
 from __future__ import annotations
@@ -34,12 +38,14 @@ import argparse
 import sys
 
 from ._common import check_input_files, print_json
+from .calibrate_rig import RIG_HELP, add_rig_arguments, run_rig
 from .params import add_read_arguments, read_options
 
 
 def configure(p: argparse.ArgumentParser) -> None:
-    p.description = __doc__
-    p.add_argument("images", nargs="+", help="image files, folders or glob patterns (quoted)")
+    p.description = __doc__ + "\n" + RIG_HELP
+    p.add_argument("images", nargs="*", help="image files, folders or glob patterns (quoted); or, for a rig, "
+                   "--camera NAME PATTERN... per camera")
     p.add_argument("--board", default="chessboard:auto", metavar="SPEC",
                    help="chessboard:COLSxROWS (inner corners), chessboard:auto, or "
                         "charuco:COLSxROWS:MARKER:DICT (see above)")
@@ -47,9 +53,11 @@ def configure(p: argparse.ArgumentParser) -> None:
                    help="boards per image: the best match of --board (the others ignored, in views.csv), or "
                         "all of them (several targets; small copies of the board are still ignored)")
     p.add_argument("--square", type=float, default=1.0, help="side of a board square, in your unit (e.g. mm)")
-    p.add_argument("--model", choices=("pinhole", "rational", "fisheye"), default="pinhole",
-                   help="camera model: k1,k2,p1,p2,k3; OpenCV's rational k1..k6,p1,p2; or OpenCV's "
-                        "fisheye k1..k4")
+    p.add_argument("--model", choices=("auto", "pinhole4", "pinhole", "rational", "fisheye"), default="auto",
+                   help="camera model: auto (chosen by cross-validation over the views: the simplest that "
+                        "predicts unseen views as well as the best; the table in camera.json and the report); "
+                        "k1,k2,p1,p2; k1,k2,p1,p2,k3; OpenCV's rational k1..k6,p1,p2; or OpenCV's fisheye "
+                        "k1..k4")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder (created if needed; a previous "
                    "output is replaced)")
     p.add_argument("--jobs", type=int, default=1, help="images detected in parallel (processes)")
@@ -61,15 +69,16 @@ def configure(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-report", dest="report", action="store_false",
                    help="skip report.html and its figures (written by default)")
     p.add_argument("-r", "--recursive", action="store_true", help="folders: include their sub-folders")
+    add_rig_arguments(p)
     add_read_arguments(p)
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
     p.add_argument("--quiet", "--no-progress", dest="quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
 
-def run(args: argparse.Namespace) -> int:
-    from ..calib import calibrate_images, check_output_folder, parse_board, write_outputs
-    from ..collection import expand_inputs
+def _checked(args: argparse.Namespace) -> tuple:
+    """The board and the read options, every option checked before any work (one camera or a rig)."""
+    from ..calib import parse_board
 
     try:
         spec = parse_board(args.board)  # bad syntax fails before any work, naming the flag
@@ -80,7 +89,20 @@ def run(args: argparse.Namespace) -> int:
             raise ValueError(f"{flag} must be >= 1, got {v}")
     if not 0 < args.square < float("inf"):
         raise ValueError(f"--square must be a positive size, got {args.square}")
-    reading = read_options(args)
+    return spec, read_options(args)
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..calib import calibrate_images, check_output_folder, write_outputs
+    from ..collection import expand_inputs
+
+    spec, reading = _checked(args)
+    if args.cameras:
+        return run_rig(args, spec, reading)
+    if not args.images:
+        raise ValueError("no images: give the image files, or --camera NAME PATTERN... per camera of a rig")
+    if args.allow_missing_frames:
+        raise ValueError("--allow-missing-frames is for a rig (--camera NAME PATTERN... per camera)")
     paths = expand_inputs(args.images, recursive=args.recursive)
     if not paths:
         raise ValueError("no input images")
@@ -102,6 +124,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _summary(args: argparse.Namespace, result, written: dict) -> None:
+    from ..calib.files import selection_dict
     from ..calib.verdict import verdict
 
     cal = result.calibration
@@ -115,6 +138,7 @@ def _summary(args: argparse.Namespace, result, written: dict) -> None:
                     "rms": cal.rms, "views_used": cal.n_used, "views": len(cal.names),
                     "cross_validation_mean": None if cv is None else cv.mean,
                     "cross_validation_mean_within": None if cv is None else cv.mean_within,
+                    "model_selection": selection_dict(cal.model_selection),
                     "verdict": [{"level": lv, "text": t} for lv, t in findings],
                     "rejected": {n: r for n, s, r in not_used if s == "rejected"},
                     "not_used": [{"view": n, "status": s, "reason": r} for n, s, r in not_used],
@@ -124,6 +148,10 @@ def _summary(args: argparse.Namespace, result, written: dict) -> None:
              f"RMS {cal.rms:.4f} px, {cal.n_used} of {len(cal.names)} views used"
              + (f", cross-validation {cv.mean_within:.3f} px inside the corners ({cv.mean:.3g} over the frame)"
                 if cv is not None else "")]
+    sel = cal.model_selection
+    if sel is not None and sel.folds:
+        lines.append("  models (cross-validated RMS px): " + ", ".join(
+            f"{r.model} {r.cv_rms:.4f}" + (" (chosen)" if r.model == sel.chosen else "") for r in sel.table))
     lines += [f"  {lv}: {t}" for lv, t in findings]
     lines += [f"  {s} {n}: {r}" for n, s, r in not_used[:5]]
     if len(not_used) > 5:

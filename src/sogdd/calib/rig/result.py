@@ -1,4 +1,4 @@
-"""The result of a rig calibration: every camera, its pose in the first camera's frame, and their uncertainties."""
+"""The result of a rig calibration: every camera, its pose in the first camera's frame, their uncertainties."""
 
 from __future__ import annotations
 
@@ -32,7 +32,8 @@ class RigCamera:
     R : (3, 3) float64
     T : (3,) float64
         The camera's pose: :math:`x_{cam} = R\\,x_{first} + T` (the first camera:
-        identity and zero), ``T`` in the unit of the board's square.
+        identity and zero), ``T`` in the unit of the board's square. NaN for a
+        camera that no shared frame ties to the first (``RigCalibration.notes``).
     std : dict
         Standard deviations from the joint covariance: ``fx, fy, cx, cy`` and each
         distortion coefficient by name (px or unitless), ``"T"`` (3 floats, the
@@ -101,7 +102,9 @@ class RigCalibration:
     layout : dict of str to slice
         Where each block lies in ``covariance``: ``"NAME.intrinsics"`` (``fx, fy,
         cx, cy`` then the distortion coefficients), ``"NAME.pose"`` (rotation
-        vector then translation; not for the first camera), ``"frame.K.pose"``.
+        vector then translation; not for the first camera, nor one without a pose),
+        ``"frame.F.pose"`` (``F`` the frame's index; a camera without a pose has
+        frames of its own, ``"NAME.frame.F.pose"``).
     square : float
         The board's square side (the unit of every translation).
     notes : tuple of str

@@ -1,0 +1,335 @@
+"""A rig calibration's report page: the rig in 3-D, its errors, its uncertainty and a rectified pair.
+
+``report.html`` shows the verdict in plain words (:func:`~sogdd.calib.rig.verdict.rig_verdict`),
+the cameras with their standard deviations, the cameras and the board's poses in the first
+camera's frame (as MATLAB's extrinsics view), each frame's RMS per camera, each camera's
+map of the projection uncertainty of a far point, each pair (the reference and another
+camera) rectified with its epipolar lines, the model-selection tables, and a link to each
+camera's own report (``NAME/report.html``, :func:`sogdd.calib.report.write_report`). Like
+the one-camera report it never reads an image file: it draws on the thumbnails that
+detection kept.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import html
+import os
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from ...formats.safe_write import write_text
+from ..detection import Thumbnail, ViewRecord
+from ..report import _plt, _save, write_report
+from .result import RigCalibration, RigCamera
+from .stereo import rectify_points, stereo_pair
+from .uncertainty import projection_uncertainty
+from .verdict import rig_verdict
+
+__all__ = ["write_rig_report"]
+
+_COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown")
+
+
+def _board_outline(cam_board, rvec, tvec, square: float) -> np.ndarray | None:
+    """The board's corner rectangle (5, 3) in the first camera's frame, from its labels' extent."""
+    if cam_board is None or not np.all(np.isfinite(rvec)):
+        return None
+    lab = cam_board.labels
+    (i0, j0), (i1, j1) = lab.min(axis=0), lab.max(axis=0)
+    quad = np.array([(i0, j0, 0), (i1, j0, 0), (i1, j1, 0), (i0, j1, 0), (i0, j0, 0)], float) * square
+    R, _ = cv2.Rodrigues(np.asarray(rvec, float))
+    return quad @ R.T + np.asarray(tvec, float)
+
+
+def _extrinsics_figure(rig: RigCalibration, path: Path) -> None:
+    plt = _plt()
+    fig = plt.figure(figsize=(8, 6))
+    ax = fig.add_subplot(projection="3d")
+    # shown with x right, z (depth) into the page and y down, as the cameras see it
+    def show(p):
+        return p[..., 0], p[..., 2], -p[..., 1]
+
+    pts = []
+    for f in np.flatnonzero(rig.frame_used):
+        board = next((c.calibration.boards[f] for c in rig.cameras if c.calibration.boards[f] is not None),
+                     None)
+        q = _board_outline(board, rig.rvecs[f], rig.tvecs[f], rig.square)
+        if q is not None:
+            ax.plot(*show(q), color="0.5", lw=0.8)
+            pts.append(q)
+    scale = 0.15 * (np.ptp(np.concatenate(pts), axis=0).max() if pts else 1.0)
+    for k, cam in enumerate(rig.cameras):
+        centre = -cam.R.T @ cam.T  # the camera's centre in the first camera's frame
+        w, h = cam.image_size
+        frame = np.array([[0, 0, 1], [w, 0, 1], [w, h, 1], [0, h, 1], [0, 0, 1]], float)
+        rays = np.linalg.solve(cam.K, frame.T).T
+        far = centre + (rays * scale) @ cam.R  # R^T applied to each ray
+        colour = _COLOURS[k % len(_COLOURS)]
+        ax.plot(*show(far), color=colour)
+        for corner in far[:4]:
+            ax.plot(*show(np.array([centre, corner])), color=colour, lw=0.8)
+        ax.text(*show(centre), f" {cam.name}", color=colour)
+        pts.append(np.array([centre]))
+    allp = np.concatenate(pts)
+    lo, hi = allp.min(axis=0), allp.max(axis=0)
+    mid, half = (lo + hi) / 2, max(float(np.max(hi - lo)) / 2, 1e-9)
+    ax.set_xlim(mid[0] - half, mid[0] + half)
+    ax.set_ylim(mid[2] - half, mid[2] + half)
+    ax.set_zlim(-mid[1] - half, -mid[1] + half)
+    ax.set_xlabel("x")
+    ax.set_ylabel("z (depth)")
+    ax.set_zlabel("-y")
+    ax.set_title(f"cameras and {int(np.sum(rig.frame_used))} board poses, in {rig.cameras[0].name}'s frame")
+    _save(fig, path)
+
+
+def _errors_figure(rig: RigCalibration, path: Path) -> None:
+    plt = _plt()
+    F = len(rig.frames)
+    n = len(rig.cameras)
+    fig, ax = plt.subplots(figsize=(max(6, 0.3 * F * n / 2 + 2), 3.5))
+    width = 0.8 / n
+    for k, cam in enumerate(rig.cameras):
+        rms = np.asarray(cam.calibration.view_rms, float)
+        used = np.asarray(cam.calibration.view_used, bool)
+        x = np.arange(F) + (k - (n - 1) / 2) * width
+        ax.bar(x[used], np.nan_to_num(rms[used]), width, color=_COLOURS[k % len(_COLOURS)],
+               label=f"{cam.name} (RMS {cam.calibration.rms:.3f} px)")
+        bad = ~used & np.isfinite(rms)
+        if bad.any():
+            ax.bar(x[bad], rms[bad], width, color="none", edgecolor="tab:red", hatch="//")
+    ax.set_xticks(np.arange(F))
+    ax.set_xticklabels(rig.frames, rotation=90, fontsize=7)
+    ax.set_ylabel("RMS (px)")
+    ax.set_title("each frame's RMS per camera (hatched red: rejected)")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    _save(fig, path)
+
+
+def _uncertainty_figure(rig: RigCalibration, cam: RigCamera, path: Path) -> bool:
+    try:
+        pixels, sigma = projection_uncertainty(rig, cam.name, grid=(32, 24))
+    except ValueError:
+        return False
+    sigma = np.asarray(sigma, float)
+    if not np.isfinite(sigma).any():
+        return False
+    plt = _plt()
+    w, h = cam.image_size
+    xs, ys = np.unique(pixels[:, 0]), np.unique(pixels[:, 1])
+    grid = np.full((len(ys), len(xs)), np.nan)
+    grid[np.searchsorted(ys, pixels[:, 1]), np.searchsorted(xs, pixels[:, 0])] = sigma
+    fig, ax = plt.subplots(figsize=(6, 6 * h / w + 0.6))
+    from matplotlib.colors import LogNorm
+
+    im = ax.imshow(grid, extent=(xs[0], xs[-1], ys[-1], ys[0]), cmap="magma",
+                   norm=LogNorm() if np.nanmin(grid) > 0 else None)
+    fig.colorbar(im, ax=ax, label="1 sigma (px)")
+    used = [b.image_points[u] for b, u in zip(cam.calibration.boards, cam.calibration.corner_used)
+            if b is not None and u is not None]
+    if used:
+        p = np.concatenate(used)
+        ax.plot(p[:, 0], p[:, 1], ".", ms=1, color="c")
+    ax.set_xlim(0, w)
+    ax.set_ylim(h, 0)
+    ax.set_title(f"{cam.name}: projection uncertainty of a far point (cyan: the corners used)", fontsize=9)
+    _save(fig, path)
+    return True
+
+
+def _thumb_matrix(scale: float) -> np.ndarray:
+    """Full-image pixels to thumbnail pixels: ``(p + 0.5) scale - 0.5``."""
+    off = 0.5 * scale - 0.5
+    return np.array([[scale, 0, off], [0, scale, off], [0, 0, 1.0]])
+
+
+def _rectified(cam: RigCamera, Rr: np.ndarray, P: np.ndarray, thumb: Thumbnail | None,
+               size: tuple[int, int], scale: float) -> np.ndarray:
+    """The thumbnail rectified (grey on a blank canvas without one), at ``scale`` of the full image."""
+    A = _thumb_matrix(scale)
+    if thumb is None:
+        return np.full((size[1], size[0]), 200, np.uint8)
+    At = _thumb_matrix(thumb.scale)
+    K = At @ cam.K
+    if cam.model == "fisheye":
+        m1, m2 = cv2.fisheye.initUndistortRectifyMap(K, cam.dist[:4], Rr, A @ P[:, :3], size, cv2.CV_32FC1)
+    else:
+        m1, m2 = cv2.initUndistortRectifyMap(K, cam.dist, Rr, A @ P[:, :3], size, cv2.CV_32FC1)
+    return cv2.remap(thumb.image, m1, m2, cv2.INTER_LINEAR, borderValue=255)
+
+
+def _pair_figure(rig: RigCalibration, other: RigCamera, thumbnails, path: Path) -> float | None:
+    """The reference and ``other`` rectified side by side in the frame they share most corners of; the
+    RMS vertical disparity of the shared corners (px), or None when they share no frame."""
+    first = rig.cameras[0]
+    best, count = None, 0
+    for f in np.flatnonzero(rig.frame_used):
+        a, b = first.calibration.boards[f], other.calibration.boards[f]
+        if a is None or b is None:
+            continue
+        n = len({tuple(t) for t in a.labels} & {tuple(t) for t in b.labels})
+        if n > count:
+            best, count = f, n
+    if best is None:
+        return None
+    pair = stereo_pair(rig, first.name, other.name)
+    w, h = first.image_size
+    scale = 480.0 / max(w, h)
+    size = (int(round(w * scale)), int(round(h * scale)))
+    A = _thumb_matrix(scale)
+    plt = _plt()
+    fig, axes = plt.subplots(1, 2, figsize=(10, 10 * size[1] / size[0] / 2 + 0.8))
+    rect = {}
+    for ax, cam, Rr, P, which in ((axes[0], first, pair.R1, pair.P1, 0), (axes[1], other, pair.R2, pair.P2, 1)):
+        thumb = thumbnails.get(cam.name, [None] * len(rig.frames))[best] if thumbnails else None
+        ax.imshow(_rectified(cam, Rr, P, thumb, size, scale), cmap="gray", vmin=0, vmax=255)
+        board = cam.calibration.boards[best]
+        q = rectify_points(pair, cam.K, cam.dist, cam.model, board.image_points, which + 1)
+        rect[which] = dict(zip(map(tuple, board.labels), q))
+        qt = np.c_[q, np.ones(len(q))] @ A.T
+        ax.plot(qt[:, 0], qt[:, 1], "+", ms=4, color=_COLOURS[which])
+        for y in np.linspace(0, size[1], 12)[1:-1]:
+            ax.axhline(y, color="y", lw=0.6)
+        ax.set_title(f"{cam.name}, frame {rig.frames[best]}", fontsize=9)
+        ax.set_axis_off()
+    shared = sorted(set(rect[0]) & set(rect[1]))
+    dy = np.array([rect[0][s][1] - rect[1][s][1] for s in shared])
+    disparity = float(np.sqrt(np.mean(dy ** 2))) if len(dy) else float("nan")
+    fig.suptitle(f"rectified pair {first.name} / {other.name}: the same corner lies on the same row; "
+                 f"vertical disparity {disparity:.3f} px RMS over {len(dy)} shared corners", fontsize=9)
+    _save(fig, path)
+    return disparity
+
+
+def _fmt(v: float, digits: int = 4) -> str:
+    return "nan" if not np.isfinite(v) else f"{v:.{digits}g}"
+
+
+def _camera_rows(rig: RigCalibration) -> str:
+    rows = []
+    for cam in rig.cameras:
+        K, s = cam.K, cam.std
+        angle = float(np.degrees(np.arccos(np.clip((np.trace(cam.R) - 1) / 2, -1, 1))))
+        cells = [html.escape(cam.name), cam.model, f"{cam.image_size[0]}x{cam.image_size[1]}"]
+        cells += [f"{_fmt(K[i, j], 6)} ± {_fmt(s.get(n, np.nan), 2)}"
+                  for n, (i, j) in (("fx", (0, 0)), ("fy", (1, 1)), ("cx", (0, 2)), ("cy", (1, 2)))]
+        cells += [f"{_fmt(cam.baseline)} ± {_fmt(s.get('baseline', np.nan), 2)}",
+                  f"{angle:.3f} ± {_fmt(s.get('rotation_deg', np.nan), 2)}",
+                  f"{cam.calibration.rms:.4f}", f"{cam.calibration.n_used} of {len(rig.frames)}",
+                  f'<a href="{html.escape(cam.name)}/report.html">report</a>']
+        rows.append("<tr>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
+    head = ("camera", "model", "size", "fx", "fy", "cx", "cy", "baseline", "rotation (deg)", "RMS (px)",
+            "frames used", "")
+    return "<table><tr>" + "".join(f"<th>{h}</th>" for h in head) + "</tr>" + "".join(rows) + "</table>"
+
+
+def _selection_tables(rig: RigCalibration) -> str:
+    """Each camera's model-selection table (``model="auto"``), from the selection's ``table`` rows."""
+    if not rig.model_selection:
+        return ""
+    out = ["<h2>Lens model chosen by the data</h2>"]
+    for name, sel in rig.model_selection.items():
+        rows = getattr(sel, "table", None)
+        if not rows:
+            continue
+        dicts = [dataclasses.asdict(r) if dataclasses.is_dataclass(r) else dict(r) for r in rows]
+        keys = list(dicts[0])
+        cells = "".join("<tr>" + "".join(f"<td>{html.escape(_cell(d[k]))}</td>" for k in keys) + "</tr>"
+                        for d in dicts)
+        rule = getattr(sel, "rule", "")
+        out.append(f"<h3>{html.escape(name)}: {html.escape(str(getattr(sel, 'chosen', '')))}</h3>"
+                   f"<p>{html.escape(str(rule))}</p><table><tr>"
+                   + "".join(f"<th>{html.escape(k)}</th>" for k in keys) + f"</tr>{cells}</table>")
+    return "".join(out)
+
+
+def _cell(v) -> str:
+    if isinstance(v, float):
+        return _fmt(v)
+    return str(v)
+
+
+def write_rig_report(rig: RigCalibration, out_dir: str | os.PathLike, *,
+                     thumbnails: Mapping[str, Sequence[Thumbnail | None]] | None = None,
+                     views: Mapping[str, Sequence[ViewRecord]] | None = None,
+                     title: str = "Rig calibration") -> Path:
+    """Write ``report.html`` and its figures (``report/*.png``) into ``out_dir``, and each camera's own report.
+
+    Parameters
+    ----------
+    rig : RigCalibration
+    out_dir : path
+        Created if needed; each camera's report goes into ``out_dir/NAME/``.
+    thumbnails : mapping of camera name to a sequence of Thumbnail or None, optional
+        Per camera, per frame, the small grey images the pictures are drawn on
+        (without them: on grey).
+    views : mapping of camera name to a sequence of ViewRecord, optional
+        Per camera, every input's fate, for its own report.
+    title : str
+
+    Returns
+    -------
+    Path
+        The HTML file.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from sogdd.calib.rig.demo import demo_rig
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     page = write_rig_report(demo_rig(), d)
+    ...     names = sorted(p.name for p in (page.parent / "report").glob("*.png"))
+    ...     own = (page.parent / "right" / "report.html").is_file()
+    >>> names[:2], own
+    (['errors.png', 'extrinsics.png'], True)
+    """
+    out = Path(out_dir)
+    figs = out / "report"
+    figs.mkdir(parents=True, exist_ok=True)
+    _extrinsics_figure(rig, figs / "extrinsics.png")
+    _errors_figure(rig, figs / "errors.png")
+    maps, pairs = [], []
+    for cam in rig.cameras:
+        if _uncertainty_figure(rig, cam, figs / f"uncertainty_{cam.name}.png"):
+            maps.append(cam.name)
+        thumbs = thumbnails.get(cam.name) if thumbnails else None
+        write_report(cam.calibration, out / cam.name, images=thumbs,
+                     views=views.get(cam.name) if views else None, title=f"{title}: camera {cam.name}")
+    for cam in rig.cameras[1:]:
+        d = _pair_figure(rig, cam, thumbnails, figs / f"rectified_{cam.name}.png")
+        if d is not None:
+            pairs.append((cam.name, d))
+    page = out / "report.html"
+    write_text(page, _html(rig, title, maps, pairs))
+    return page
+
+
+def _html(rig: RigCalibration, title: str, maps: list[str], pairs: list[tuple[str, float]]) -> str:
+    esc = html.escape
+    colours = {"ok": "#1a7f37", "warn": "#9a6700", "bad": "#cf222e"}
+    items = "".join(f'<li style="color:{colours[lv]}"><b>{lv}</b>: {esc(t)}</li>' for lv, t in rig_verdict(rig))
+    first = rig.cameras[0].name
+    summary = (f"{len(rig.cameras)} cameras, {int(np.sum(rig.frame_used))} of {len(rig.frames)} frames used, "
+               f"RMS {rig.rms:.4f} px over every camera's corners, corner noise {rig.sigma:.4f} px; poses in "
+               f"{first}'s frame (x_cam = R x_{first} + T), translations in the square's unit")
+    notes = "".join(f"<li>{esc(n)}</li>" for n in rig.notes)
+    unc = "".join(f"<img src='report/uncertainty_{esc(n)}.png' alt='uncertainty of {esc(n)}'>" for n in maps)
+    rect = "".join(f"<p>{esc(first)} / {esc(n)}: {d:.3f} px RMS vertical disparity</p>"
+                   f"<img src='report/rectified_{esc(n)}.png' alt='rectified {esc(n)}'>" for n, d in pairs)
+    style = ("body{font-family:sans-serif;max-width:1100px;margin:auto}td,th{padding:2px 8px;text-align:right}"
+             "img{max-width:100%}")
+    return (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{esc(title)}</title>"
+            f"<style>{style}</style></head><body><h1>{esc(title)}</h1><p>{esc(summary)}</p>"
+            f"<h2>Verdict</h2><ul>{items}</ul>"
+            + (f"<h2>Notes</h2><ul>{notes}</ul>" if notes else "")
+            + f"<h2>Cameras</h2>{_camera_rows(rig)}"
+            "<h2>The rig</h2><img src='report/extrinsics.png' alt='cameras and board poses'>"
+            "<h2>Errors</h2><img src='report/errors.png' alt='RMS per frame and camera'>"
+            "<h2>Projection uncertainty</h2><p>1 sigma of where a far point projects (the worst direction), "
+            f"from the fit's covariance; the other cameras' include their pose's.</p>{unc}"
+            f"<h2>Rectified pairs</h2>{rect}{_selection_tables(rig)}</body></html>\n")

@@ -1,0 +1,372 @@
+"""A rig calibration session: each camera's images of a board in, the rig and every image's fate out.
+
+The library's entry point for rigs, what ``sogdd calibrate --camera NAME PATTERN ...`` runs.
+:func:`calibrate_rig_images` matches the cameras' images into frames
+(:func:`~sogdd.calib.rig.frames.match_frames`), finds the board in every image of every
+camera in one pass (:func:`sogdd.calib.detection.detect_files`: one pool of workers for
+all of them), keeps each image's best board (:func:`~sogdd.calib.detection.pick_boards`),
+checks that each camera's images agree (one size each), chooses each camera's model, and
+fits the rig (:func:`~sogdd.calib.rig.fit.calibrate_rig`). :func:`write_rig_outputs`
+writes the output folder: rig.yaml, rig.json, report.html with its figures, and each
+camera's own files in ``NAME/`` (:mod:`sogdd.calib.rig.files`), under the one-camera
+session's contract (:func:`sogdd.calib.session.write_folder`): the folder ends complete
+or as it was, and only a missing or empty folder or a previous output is replaced.
+"""
+
+from __future__ import annotations
+
+import numbers
+import os
+import re
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Literal
+
+from ...collection import expand_inputs, relative_names
+from ...formats.safe_write import TMP_SUFFIX
+from ..detection import (
+    THUMB_WIDTH,
+    Thumbnail,
+    ViewRecord,
+    ViewResult,
+    check_read_options,
+    detect_files,
+    pick_boards,
+)
+from ..model_selection import ModelChoice, check_model_choice, select_model
+from ..session import _check_results, _image_size, check_output_folder, foreign_entry, write_folder
+from ..targets.spec import BoardSpec, parse_board
+from .files import RIG_FILES, check_camera_names, write_rig
+from .fit import calibrate_rig
+from .frames import match_frames
+from .result import RigCalibration
+
+__all__ = ["RigImageCalibration", "calibrate_rig_images", "check_rig_output_folder", "foreign_rig_entry",
+           "write_rig_outputs"]
+
+Inputs = str | os.PathLike | Iterable[str | os.PathLike]
+_FIGURE = re.compile(r"(extrinsics|errors|(uncertainty|rectified)_[A-Za-z0-9_-]+)\.png")
+_CAMERA_FOLDER = re.compile(r"[A-Za-z0-9_-]+")
+
+
+@dataclass(frozen=True)
+class RigImageCalibration:
+    """A rig calibration from image files, with what became of every input (:func:`calibrate_rig_images`).
+
+    Attributes
+    ----------
+    rig : RigCalibration
+        The rig; each camera's views are its images of the frames, named by their
+        files relative to that camera's inputs' common folder.
+    board : BoardSpec
+    views : dict of str to tuple of ViewRecord
+        Per camera, every input in frame order, one record per image (``view``
+        is the frame's index; None for an image that could not be read), and an
+        ignored board beside an image's view as a record ``name#2`` after it.
+    frames : tuple of str
+        The frames' names (their number, or their rank in sorted order).
+    thumbnails : dict of str to tuple of Thumbnail or None
+        Per camera, per frame, the small grey image the report draws on.
+    """
+
+    rig: RigCalibration
+    board: BoardSpec
+    views: dict[str, tuple[ViewRecord, ...]]
+    frames: tuple[str, ...]
+    thumbnails: dict[str, tuple[Thumbnail | None, ...]] = field(default_factory=dict)
+
+    @property
+    def unreadable(self) -> tuple[ViewRecord, ...]:
+        """The inputs of every camera that could not be read (or whose worker process died)."""
+        return tuple(v for views in self.views.values() for v in views if v.status == "unreadable")
+
+
+def _check_spec(board: str | BoardSpec) -> BoardSpec:
+    spec = parse_board(board) if isinstance(board, str) else board
+    if not isinstance(spec, BoardSpec):
+        raise TypeError(f"board must be a specification string or a BoardSpec, got {type(board).__name__}")
+    if spec.kind == "chessboard" and spec.pattern is None:
+        raise ValueError("board chessboard:auto cannot calibrate a rig: the cameras' corner labels must agree, "
+                         "which needs the board's size; give chessboard:COLSxROWS (inner corners)")
+    return spec
+
+
+def _check_models(model: str | Mapping[str, str], names: tuple[str, ...]) -> dict[str, str]:
+    """Each camera's model (``"auto"`` or one of :data:`~sogdd.calib.MODELS`), one for all or by name."""
+    given = dict(model) if isinstance(model, Mapping) else {n: model for n in names}
+    if set(given) != set(names):
+        odd = sorted(set(given) ^ set(names))
+        raise ValueError(f"model: give one model, or one per camera ({', '.join(names)}); {odd[0]!r} is not "
+                         "both a camera and a key")
+    for m in given.values():
+        check_model_choice(m)
+    return {n: given[n] for n in names}
+
+
+def _check_parameters(cameras: Mapping[str, Inputs], square: float, jobs: int, min_views: int,
+                      boards: str) -> tuple[str, ...]:
+    """Bad parameters fail before any image is read."""
+    names = check_camera_names(cameras)
+    if len(names) < 2:
+        raise ValueError(f"a rig needs two or more cameras, got {len(names)}; a single camera is "
+                         "sogdd.calib.calibrate_images")
+    if not (isinstance(square, numbers.Real) and 0 < square < float("inf")):
+        raise ValueError(f"square must be a positive size, got {square}")
+    if boards != "best":
+        raise ValueError(f"boards must be 'best' for a rig (a frame is one pose of one board), got {boards!r}")
+    for name, v in (("jobs", jobs), ("min_views", min_views)):
+        if not isinstance(v, numbers.Integral) or isinstance(v, bool) or v < 1:
+            raise ValueError(f"{name} must be an integer >= 1, got {v!r}")
+    return names
+
+
+def _expand(cameras: Mapping[str, Inputs], recursive: bool) -> dict[str, list[Path]]:
+    """Each camera's image files; a file given to two cameras is refused (a frame is one moment per camera)."""
+    out: dict[str, list[Path]] = {}
+    owner: dict[str, str] = {}
+    for name, inputs in cameras.items():
+        given = [inputs] if isinstance(inputs, (str, os.PathLike)) else list(inputs)
+        paths = expand_inputs([os.fspath(g) for g in given], recursive=recursive)
+        if not paths:
+            raise ValueError(f"camera {name}: no input images")
+        for p in paths:
+            key = os.path.realpath(p)
+            if owner.setdefault(key, name) != name:
+                raise ValueError(f"{p} is an image of both camera {owner[key]} and camera {name}; give each "
+                                 "camera its own images")
+        out[name] = paths
+    return out
+
+
+def calibrate_rig_images(
+    cameras: Mapping[str, Inputs],
+    board: str | BoardSpec = "chessboard:auto",
+    *,
+    square: float = 1.0,
+    model: ModelChoice | Mapping[str, ModelChoice] = "auto",
+    boards: Literal["best"] = "best",
+    jobs: int = 1,
+    scheduler: str | None = None,
+    min_views: int = 3,
+    reject: bool = True,
+    recursive: bool = False,
+    allow_missing: bool = False,
+    read_options: dict | None = None,
+    thumbnails: bool = True,
+    progress: bool = False,
+) -> RigImageCalibration:
+    """Calibrate a rig of two or more cameras from each camera's image files of a board.
+
+    The board's pose in frame :math:`f` and each camera's pose
+    :math:`x_{cam} = R\\,x_{first} + T` are fitted jointly with every camera's
+    intrinsics (:func:`~sogdd.calib.rig.fit.calibrate_rig`): a corner with board
+    point :math:`X` seen by camera :math:`c` in frame :math:`f` is predicted at
+    :math:`\\pi_c(R_c (R_f X + t_f) + T_c)`.
+
+    Parameters
+    ----------
+    cameras : mapping of str to inputs
+        Camera name (letters, digits, ``_``, ``-``; the first is the reference)
+        -> its image files, folders or glob patterns
+        (:func:`sogdd.collection.expand_inputs`). Images are matched into frames by
+        the number in their file names, else by sorted order
+        (:func:`~sogdd.calib.rig.frames.match_frames`).
+    board : str or BoardSpec
+        ``chessboard:COLSxROWS`` (inner corners) or ``charuco:COLSxROWS:MARKER:DICT``;
+        ``chessboard:auto`` cannot be used: the cameras' labels must agree.
+    square : float
+        The side of a board square, in the unit the translations should have.
+    model : str or mapping of str to str
+        ``"auto"`` (each camera's model chosen by its data, by the one-camera
+        fit) or a model of :data:`sogdd.calib.MODELS`; one for every camera, or
+        one per camera name.
+    boards : {"best"}
+        An image's view is its best board (:func:`~sogdd.calib.detection.pick_boards`);
+        the others are records of status ``ignored``.
+    jobs, scheduler, min_views, reject, recursive, read_options, thumbnails, progress
+        As :func:`sogdd.calib.calibrate_images` (``min_views``: per camera).
+    allow_missing : bool
+        A frame some cameras have no image of is used by the others (its view
+        in those cameras absent); by default it is an error, naming the frames.
+
+    Returns
+    -------
+    RigImageCalibration
+        An image that cannot be read is a record of status ``unreadable``; its
+        camera's view of that frame is absent and the rig uses the others.
+
+    Raises
+    ------
+    ValueError
+        One line: bad parameters or camera names; a camera without input; frames
+        that do not match; a camera none of whose images can be read, or that
+        sees no board; a camera's images of different sizes; too few views.
+    sogdd.collection.BatchInterrupted
+        On Ctrl-C or ``SIGTERM``.
+
+    Examples
+    --------
+    >>> from sogdd.calib.rig.session import calibrate_rig_images
+    >>> calibrate_rig_images({"left": "l/*.png", "right": "r/*.png"})
+    Traceback (most recent call last):
+    ...
+    ValueError: board chessboard:auto cannot calibrate a rig: the cameras' corner labels must agree, which \
+needs the board's size; give chessboard:COLSxROWS (inner corners)
+    """
+    names = _check_parameters(cameras, square, jobs, min_views, boards)
+    spec = _check_spec(board)
+    models = _check_models(model, names)
+    opts = check_read_options(read_options)
+    frames, per = match_frames(_expand(cameras, recursive), allow_missing=allow_missing)
+    files = [p for n in names for p in per[n] if p is not None]
+    found = detect_files(files, spec, jobs=jobs, scheduler=scheduler, progress=progress, read_options=opts,
+                         thumb_width=THUMB_WIDTH if thumbnails else None)
+    by_file = dict(zip(files, found))
+    results, ignored, labels = {}, {}, {}
+    for n in names:
+        mine = [by_file[p] for p in per[n] if p is not None]
+        picked = [pick_boards(r.boards, spec, "best") for r in mine]
+        mine = [replace(r, boards=kept) for r, (kept, _) in zip(mine, picked)]
+        _camera_says(n, _check_results, mine, spec)
+        it, beside = iter(mine), iter(b for _, b in picked)
+        results[n] = [None if p is None else next(it) for p in per[n]]
+        ignored[n] = [() if p is None else next(beside) for p in per[n]]
+        rel = iter(relative_names([p for p in per[n] if p is not None]))
+        labels[n] = [f"(frame {f}: no image)" if p is None else next(rel) for f, p in zip(frames, per[n])]
+    sizes = {n: _camera_says(n, _image_size, [r for r in results[n] if r is not None]) for n in names}
+    views = {n: [r.boards[0] if r is not None and r.boards else None for r in results[n]] for n in names}
+    chosen, selection = _choose_models(models, views, sizes, float(square), reject, min_views)
+    rig = calibrate_rig(views, sizes, square=float(square), models=chosen, frames=frames, view_names=labels,
+                        pattern=spec.pattern, reject=reject, min_views=min_views)
+    if selection:
+        rig = replace(rig, model_selection=selection)
+    records = {n: _records(n, results[n], labels[n], ignored[n], rig, spec) for n in names}
+    thumbs = {n: tuple(None if r is None else r.thumbnail for r in results[n]) for n in names}
+    return RigImageCalibration(rig, spec, records, tuple(frames), thumbs if thumbnails else {})
+
+
+def _camera_says(name: str, check, *args):
+    """``check(*args)``, its one-line error naming the camera."""
+    try:
+        return check(*args)
+    except ValueError as exc:
+        raise ValueError(f"camera {name}: {exc}") from None
+
+
+def _choose_models(models: dict[str, str], views: dict, sizes: dict, square: float, reject: bool,
+                   min_views: int) -> tuple[dict[str, str], dict[str, object]]:
+    """Each camera's model: as given, or (``"auto"``) the one cross-validation over its views chooses
+    (:func:`sogdd.calib.model_selection.select_model`, as the one-camera ``model="auto"``); with the
+    selection of each camera that chose."""
+    chosen, selection = {}, {}
+    for n, m in models.items():
+        if m == "auto":
+            selection[n] = _camera_says(n, _select, views[n], sizes[n], square, reject, min_views)
+            m = selection[n].chosen
+        chosen[n] = m
+    return chosen, selection
+
+
+def _select(boards, size, square: float, reject: bool, min_views: int):
+    return select_model(boards, size, square=square, reject=reject, min_views=min_views)
+
+
+def _records(name: str, results: list[ViewResult | None], labels: list[str],
+             ignored: list[tuple], rig: RigCalibration, spec: BoardSpec) -> tuple[ViewRecord, ...]:
+    """A camera's every input, in frame order (``view`` the frame's index), an image's ignored boards after
+    its view; a frame it has no image of gives no record (it is no input)."""
+    cal = rig.camera(name).calibration
+    out: list[ViewRecord] = []
+    for f, (r, n, beside) in enumerate(zip(results, labels, ignored)):
+        if r is None:
+            continue
+        if r.error:
+            out.append(ViewRecord(n, r.path, "unreadable", r.error))
+        elif not r.boards:
+            status, why = ("ignored", f"{r.seen}, not {spec}") if r.other_size is not None else \
+                ("no board", r.seen or "no board")
+            out.append(ViewRecord(n, r.path, status, why, f))
+        else:
+            used = bool(cal.view_used[f])
+            out.append(ViewRecord(n, r.path, "used" if used else "rejected", "" if used else cal.reasons[f], f))
+        out += [ViewRecord(f"{n}#{k}", r.path, "ignored", why, None, len(b))
+                for k, (b, why) in enumerate(beside, start=2)]
+    return tuple(out)
+
+
+# --------------------------------------------------------------------------------------------------
+# the output folder
+
+
+def foreign_rig_entry(folder: Path) -> str | None:
+    """None if ``folder`` holds only what :func:`write_rig_outputs` writes, else the first entry it did not."""
+    for p in sorted(folder.iterdir()):
+        if p.name.endswith(TMP_SUFFIX):
+            continue
+        if p.name in (*RIG_FILES, "report.html") and p.is_file():
+            continue
+        if not p.is_dir() or p.is_symlink():
+            return p.name
+        if p.name == "report":
+            odd = next((q for q in sorted(p.iterdir()) if not _FIGURE.fullmatch(q.name)
+                        and not q.name.endswith(TMP_SUFFIX)), None)
+            if odd is not None:
+                return f"report/{odd.name}"
+            continue
+        # a camera's folder: its files (as a one-camera output), camera.yaml always among them
+        odd = foreign_entry(p) if _CAMERA_FOLDER.fullmatch(p.name) and (p / "camera.yaml").is_file() else ""
+        if odd is not None:
+            return f"{p.name}/{odd}" if odd else p.name
+    return None
+
+
+def check_rig_output_folder(out: str | os.PathLike, inputs: Iterable[str | os.PathLike] = ()) -> Path:
+    """Whether :func:`write_rig_outputs` may write ``out``: a one-line ``ValueError`` if not, else its path.
+
+    As :func:`sogdd.calib.check_output_folder`, a previous output being a rig's:
+    rig.yaml, rig.json, report.html, its figures in report/, and per camera a
+    folder of its own files (:data:`sogdd.calib.session.OUTPUTS`) and nothing else.
+    """
+    return check_output_folder(out, inputs, previous=foreign_rig_entry)
+
+
+def write_rig_outputs(result: RigImageCalibration, out: str | os.PathLike, *, report: bool = True,
+                      inputs: Sequence[str | os.PathLike] = (), title: str | None = None) -> dict[str, Path]:
+    """Write a rig's output folder: rig.yaml, rig.json, ``NAME/`` (camera.yaml, camera.json, views.csv,
+    corners.csv) per camera and, with ``report``, report.html with its figures (each camera's too).
+
+    The folder ends complete, or as it was (:func:`sogdd.calib.session.write_folder`);
+    ``inputs`` and the images of ``result`` are never written over and may not
+    lie in ``out`` (:func:`check_rig_output_folder`).
+
+    Returns
+    -------
+    dict
+        Name relative to ``out`` (``rig.yaml``, ``left/camera.yaml``, ``report.html``,
+        ``report``) -> its final path.
+
+    Raises
+    ------
+    ValueError
+        ``out`` may not be written.
+    OSError
+        A write failed: one line saying that ``out`` was left as it was.
+    """
+    inputs = [*inputs, *(v.file for views in result.views.values() for v in views)]
+
+    def fill(new: Path) -> dict[str, Path]:
+        files = write_rig(result.rig, new, inputs=inputs, views=result.views)
+        if report:
+            from .report import write_rig_report
+
+            rig = result.rig
+            n = int(rig.frame_used.sum())
+            files["report.html"] = write_rig_report(
+                rig, new, thumbnails=result.thumbnails or None, views=result.views,
+                title=title or f"Rig calibration: {len(rig.cameras)} cameras, {n} frames, {result.board}")
+            files["report"] = new / "report"
+        return files
+
+    return write_folder(out, fill, inputs=inputs, previous=foreign_rig_entry)
+

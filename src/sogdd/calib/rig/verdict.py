@@ -1,0 +1,116 @@
+"""What a rig calibration is worth, in plain words: each camera's verdict, the poses and their uncertainty.
+
+The findings of :func:`rig_verdict` are ``(level, text)`` pairs, as the one-camera
+:func:`sogdd.calib.verdict.verdict`'s, which gives each camera's own (prefixed by its
+name); the rig adds what only a rig has: how well each camera's pose is known, how
+many frames tie each camera to the reference, and how far the projection of a
+distant point can be trusted over each camera's frame.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..verdict import verdict
+from .result import RigCalibration
+from .uncertainty import projection_uncertainty
+
+__all__ = ["rig_verdict", "shared_frames", "uncertainty_summary"]
+
+_FEW_SHARED = 5         # fewer frames seen by a camera and the reference than this tie its pose weakly
+_RMS_APART = 2.0        # a camera whose RMS is this many times the rig's median RMS stands out
+_UNCERTAIN_PX = 1.0     # a far point's projection known worse than this (1 sigma, px) somewhere in the frame
+
+
+def shared_frames(rig: RigCalibration) -> dict[str, int]:
+    """Per camera, the number of used frames in which both it and the reference camera used a board."""
+    used = {c.name: np.asarray(c.calibration.view_used, bool) for c in rig.cameras}
+    first = used[rig.cameras[0].name]
+    return {n: int(np.sum(u & first & rig.frame_used)) for n, u in used.items()}
+
+
+def uncertainty_summary(rig: RigCalibration, name: str,
+                        grid: tuple[int, int] = (16, 12)) -> tuple[float, float]:
+    """The 1-sigma projection uncertainty of a far point (px): at the frame's centre, and its worst.
+
+    From :func:`~sogdd.calib.rig.uncertainty.projection_uncertainty` on a ``grid``
+    of pixels; NaN where the fit gives no covariance.
+    """
+    try:
+        pixels, sigma = projection_uncertainty(rig, name, grid=grid)
+    except ValueError:
+        return float("nan"), float("nan")
+    sigma = np.asarray(sigma, float)
+    if sigma.size == 0 or not np.isfinite(sigma).any():
+        return float("nan"), float("nan")
+    w, h = rig.camera(name).image_size
+    centre = int(np.argmin(np.hypot(pixels[:, 0] - (w - 1) / 2, pixels[:, 1] - (h - 1) / 2)))
+    return float(sigma[centre]), float(np.nanmax(sigma))
+
+
+def rig_verdict(rig: RigCalibration) -> list[tuple[str, str]]:
+    """Plain-words findings on a rig, each ``(level, text)`` with level "ok", "warn" or "bad".
+
+    The rules, beyond each camera's own verdict (:func:`sogdd.calib.verdict.verdict`,
+    prefixed by the camera's name; its "looks sound" line dropped where the rig
+    says it):
+
+    - each camera's pose relative to the reference: its baseline
+      :math:`\\lVert T \\rVert` and rotation angle with their standard deviations
+      (the square's unit and degrees), "ok" when the baseline's is under 1 % of
+      it, else "warn";
+    - fewer than 5 frames in which a camera and the reference both used a board
+      ties its pose weakly ("warn"; none at all: "bad", the pose then rests on
+      the prior of the start alone);
+    - a camera whose RMS is more than twice the median of the rig's stands out
+      ("warn": its focus, its blur or its model);
+    - the far-point projection uncertainty (:func:`uncertainty_summary`) at each
+      camera's centre and its worst over the frame; worse than 1 px somewhere is
+      "warn": boards did not reach there.
+
+    Examples
+    --------
+    >>> from sogdd.calib.rig.demo import demo_rig
+    >>> levels = [level for level, _ in rig_verdict(demo_rig())]
+    >>> set(levels) <= {"ok", "warn", "bad"}, len(levels) > 0
+    (True, True)
+    """
+    out: list[tuple[str, str]] = []
+    first = rig.cameras[0].name
+    shared = shared_frames(rig)
+    rms = np.array([c.calibration.rms for c in rig.cameras])
+    typical = float(np.median(rms))
+    for cam in rig.cameras:
+        for level, text in verdict(cam.calibration):
+            if not text.startswith("the calibration looks sound"):
+                out.append((level, f"{cam.name}: {text}"))
+        if cam.name != first:
+            b, sb = cam.baseline, cam.std.get("baseline", float("nan"))
+            rot = cam.std.get("rotation_deg", float("nan"))
+            angle = float(np.degrees(np.arccos(np.clip((np.trace(cam.R) - 1) / 2, -1, 1))))
+            good = np.isfinite(sb) and sb < 0.01 * b
+            out.append(("ok" if good else "warn",
+                        f"{cam.name}: the baseline to {first} is {b:.4g} ± {sb:.2g} (the square's unit) and "
+                        f"the rotation {angle:.2f} ± {rot:.2g} degrees"
+                        + ("" if good else "; the pose is loosely known: more frames seen by both cameras, "
+                                           "the board tilted and spread over both frames")))
+            n = shared[cam.name]
+            if n == 0:
+                out.append(("bad", f"{cam.name}: no frame in which it and {first} both used a board; "
+                                   "its pose is not measured"))
+            elif n < _FEW_SHARED:
+                out.append(("warn", f"{cam.name}: only {n} frame(s) seen by it and {first} together tie "
+                                    "its pose; take 10 or more"))
+        if typical > 0 and cam.calibration.rms > _RMS_APART * typical and len(rig.cameras) > 2:
+            out.append(("warn", f"{cam.name}: RMS {cam.calibration.rms:.3f} px, more than twice the rig's "
+                                f"median ({typical:.3f}): check its focus, blur or lens model"))
+        centre, worst = uncertainty_summary(rig, cam.name)
+        if np.isfinite(worst):
+            level = "warn" if worst > _UNCERTAIN_PX else "ok"
+            out.append((level, f"{cam.name}: a far point projects to within {centre:.2g} px (1 sigma) at the "
+                               f"centre and {worst:.2g} px at worst over the frame"
+                               + ("; boards did not reach the frame's edges" if level == "warn" else "")))
+    if not any(level != "ok" for level, _ in out):
+        out.insert(0, ("ok", f"the rig looks sound: {len(rig.cameras)} cameras, {int(np.sum(rig.frame_used))} "
+                             f"frames, RMS {rig.rms:.3f} px"))
+    return out

@@ -1,0 +1,191 @@
+"""calibrate_rig() on boards projected through known rigs: recovery, shared and partial boards, labels that
+differ between cameras, rejection, errors, speed."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+
+from sogdd.calib.rig import calibrate_rig
+from sogdd.calib.rig.demo import synthetic_rig
+from sogdd.calib.rig.labels import ambiguity, consensus, relabel
+from sogdd.calib.targets.board import Board
+
+
+def _errors(rig, d):
+    """Per camera: max |T - T_true| (squares), rotation error (degrees), fx error (px)."""
+    out = []
+    for c, cam in enumerate(rig.cameras):
+        dR = cam.R @ d.R[c].T
+        ang = float(np.degrees(np.arccos(np.clip((np.trace(dR) - 1) / 2, -1, 1))))
+        out.append((float(np.abs(cam.T - d.T[c]).max()), ang, float(abs(cam.K[0, 0] - d.K[c][0, 0]))))
+    return out
+
+
+def test_a_two_camera_rig_is_recovered():
+    d = synthetic_rig(cameras=2, frames=12, noise=0.05, seed=0)
+    rig = calibrate_rig(d.boards, d.image_sizes, view_names={"cam1": [f"r{f}.png" for f in range(12)]})
+    for dt, ang, dfx in _errors(rig, d):
+        assert dt < 0.03 and ang < 0.05 and dfx < 1.5
+    assert rig.rms < 0.1 and rig.sigma == pytest.approx(0.05, rel=0.2)
+    cam = rig.camera("cam1")
+    assert cam.calibration.names[3] == "r3.png" and rig.camera("cam0").calibration.names[3] == "3"
+    assert np.allclose(rig.cameras[0].R, np.eye(3)) and rig.cameras[0].std["baseline"] == 0
+    assert 0 < cam.std["baseline"] < 0.02 and 0 < cam.std["rotation_deg"] < 0.2 and 0 < cam.std["fx"] < 1
+    assert len(cam.std["T"]) == 3 and cam.calibration.std["fx"] == cam.std["fx"]
+    # the board's pose in a camera is the frame's pose carried by the camera's pose
+    f = int(np.flatnonzero(cam.calibration.view_used)[0])
+    R_f = d.R[1] @ _rot(d.rvecs[f])
+    assert np.allclose(_rot(cam.calibration.rvecs[f]), R_f, atol=1e-3)
+    assert cam.calibration.cross_validation is None and rig.covariance.shape[0] == rig.covariance.shape[1]
+    assert rig.layout["cam1.pose"].stop - rig.layout["cam1.pose"].start == 6 and "cam0.pose" not in rig.layout
+
+
+def _rot(rv):
+    import cv2
+
+    return cv2.Rodrigues(np.asarray(rv, float))[0]
+
+
+def test_three_cameras_with_boards_seen_by_only_some():
+    d = synthetic_rig(cameras=3, frames=16, noise=0.05, seed=1, baseline=3.0, missing=0.25)
+    rig = calibrate_rig(d.boards, d.image_sizes)
+    for dt, ang, dfx in _errors(rig, d):
+        assert dt < 0.05 and ang < 0.1 and dfx < 3
+    seen = np.array([[b is not None for b in d.boards[n]] for n in d.names])
+    assert (seen.sum(axis=0) < 3).any()  # some frames lack a camera ...
+    single = np.flatnonzero(seen.sum(axis=0) == 1)
+    assert rig.frame_used[single].all()  # ... and a frame one camera saw still counts
+
+
+def test_partial_boards_with_relative_labels_are_placed_and_used():
+    d = synthetic_rig(cameras=2, frames=14, noise=0.05, seed=2, partial=True, relabel=True, spread=1.8)
+    rig = calibrate_rig(d.boards, d.image_sizes, pattern=(9, 6))
+    for dt, ang, _ in _errors(rig, d):
+        assert dt < 0.05 and ang < 0.15
+    parts = [(b, u) for cam in rig.cameras for b, u in zip(cam.calibration.boards, cam.calibration.view_used)
+             if b is not None and b.size is None]
+    assert len(parts) >= 5 and all(u for _, u in parts)
+    assert any("relabelled" in n for n in rig.notes)
+
+
+def test_a_half_turn_symmetric_board_is_relabelled_across_cameras():
+    # 9 x 7: cols + rows even, each camera's (0, 0) at a random end of the board
+    d = synthetic_rig(cameras=2, frames=12, noise=0.05, seed=3, pattern=(9, 7), relabel=True)
+    assert all(ambiguity(b, (9, 7)) == "half turn" for b in d.boards["cam1"] if b is not None)
+    rig = calibrate_rig(d.boards, d.image_sizes, pattern=(9, 7))
+    for dt, ang, _ in _errors(rig, d):
+        assert dt < 0.03 and ang < 0.05
+    assert rig.rms < 0.1 and all(cam.calibration.n_used == sum(b is not None for b in d.boards[cam.name])
+                                 for cam in rig.cameras)
+    # the same boards taken as absolute labels contradict each other across cameras
+    bad = calibrate_rig(d.boards, d.image_sizes, reject=False)
+    assert bad.rms > 20 * rig.rms
+
+
+def test_a_square_board_is_relabelled_by_quarter_turns():
+    d = synthetic_rig(cameras=2, frames=12, noise=0.05, seed=8, pattern=(7, 7), relabel=True, baseline=3.0)
+    rig = calibrate_rig(d.boards, d.image_sizes, pattern=(7, 7))
+    for dt, ang, _ in _errors(rig, d):
+        assert dt < 0.03 and ang < 0.15
+    assert any("relabelled" in n for n in rig.notes)
+    assert rig.rms < 0.1 and all(cam.calibration.n_used == sum(b is not None for b in d.boards[cam.name])
+                                 for cam in rig.cameras)
+
+
+def test_labels_that_no_candidate_explains_drop_the_view_with_a_reason():
+    d = synthetic_rig(cameras=2, frames=10, noise=0.05, seed=3, pattern=(9, 7), relabel=True)
+    f = next(f for f in range(10) if d.boards["cam0"][f] is not None and d.boards["cam1"][f] is not None)
+    g = next(g for g in range(10) if g != f and d.boards["cam1"][g] is not None)
+    d.boards["cam1"][f] = d.boards["cam1"][g]  # another frame's image: no turn of it fits this frame
+    rig = calibrate_rig(d.boards, d.image_sizes, pattern=(9, 7))
+    cal = rig.camera("cam1").calibration
+    assert not cal.view_used[f] and "labels ambiguous (half turn)" in cal.reasons[f]
+
+
+def test_a_gross_outlier_corner_is_rejected():
+    d = synthetic_rig(cameras=2, frames=10, noise=0.05, seed=4)
+    f = next(f for f in range(10) if d.boards["cam1"][f] is not None)
+    b = d.boards["cam1"][f]
+    pts = b.image_points.copy()
+    pts[7] += [6.0, -5.0]
+    d.boards["cam1"][f] = Board(pts, b.labels, size=b.size)
+    rig = calibrate_rig(d.boards, d.image_sizes)
+    cal = rig.camera("cam1").calibration
+    assert cal.view_used[f] and not cal.corner_used[f][7] and cal.corner_used[f].sum() == len(b) - 1
+    assert "beyond the limit" in cal.corner_reasons[f][7]
+    assert np.hypot(*cal.residuals[f][7]) > 5 and rig.rms < 0.1
+
+
+def test_a_fisheye_camera_in_the_rig():
+    d = synthetic_rig(cameras=2, frames=12, noise=0.05, seed=4, models={"cam1": "fisheye"})
+    rig = calibrate_rig(d.boards, d.image_sizes, models={"cam0": "pinhole", "cam1": "fisheye"})
+    assert rig.camera("cam1").model == "fisheye" and len(rig.camera("cam1").dist) == 4
+    for dt, ang, dfx in _errors(rig, d):
+        assert dt < 0.05 and ang < 0.1 and dfx < 2
+    assert rig.rms < 0.1
+
+
+def test_one_camera_is_a_rig_too():
+    d = synthetic_rig(cameras=1, frames=8, noise=0.05, seed=5)
+    rig = calibrate_rig(d.boards, d.image_sizes)
+    assert rig.names == ("cam0",) and abs(rig.cameras[0].K[0, 0] - 600) < 2 and rig.frame_used.all()
+
+
+def test_a_camera_sharing_no_frame_has_no_pose():
+    d = synthetic_rig(cameras=2, frames=12, noise=0.05, seed=0)
+    seen = [f for f in range(12) if d.boards["cam1"][f] is not None]
+    for f in seen[:5]:
+        d.boards["cam0"][f] = None
+    for f in seen[5:]:
+        d.boards["cam1"][f] = None
+    rig = calibrate_rig(d.boards, d.image_sizes, min_views=3)
+    cam = rig.camera("cam1")
+    assert np.isnan(cam.T).all() and np.isnan(cam.std["baseline"]) and abs(cam.K[0, 0] - 625) < 3
+    assert any("shares no frame" in n for n in rig.notes)
+
+
+def test_bad_input_is_refused_in_one_line():
+    d = synthetic_rig(cameras=2, frames=10, seed=0)
+    with pytest.raises(ValueError, match="has 5 frames but 'cam0' has 10"):
+        calibrate_rig({"cam0": d.boards["cam0"], "cam1": d.boards["cam1"][:5]}, d.image_sizes)
+    with pytest.raises(ValueError, match="camera 'cam1': unknown camera model 'pinhol'"):
+        calibrate_rig(d.boards, d.image_sizes, models={"cam0": "pinhole", "cam1": "pinhol"})
+    with pytest.raises(ValueError, match="no image size for camera"):
+        calibrate_rig(d.boards, {"cam0": (640, 480)})
+    first = next(b for b in d.boards["cam1"] if b is not None)
+    sparse = {"cam0": d.boards["cam0"], "cam1": [first] + [None] * 9}
+    with pytest.raises(ValueError, match="camera 'cam1': too few views"):
+        calibrate_rig(sparse, d.image_sizes)
+    with pytest.raises(ValueError, match="frame names"):
+        calibrate_rig(d.boards, d.image_sizes, frames=["a"])
+    with pytest.raises(ValueError, match="boards must map"):
+        calibrate_rig([], d.image_sizes)
+    with pytest.raises(ValueError, match="pattern"):
+        calibrate_rig(d.boards, d.image_sizes, pattern=(9,))
+
+
+def test_the_consensus_follows_the_majority_of_frames():
+    R = _rot([0.0, 0.1, 0.0])
+    flip = np.diag([-1.0, -1.0, 1.0])
+    good = (R, np.array([-5.0, 0.0, 0.0]))
+    cands = [[good, (R @ flip, np.array([-3.0, 2.0, 0.0]))] for _ in range(3)]
+    cands.append([(R @ flip, np.array([-3.0, 2.0, 0.0])), good])  # the right one second here
+    cands.append([(_rot([0.5, 0, 0]), np.array([4.0, 0, 0]))])  # an outlier frame
+    Rc, tc, chosen = consensus(cands, 20.0)
+    assert np.allclose(Rc, R) and np.allclose(tc, good[1]) and chosen == [0, 0, 0, 1, -1]
+    b = Board(np.zeros((4, 2)), np.array([[0, 0], [1, 0], [0, 1], [1, 1]]), size=(2, 2))
+    assert relabel(b, 2, (1, 1)).labels.tolist() == [[1, 1], [0, 1], [1, 0], [0, 0]]
+
+
+def test_the_joint_fit_is_fast():
+    """2 cameras x 20 frames x 54 corners (the per-camera starts included) in well under 10 s."""
+    d = synthetic_rig(cameras=2, frames=20, noise=0.05, seed=7, spread=0.5, baseline=2.0)
+    assert all(sum(b is not None and len(b) == 54 for b in d.boards[n]) >= 19 for n in d.names)
+    t = time.perf_counter()
+    rig = calibrate_rig(d.boards, d.image_sizes)
+    took = time.perf_counter() - t
+    assert took < 5.0, f"{took:.2f} s"
+    assert _errors(rig, d)[1][0] < 0.03

@@ -1,0 +1,94 @@
+"""The rig's report page and its verdict in plain words."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from sogdd.calib.detection import Thumbnail
+from sogdd.calib.rig.demo import DEMO_RIG, demo_rig, demo_rig_boards
+from sogdd.calib.rig.fit import calibrate_rig
+from sogdd.calib.rig.report import write_rig_report
+from sogdd.calib.rig.verdict import rig_verdict, shared_frames, uncertainty_summary
+
+
+def test_the_demo_rig_is_recovered():
+    rig = demo_rig()
+    right = rig.camera("right")
+    R_true, T_true = DEMO_RIG["right"][2], DEMO_RIG["right"][3]
+    assert np.linalg.norm(right.T - T_true) < 0.02 * np.linalg.norm(T_true)
+    assert np.degrees(np.linalg.norm(right.R - R_true)) < 0.2
+    assert abs(right.K[0, 0] - DEMO_RIG["right"][0][0, 0]) < 2
+
+
+def test_the_verdict_states_the_baseline_and_its_uncertainty():
+    rig = demo_rig()
+    texts = [t for _, t in rig_verdict(rig)]
+    line = next(t for t in texts if t.startswith("right: the baseline to left is"))
+    assert f"{rig.camera('right').baseline:.4g}" in line
+    assert shared_frames(rig)["right"] == int(np.sum(rig.camera("right").calibration.view_used & rig.frame_used
+                                                     & rig.camera("left").calibration.view_used))
+
+
+def test_the_far_point_uncertainty_is_smallest_where_the_corners_are():
+    centre, worst = uncertainty_summary(demo_rig(), "left")
+    assert 0 < centre < worst
+
+
+def test_a_camera_tied_by_few_frames_is_reported():
+    boards, sizes = demo_rig_boards(12)
+    seen = [f for f, b in enumerate(boards["right"]) if b is not None]
+    for f in seen[3:]:  # the right camera keeps its boards only in 3 frames...
+        boards["right"][f] = None
+    for f in seen[:3]:  # ... and the left camera loses those, so only they tie nothing: no shared frame
+        boards["left"][f] = None
+    rig = calibrate_rig(boards, sizes, models="pinhole", pattern=(9, 6))
+    found = [(lv, t) for lv, t in rig_verdict(rig) if t.startswith("right: no frame")]
+    assert found and found[0][0] == "bad"
+
+
+def test_the_report_has_every_figure_and_each_camera_its_own_page(tmp_path):
+    rig = demo_rig()
+    thumbs = {c.name: [Thumbnail(np.full((180, 240), 128, np.uint8), 0.375)] * len(rig.frames)
+              for c in rig.cameras}
+    page = write_rig_report(rig, tmp_path, thumbnails=thumbs)
+    names = {p.name for p in (tmp_path / "report").glob("*.png")}
+    assert {"extrinsics.png", "errors.png", "uncertainty_left.png", "uncertainty_right.png",
+            "rectified_right.png"} <= names
+    text = page.read_text()
+    assert "Verdict" in text and "vertical disparity" in text and 'href="right/report.html"' in text
+    assert (tmp_path / "left" / "report.html").is_file()
+
+
+def test_the_rectified_pair_puts_shared_corners_on_one_row(tmp_path):
+    page = write_rig_report(demo_rig(), tmp_path)
+    text = page.read_text()
+    value = float(text.split("left / right: ")[1].split(" px RMS")[0])
+    assert value < 0.2  # 0.05 px corner noise; a wrong rectification is pixels off
+
+
+def test_a_model_selection_table_is_shown(tmp_path):
+    @dataclasses.dataclass
+    class Row:
+        model: str
+        cv_rms: float
+
+    @dataclasses.dataclass
+    class Selection:
+        chosen: str
+        table: tuple
+        rule: str
+
+    rig = dataclasses.replace(demo_rig(), model_selection={
+        "left": Selection("pinhole4", (Row("pinhole4", 0.051), Row("pinhole", 0.052)),
+                          "the simplest within noise")})
+    text = write_rig_report(rig, tmp_path).read_text()
+    assert "Lens model chosen by the data" in text and "pinhole4" in text and "0.051" in text
+
+
+@pytest.mark.parametrize("name", ["left", "right"])
+def test_each_camera_keeps_its_own_view_of_the_fit(name):
+    cam = demo_rig().camera(name)
+    assert cam.calibration.rms < 0.1 and len(cam.calibration.names) == len(demo_rig().frames)
