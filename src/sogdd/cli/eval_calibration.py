@@ -22,6 +22,15 @@ hand labels, RMS reprojection and ``fx, fy, cx, cy`` of a calibration from the
 complete boards beside a reference camera (photos.json, photos.md):
 :mod:`sogdd.evaluation.calibration.photos`.
 
+Camera rigs (``--rigs``, instead of the above): rendered rigs with exact ground truth
+(parallel: 2 cameras 1280 x 960, baseline 120 mm; convergent: 2 cameras 640 x 480,
+300 mm, toe-in 16 deg; trio: 3 cameras 640 x 480, 60 and 250 mm; ``--sequences`` names
+rigs, ``--quick`` one small rig) and, with ``--data``, the real ``rig3_ecocheck``
+(three cameras); ``--sessions N`` adds the uncertainty's calibration over N
+independent sessions of the convergent rig (``--sequences`` to choose it). Methods:
+sogdd, opencv-stereo-fix, opencv-stereo-free, opencv-multiview, mrcal (rigs.json,
+rigs.md): :mod:`sogdd.evaluation.calibration.rig_metrics`.
+
 Methods (``--methods``, comma-separated; all by default): sogdd, opencv-refine, hr-grid,
 opencv, opencv-sb, calib-targets, mrgingham, chess-corners, hr. A comparator
 that is not installed is skipped with a note (``pip install calib-targets
@@ -101,6 +110,8 @@ def evaluate(args, argv_text: str) -> dict:
         raise ValueError("--no-rendered and --no-real leave nothing to run")
     if getattr(args, "sets", None):
         raise ValueError("--sets needs --photos")
+    if getattr(args, "sessions", None) is not None:
+        raise ValueError("--sessions needs --rigs")
     if args.merge and not args.out:
         raise ValueError("--merge needs --out")
     if args.draws < 1:
@@ -126,9 +137,65 @@ def evaluate(args, argv_text: str) -> dict:
             "sequences": {s.name: s.note for s in seqs}, "synthetic": rows, "real": real}
 
 
+def evaluate_rigs(args, argv_text: str) -> dict:
+    """The ``--rigs`` evaluation that ``args`` asks for, as one dict (also what rigs.json holds)."""
+    from .._version import __version__
+    from ..evaluation.calibration.protocol import data_root
+    from ..evaluation.calibration.rig_comparators import MODEL, rig_method_names
+    from ..evaluation.calibration.rig_metrics import (
+        rig_availability,
+        run_real_rig,
+        run_rendered_rigs,
+        run_sessions,
+    )
+    from ..evaluation.calibration.rigs import RIGS, rigs
+
+    if (getattr(args, "photos", False) or args.draws != 1 or args.views is not None
+            or getattr(args, "sets", None)):
+        raise ValueError("--rigs takes --quick, --sequences (rig names), --methods, --sessions, --data, "
+                         "--no-real, --no-rendered")
+    if args.sessions is not None and args.sessions < 2:
+        raise ValueError(f"--sessions must be >= 2, got {args.sessions}")
+    if args.merge and not args.out:
+        raise ValueError("--merge needs --out")
+    names = _names(args.sequences, "--sequences")
+    specs = [] if args.no_rendered else rigs(names, quick=args.quick)
+    methods, notes = rig_availability(rig_method_names(args.methods))
+    say = reporter(args)
+    t0 = time.perf_counter()
+    rendered, more = run_rendered_rigs(specs, methods, progress=say)
+    notes += more
+    sessions = None
+    if args.sessions:
+        spec = rigs(names[:1], quick=args.quick)[0] if names else (rigs(quick=True)[0] if args.quick
+                                                                    else RIGS["convergent"])
+        sessions = run_sessions(spec, args.sessions, progress=say)
+    real: list = []
+    quick_skip = args.quick and not args.data  # the real rig takes minutes: --quick runs it only when asked
+    root = None if args.no_real or quick_skip else data_root(args.data)
+    if root is not None and (root / "rig3_ecocheck").is_dir():
+        real, more = run_real_rig(root, methods, progress=say)
+        notes += more
+    elif quick_skip and not args.no_real:
+        notes.append("real rig skipped with --quick (pass --data to run it)")
+    elif not args.no_real:
+        notes.append("real rig skipped: no rig3_ecocheck under $SOGDD_DATA/calibration (pass --data)")
+    return {"version": __version__, "command": argv_text, "quick": bool(args.quick), "model": MODEL,
+            "seconds": round(time.perf_counter() - t0, 1), "methods": methods, "notes": notes,
+            "rigs": {s.name: s.note for s in specs}, "rendered": rendered, "sessions": sessions, "real": real}
+
+
+def _run_rigs(args) -> int:
+    from ..evaluation.calibration.rig_metrics import rigs_markdown, write_rigs
+
+    return _emit(args, evaluate_rigs(args, command_text(args)), write_rigs, rigs_markdown)
+
+
 def run_calibration(args) -> int:
     from ..report.calibration_section import results_markdown, write_results
 
+    if getattr(args, "rigs", False):
+        return _run_rigs(args)
     if getattr(args, "photos", False):
         return _run_photos(args)
     return _emit(args, evaluate(args, command_text(args)), write_results, results_markdown)
@@ -146,7 +213,8 @@ def command_text(args) -> str:
     """
     parts = ["sogdd", "eval", "calibration"] + (["--quick"] if getattr(args, "quick", False) else [])
     parts += ["--photos"] if getattr(args, "photos", False) else []
-    for name in ("sequences", "sets", "methods", "draws", "views", "data"):
+    parts += ["--rigs"] if getattr(args, "rigs", False) else []
+    for name in ("sequences", "sets", "methods", "draws", "views", "sessions", "data"):
         val = getattr(args, name, None)
         if val is not None and not (name == "draws" and val == 1):
             parts += [f"--{name}", str(val)]
@@ -179,6 +247,11 @@ def register_calibration(eval_subparsers) -> None:
                         "method (photos.json, photos.md)")
     c.add_argument("--sets", metavar="A,B",
                    help="with --photos: only these sets (a rig's name: all its cameras) [default: all]")
+    c.add_argument("--rigs", action="store_true",
+                   help="camera rigs instead: rendered rigs with exact ground truth and the real rig3_ecocheck "
+                        "(rigs.json, rigs.md); --sequences names rigs")
+    c.add_argument("--sessions", type=int, metavar="N",
+                   help="with --rigs: the uncertainty's calibration over N independent sessions of one rig")
     add_output_arguments(c, "calibration.json, calibration.md and calibration.png")
     c.add_argument("--merge", action="store_true",
                    help="add to the calibration.json already in --out (rows of the same sequence or photo set "
