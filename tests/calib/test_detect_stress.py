@@ -11,8 +11,9 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from sogdd.calib.targets.chessboard import _edge_halves, detect_boards
+from sogdd.calib.targets.chessboard import detect_boards
 from sogdd.calib.targets.refine import half_widths
+from sogdd.calib.targets.windows import _edge_halves
 from sogdd.calib.targets.xcorners import to_grey
 from sogdd.evaluation.calibration.render import Camera, ChessboardTarget, render_view
 from sogdd.evaluation.calibration.stress import stress_scene

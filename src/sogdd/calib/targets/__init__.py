@@ -4,6 +4,8 @@
 :mod:`.spec`: the board specification string (``chessboard:9x6``, ``charuco:5x7:0.7:DICT_5X5_100``).
 :mod:`.xcorners`: X-corner candidates, saddle points with their two edge lines.
 :mod:`.lattice`: the lattice grown from X-corners by local-homography prediction, and its check.
+:mod:`.windows`: a board's corners refined: windows that stop at its edge, shading out, the symmetry test.
+:mod:`.fill`: corners at the labels a grown lattice left free, measured where the lattice puts them.
 :mod:`.chessboard`: chessboard detection, from X-corners to refined, labelled boards.
 :mod:`.charuco`: ChArUco detection (OpenCV's markers, sogdd's refinement).
 :mod:`.refine`: corner refinement to the centre of point symmetry (``cv2.cornerSubPix``'s contract).

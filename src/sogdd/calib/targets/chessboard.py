@@ -10,19 +10,27 @@ The steps (:func:`detect_boards`):
 3. every corner refined at full resolution with a window of 0.65 of its local cell
    (:func:`sogdd.calib.refine_corners`), the window cut to where the squares
    around it are point-symmetric for the corners on the border and for those
-   far less point-symmetric than the board's others (:func:`_refine_board`: a
-   code in the white squares); a corner whose refinement fails, or whose window
-   stays far less point-symmetric (:data:`ASYMMETRY`; an occluder, the frame's
+   far less point-symmetric than the board's others (a code in the white
+   squares), and those still far less symmetric measured again with the
+   shading taken out (a shadow over a square;
+   :func:`sogdd.calib.targets.windows._refine_board`); a corner whose
+   refinement fails, or whose window stays far less point-symmetric
+   (:data:`sogdd.calib.targets.windows.ASYMMETRY`; an occluder, the frame's
    edge), is dropped;
 4. the check: each corner must be predicted by a homography of its neighbours
    within :data:`CHECK_TOL` of a cell (:func:`sogdd.calib.targets.lattice.check`); a corner
    that is not is dropped, twice over;
-5. a board is kept with at least ``min_corners`` corners, three rows and three
+5. the labels the lattice left free next to the board (inside it, or within
+   the pattern when it is given) measured where the board's curved map puts
+   them, and kept when their squares, symmetry and neighbours say they are
+   the board's corners (:func:`sogdd.calib.targets.fill._fill`: junctions that
+   are no saddle, corners beyond the growth's reach at a fisheye's rim);
+6. a board is kept with at least ``min_corners`` corners, three rows and three
    columns of them, a complete 3 x 3 block, and 80 % of its links running along
    an edge between a dark and a light square (:func:`_edges`; a corner without
    such a link is dropped), and few strong X-corners inside its outline left out
    (:func:`_orphans`: a lattice of wrong steps leaves most of them out);
-6. the labels (below).
+7. the labels (below).
 
 Labels
 ------
@@ -51,22 +59,20 @@ returned.
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 from scipy.spatial import cKDTree
 
 from .board import Board
+from .fill import _filled
 from .lattice import Lattice, check, grow, ray_neighbours, seeds
-from .refine import MAX_WINDOW, MIN_HALF, half_widths, refine_grey
+from .windows import _bilinear, _local_cells, _refine_board, _symmetric
 from .xcorners import XCorners, check_search, default_scale, search, to_grey
 
 __all__ = ["detect_board", "detect_boards"]
 
 #: leave-one-out prediction error allowed for a refined corner, in cells
 CHECK_TOL = 0.12
-#: a refined corner is dropped when its asymmetry ``1 - quality`` exceeds this multiple of the board's median
-ASYMMETRY = 10.0
-#: ... unless it is below this (a board without noise has a median near 0)
-MIN_ASYMMETRY = 0.002
 #: a link's contrast across it, relative to the board's median (:func:`_edges`)
 EDGE_CONTRAST = 0.3
 #: the share of a board's links that must run along edges
@@ -88,28 +94,6 @@ def _check_pattern(pattern: object) -> tuple[int, int] | None:
     if not ok:
         raise ValueError(f"pattern must be two integers >= 2 (inner corners), got {pattern!r}")
     return int(c), int(r)
-
-
-def _symmetric(quality: np.ndarray) -> np.ndarray:
-    """The corners whose asymmetry ``1 - quality`` is within :data:`ASYMMETRY` times the board's median.
-
-    An occluder, a window cut by the frame or a corner that is not the board's
-    breaks the point symmetry; noise alone leaves ``1 - quality`` near its median.
-    """
-    asym = 1.0 - quality
-    if len(asym) == 0:
-        return np.zeros(0, dtype=bool)
-    return (quality > 0) & (asym <= max(ASYMMETRY * float(np.median(asym)), MIN_ASYMMETRY))
-
-
-def _bilinear(grey: np.ndarray, p: np.ndarray) -> np.ndarray:
-    H, W = grey.shape
-    x = np.clip(p[..., 0], 0, W - 1.001)
-    y = np.clip(p[..., 1], 0, H - 1.001)
-    x0, y0 = np.floor(x).astype(np.int64), np.floor(y).astype(np.int64)
-    fx, fy = x - x0, y - y0
-    return ((grey[y0, x0] * (1 - fx) + grey[y0, x0 + 1] * fx) * (1 - fy)
-            + (grey[y0 + 1, x0] * (1 - fx) + grey[y0 + 1, x0 + 1] * fx) * fy)
 
 
 def _edges(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray) -> tuple[float, np.ndarray]:
@@ -177,8 +161,6 @@ def _orphans(grey: np.ndarray, xc: XCorners, idx: np.ndarray, xy: np.ndarray, ce
     lattice and do not count: a corner dropped for its asymmetry (an occluder,
     a code in its squares) says nothing about the lattice's steps.
     """
-    import cv2
-
     hull = cv2.convexHull(xy.astype(np.float32)).reshape(-1, 2)
     strong = xc.strength >= 0.5 * float(np.median(xc.strength[idx]))
     lo, hi = xy.min(axis=0), xy.max(axis=0)
@@ -193,111 +175,6 @@ def _orphans(grey: np.ndarray, xc: XCorners, idx: np.ndarray, xy: np.ndarray, ce
         cand = cand[_ring_contrast(grey, xc.xy[cand], xc.light[cand], cell) >= 0.5 * max(own, 1e-9)]
     inside = [cv2.pointPolygonTest(hull, (float(x), float(y)), True) > 0.3 * cell for x, y in xc.xy[cand]]
     return float(np.count_nonzero(inside)) / max(len(xy), 1)
-
-
-def _local_cells(xy: np.ndarray, labels: np.ndarray) -> np.ndarray:
-    """Each corner's distance to its nearest 4-neighbour on the lattice (inf when it has none)."""
-    pos = {tuple(q): k for k, q in enumerate(labels.tolist())}
-    out = np.full(len(xy), np.inf)
-    for k, (i, j) in enumerate(labels.tolist()):
-        for di, dj in ((1, 0), (-1, 0), (0, 1), (0, -1)):
-            m = pos.get((i + di, j + dj))
-            if m is not None:
-                out[k] = min(out[k], float(np.hypot(*(xy[m] - xy[k]))))
-    return out
-
-
-#: radii (in cells) and directions at which a border corner's surroundings are compared with their mirror image
-_OUT_STEPS = np.arange(0.1, 0.96, 0.05)
-_OUT_DIRS = np.stack([np.cos(np.arange(16) * np.pi / 16), np.sin(np.arange(16) * np.pi / 16)], axis=1)
-
-
-def _edge_halves(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, half: np.ndarray,
-                 cells: np.ndarray, also: np.ndarray | None = None) -> np.ndarray:
-    """Half-widths of the refinement windows, cut for the corners on the board's border (and ``also``).
-
-    Beyond a border corner ``p`` (one without all four lattice neighbours) the
-    outer squares may be narrower than a cell, or end at the paper's edge with
-    the background right beyond, or at the frame's edge; the point symmetry
-    ``I(p + d) = I(p - d)`` holds only while ``p + d`` stays on the squares. Along
-    each of 32 rays ``u`` (16 directions and their opposites) the symmetric
-    extent ``r(u)`` is the first radius ``t cell`` (``t`` in :data:`_OUT_STEPS`)
-    at which ``|I(p + r u) - I(p - r u)| > 0.2 c``, with ``c`` the spread of the
-    image on the ring of radius 0.2 cell (10th to 90th percentile: the corner's
-    contrast): where a blurred edge that is not the corner's own begins. The
-    square window of half-width ``h`` reaches ``h (|u_x| + |u_y|)`` along ``u``, and
-    its Gaussian weight is still 0.6 at its rim, so
-    ``h <= 0.8 min_u r(u) / (|u_x| + |u_y|)`` keeps it on the squares (a ray
-    symmetric out to 0.95 cell sets no bound: the window's own rule holds). An inner
-    corner keeps its window unless ``also`` (bool, one per corner) names it: an
-    inner corner whose window is far less point-symmetric than the board's
-    others (a code printed in its white squares, which differs between the two
-    squares mirrored through it) is measured the same way. ``xy`` must be
-    refined already (:func:`_refine_board`).
-    """
-    pos = {tuple(q) for q in labels.tolist()}
-    border = np.array([any((i + a, j + b) not in pos for a, b in ((1, 0), (-1, 0), (0, 1), (0, -1)))
-                       for i, j in labels.tolist()], dtype=bool)
-    if also is not None:
-        border |= also
-    k = np.flatnonzero(border & np.isfinite(cells))
-    if len(k) == 0:
-        return half
-    p, cell = xy[k][:, None, None, :], cells[k][:, None, None, None]
-    d = _OUT_STEPS[None, :, None, None] * cell * _OUT_DIRS[None, None, :, :]  # (n, t, u, 2)
-    ring = _bilinear(grey, xy[k][:, None, :] + 0.2 * cells[k][:, None, None] * np.r_[_OUT_DIRS, -_OUT_DIRS])
-    c = np.percentile(ring, 90, axis=1) - np.percentile(ring, 10, axis=1)
-    bad = np.abs(_bilinear(grey, p + d) - _bilinear(grey, p - d)) > 0.2 * c[:, None, None]  # (n, t, u)
-    r = np.where(bad.any(axis=1), _OUT_STEPS[np.argmax(bad, axis=1)], np.inf) * cells[k][:, None]  # (n, u)
-    reach = np.abs(_OUT_DIRS[:, 0]) + np.abs(_OUT_DIRS[:, 1])
-    limit = np.floor(np.minimum(0.8 * np.min(r / reach, axis=1), MAX_WINDOW)).astype(np.int64)
-    out = half.copy()
-    out[k] = np.minimum(half[k], np.maximum(limit, MIN_HALF))
-    return out
-
-
-def _recut(grey: np.ndarray, start: np.ndarray, out: np.ndarray, quality: np.ndarray, half: np.ndarray,
-           cut: np.ndarray) -> None:
-    """Refine again, from ``start``, the corners whose window ``cut`` narrows; keep the more symmetric fit.
-
-    ``out`` and ``quality`` are updated in place where the cut window's fit has
-    the higher quality (the measure of the extent is noisy: a corner whose full
-    window stayed on the squares keeps it, and its accuracy).
-    """
-    redo = np.flatnonzero(cut < half)
-    if len(redo):
-        xy2, q2 = refine_grey(grey, start[redo], cut[redo], cut[redo].astype(np.float64))
-        better = q2 > quality[redo]
-        out[redo[better]], quality[redo[better]] = xy2[better], q2[better]
-
-
-def _refine_board(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The corners refined with windows of 0.65 of their local cell, cut to the plain squares where needed.
-
-    The symmetric extent of :func:`_edge_halves` is measured at the corners
-    refined with the full window (at the X-corners' coarse positions the
-    mirror images differ along the corner's own edge lines); the corners whose
-    window it cuts are refined again, from their start, with the cut window
-    (:func:`_recut`). First the border corners; then the corners that
-    :func:`_symmetric` would drop against the board's median with the border
-    cut (before it, the median itself may be that of windows reaching beyond
-    the squares): a code in the white squares (ECoCheck's dots), which differs
-    between the two squares mirrored through the corner, breaks the symmetry
-    beyond its clear margin only, so a window within that margin fits the
-    corner; an occluder over the corner leaves the cut fit asymmetric too.
-    """
-    cells = _local_cells(xy, labels)
-    half = half_widths(xy, None, cells)
-    out, quality = refine_grey(grey, xy, half, half.astype(np.float64))
-    at = np.where(quality[:, None] > 0, out, xy)
-    _recut(grey, xy, out, quality, half, _edge_halves(grey, at, labels, half, cells))
-    asym = (quality > 0) & ~_symmetric(quality)
-    if asym.any():
-        # measured on their own: the border corners' windows are cut already
-        cut = half.copy()
-        cut[asym] = _edge_halves(grey, at[asym], labels[asym], half[asym], cells[asym], also=asym[asym])
-        _recut(grey, xy, out, quality, half, cut)
-    return out, quality
 
 
 def _axes(xy: np.ndarray, labels: np.ndarray) -> np.ndarray:
@@ -370,6 +247,8 @@ def _finish(grey: np.ndarray, xc: XCorners, lat: Lattice, pattern: tuple[int, in
             return None
         keep = check(xy, labels, tol=CHECK_TOL)
         idx, labels, xy, quality = idx[keep], labels[keep], xy[keep], quality[keep]
+    if refine and len(xy) >= min_corners:
+        xc, idx, xy, labels, quality = _filled(grey, xc, idx, xy, labels, quality, pattern)
     if len(xy) < min_corners or min(len(np.unique(labels[:, 0])), len(np.unique(labels[:, 1]))) < 3:
         return None
     if _orphans(grey, xc, idx, xy, _local_cells(xy, labels), grown=lat.index) > MAX_ORPHANS:

@@ -35,7 +35,7 @@ from scipy.spatial import cKDTree
 
 from .xcorners import XCorners
 
-__all__ = ["check", "homography"]
+__all__ = ["check", "homography", "predict_labels"]
 
 #: a neighbour lies within this angle (rad) of the ray along an edge line
 CONE = np.radians(20.0)
@@ -341,7 +341,7 @@ def grow(xc: XCorners, seed: int, nb: np.ndarray, free: np.ndarray, tree: cKDTre
 
 
 def check(xy: np.ndarray, labels: np.ndarray, *, tol: float = 0.1, reach: int = 2,
-          curved: bool = True) -> np.ndarray:
+          curved: bool = True, only: np.ndarray | None = None) -> np.ndarray:
     """Mask of the corners that their neighbours predict: leave-one-out error <= ``tol`` cells.
 
     For each corner, the homography fitted to the other corners within ``reach``
@@ -363,6 +363,8 @@ def check(xy: np.ndarray, labels: np.ndarray, *, tol: float = 0.1, reach: int = 
     order misses by up to 0.3 of a cell at the rim of a 180-degree lens and the
     third follows to a few hundredths, with the same ``tol``.
 
+    With ``only`` (indices), just those corners are tested (the others' entries are False).
+
     Examples
     --------
     >>> lab = np.array([(i, j) for j in range(4) for i in range(4)])
@@ -377,42 +379,88 @@ def check(xy: np.ndarray, labels: np.ndarray, *, tol: float = 0.1, reach: int = 
     ok = np.zeros(n, dtype=bool)
     if n == 0:
         return ok
-    pos = {tuple(q): k for k, q in enumerate(labels.tolist())}
+    which = np.arange(n) if only is None else np.asarray(only, dtype=np.int64).reshape(-1)
     span = range(-reach, reach + 1)
     offs = np.array([(a, b) for a in span for b in span if (a, b) != (0, 0)])
-    nbr = np.array([[pos.get((i + a, j + b), -1) for a, b in offs.tolist()] for i, j in labels.tolist()],
-                   dtype=np.int64)
+    nbr = _label_grid(labels, which, offs)
     w = (nbr >= 0).astype(np.float64)
     cnt = w.sum(axis=1)
     cov = np.einsum("nk,ka,kb->nab", w, offs.astype(float), offs.astype(float))
     fit = (cnt >= 5) & (np.linalg.det(cov) * 1.0 > 1e-9)
-    err = np.full(n, np.inf)
+    err = np.full(len(which), np.inf)
     if fit.any():
-        err[fit] = _batch_errors(xy, nbr[fit], w[fit], offs.astype(float), np.flatnonzero(fit))
-    ok = err <= tol
+        err[fit] = _batch_errors(xy, nbr[fit], w[fit], offs.astype(float), which[fit])
+    okw = err <= tol
     # a neighbour that is itself off spoils the fit: fit again without the worst one
-    for k in np.flatnonzero(fit & ~ok & (cnt >= 6)):
-        idx = nbr[k][nbr[k] >= 0]
-        i, j = labels[k]
-        err_k = _loo_error(labels[idx].astype(np.float64), xy[idx], np.array([i, j], float), xy[k], tol)
-        ok[k] = err_k <= tol
+    for m in np.flatnonzero(fit & ~okw & (cnt >= 6)):
+        idx = nbr[m][nbr[m] >= 0]
+        k = which[m]
+        err_k = _loo_error(labels[idx].astype(np.float64), xy[idx], labels[k].astype(float), xy[k], tol)
+        okw[m] = err_k <= tol
     for order in (2, 3) if curved else ():
-        bad = np.flatnonzero(~ok)
+        bad = np.flatnonzero(~okw)
         if len(bad) == 0:
             break
-        ok[bad] = _curved_errors(xy, labels, bad, tol, order) <= tol
+        okw[bad] = _curved_errors(xy, labels, which[bad], tol, order) <= tol
+    ok[which] = okw
     return ok
 
 
-def _label_grid(labels: np.ndarray, which: np.ndarray, offs: np.ndarray) -> np.ndarray:
-    """Indices of the corners at ``labels[which] + offs`` (len(which), K), -1 where there is none."""
+def _label_grid(labels: np.ndarray, which: np.ndarray, offs: np.ndarray, *,
+                at_labels: np.ndarray | None = None) -> np.ndarray:
+    """Indices of the corners at ``labels[which] + offs`` (len(which), K), -1 where there is none.
+
+    With ``at_labels`` (M, 2), at ``at_labels + offs`` instead (labels that need not be corners).
+    """
     pad = int(np.abs(offs).max())
-    lo = labels.min(axis=0) - pad
-    ext = labels.max(axis=0) - lo + pad + 1
+    at0 = labels[which] if at_labels is None else np.asarray(at_labels, dtype=np.int64).reshape(-1, 2)
+    both = np.r_[labels, at0]
+    lo = both.min(axis=0) - pad
+    ext = both.max(axis=0) - lo + pad + 1
     grid = np.full(tuple(ext), -1, dtype=np.int64)
     grid[labels[:, 0] - lo[0], labels[:, 1] - lo[1]] = np.arange(len(labels))
-    at = labels[which][:, None, :] - lo + offs[None].astype(np.int64)
+    at = at0[:, None, :] - lo + offs[None].astype(np.int64)
     return grid[at[..., 0], at[..., 1]]
+
+
+def predict_labels(xy: np.ndarray, labels: np.ndarray, targets: np.ndarray) -> np.ndarray:
+    """Where the lattice puts labels ``targets`` (M, 2): positions at offsets ``0, (+-1/2, 0), (0, +-1/2)``.
+
+    From the second-order map (:func:`_fit_batch`, 14 unknowns) of the corners
+    within :data:`CURVE_REACH` labels where at least :data:`CURVE_MIN` of them
+    span its monomials (rows and columns that curve, cells that shrink towards a
+    fisheye's rim), else from the homography of the corners within two labels
+    (at least 5, not on one line). Returns (M, 5, 2); NaN where neither fits.
+
+    Examples
+    --------
+    >>> lab = np.array([(i, j) for j in range(4) for i in range(5)])
+    >>> P = predict_labels(10.0 * lab + 3.0, lab, np.array([[5, 1], [9, 9]]))
+    >>> np.round(P[0, 0], 6).tolist(), bool(np.isnan(P[1]).all())
+    ([53.0, 13.0], True)
+    """
+    xy = np.asarray(xy, dtype=np.float64)
+    labels = np.asarray(labels, dtype=np.int64)
+    targets = np.asarray(targets, dtype=np.int64).reshape(-1, 2)
+    out = np.full((len(targets), 5, 2), np.nan)
+    if len(targets) == 0 or len(labels) == 0:
+        return out
+    nbr = _label_grid(labels, np.zeros(0, np.int64), _CURVE_OFFS, at_labels=targets)
+    w = (nbr >= 0).astype(np.float64)
+    offs = _CURVE_OFFS.astype(np.float64)
+    mono = _monomials(offs, 2)
+    mom = np.einsum("nk,ka,kb->nab", w, mono, mono)
+    tr = np.trace(mom, axis1=1, axis2=2)
+    curved = (w.sum(axis=1) >= CURVE_MIN) & (np.linalg.eigvalsh(mom)[:, 0] > 1e-6 * np.maximum(tr, 1.0))
+    if curved.any():
+        out[curved] = predict_batch(xy, nbr[curved], w[curved], offs, order=2)
+    near = (np.abs(offs) <= 2).all(axis=1)
+    w1 = w[:, near]
+    cov = np.einsum("nk,ka,kb->nab", w1, offs[near], offs[near])
+    flat = ~curved & (w1.sum(axis=1) >= 5) & (np.linalg.det(cov) > 1e-9)
+    if flat.any():
+        out[flat] = predict_batch(xy, nbr[flat][:, near], w1[flat], offs[near])
+    return out
 
 
 def _curved_errors(xy: np.ndarray, labels: np.ndarray, which: np.ndarray, tol: float,

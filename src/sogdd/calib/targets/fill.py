@@ -1,0 +1,241 @@
+"""Corners at the labels a grown lattice left free, measured where the lattice puts them.
+
+The X-corner search misses a board's corner where the junction is no saddle at
+its scale (the dark squares do not touch: over-exposure or blur bleeding the
+light squares over it, strong blur at a fisheye's rim), and the lattice's
+growth misses one whose X-corner lies beyond its search from a flat
+prediction. :func:`_fill` predicts each free label next to the board from the
+board's own curved map, refines the point symmetry there, and keeps the point
+when its squares, its symmetry and its neighbours say it is the board's
+corner; :func:`_filled` adds the new corners to a board in the making.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .lattice import check, predict_labels
+from .refine import MIN_HALF, WINDOW_FRACTION, half_widths, refine_grey
+from .windows import ASYMMETRY, MIN_ASYMMETRY, _bilinear, _deshaded, _edge_halves, _inner, _local_cells, _recut
+from .xcorners import XCorners
+
+#: rounds of :func:`_fill` (each may add a row of corners the last one made predictable)
+FILL_ROUNDS = 4
+#: Gauss-Newton steps for a filled corner: a prediction may lie most of a window (up to 20 px) away, and
+#: the steps are damped to 0.5 px each
+FILL_ITERATIONS = 60
+#: the check's tolerance for a filled corner, in cells: its identity is tested by its squares
+#: (:func:`_wedges`) and its window lies inside the frame, so only a point off the lattice by a good part
+#: of a cell is left to the check; a corner of the board, extrapolated from one side, the map misses by
+#: up to 0.2 of a cell at a fisheye's rim
+FILL_TOL = 0.2
+#: a filled corner's X-junction contrast (:func:`_ring_contrast`), at least this share of the board's median
+FILL_CONTRAST = 0.5
+
+
+def _fill_labels(labels: np.ndarray, pattern: tuple[int, int] | None) -> np.ndarray:
+    """The free labels next to the board (4-neighbours) that keep it within ``pattern``, (M, 2).
+
+    Without a pattern, only those inside the board's bounding box (holes and notches).
+    """
+    have = {tuple(q) for q in labels.tolist()}
+    lo, hi = labels.min(axis=0), labels.max(axis=0)
+    out = []
+    for q in sorted({(i + a, j + b) for i, j in have for a, b in ((1, 0), (-1, 0), (0, 1), (0, -1))} - have):
+        ext = np.sort(np.maximum(hi, q) - np.minimum(lo, q) + 1)
+        if (np.all(ext <= sorted(pattern)) if pattern is not None
+                else bool(np.all((np.array(q) >= lo) & (np.array(q) <= hi)))):
+            out.append(q)
+    return np.array(out, dtype=np.int64).reshape(-1, 2)
+
+
+#: the four squares around a corner: their sides along ``(i, j)`` (``+1`` forward, ``-1`` back)
+_QUADS = ((1, 1), (-1, -1), (1, -1), (-1, 1))
+
+
+def _frame(p: np.ndarray, at: np.ndarray, xy: np.ndarray, labels: np.ndarray,
+           P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Vectors from corners ``p`` (labels ``at``) to the centres of their four squares, and their cells.
+
+    Per axis and side, the label step is measured to the corner there where it
+    exists (``xy(i + 1, j) - p`` forward, ``p - xy(i - 1, j)`` back); else it is
+    the other side's step, shrunk by the ratio of that step to the one before it
+    (clipped to [0.3, 1.5]; cells shrink towards a fisheye's rim, where a map
+    extrapolated from the board overshoots them), else the map's step from ``P``
+    (n, 5, 2; :func:`sogdd.calib.targets.lattice.predict_labels`). The square
+    in quadrant ``(s_i, s_j)`` (:data:`_QUADS`) is centred ``(s_i f_i + s_j f_j) / 2``
+    from the corner, ``f`` the steps on those sides. Returns ``(d (n, 4, 2), cell
+    (n,))``, the cell the shortest of the four steps.
+    """
+    pos = {tuple(q): k for k, q in enumerate(labels.tolist())}
+    n = len(p)
+    steps = np.zeros((n, 2, 2, 2))  # corner, axis, side (0 forward, 1 back), xy
+    for k, (i, j) in enumerate(at.tolist()):
+        for ax, e in enumerate((np.array([1, 0]), np.array([0, 1]))):
+            got = {}
+            for side, sg in ((0, 1), (1, -1)):
+                m = pos.get((i + sg * e[0], j + sg * e[1]))
+                if m is not None:
+                    got[side] = sg * (xy[m] - p[k])
+            for side, sg in ((0, 1), (1, -1)):
+                if side in got:
+                    steps[k, ax, side] = got[side]
+                elif 1 - side in got:
+                    o = got[1 - side]
+                    m2 = pos.get((i - 2 * sg * e[0], j - 2 * sg * e[1]))
+                    m1 = pos.get((i - sg * e[0], j - sg * e[1]))
+                    ratio = 1.0
+                    if m2 is not None and m1 is not None:
+                        ratio = float(np.clip(np.hypot(*o) / max(np.hypot(*(xy[m1] - xy[m2])), 1e-9), 0.3, 1.5))
+                    steps[k, ax, side] = o * ratio
+                else:
+                    steps[k, ax, side] = P[k, 1 + 2 * ax] - P[k, 2 + 2 * ax]
+    d = np.stack([(si * steps[:, 0, (1 - si) // 2] + sj * steps[:, 1, (1 - sj) // 2]) / 2 for si, sj in _QUADS],
+                 axis=1)
+    return d, np.min(np.hypot(steps[..., 0], steps[..., 1]), axis=(1, 2))
+
+
+def _wedges(grey: np.ndarray, p: np.ndarray, d: np.ndarray,
+            labels: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Which diagonal of each corner is light, and how much: the image inside its four squares.
+
+    ``d`` (n, 4, 2): vectors from the corners ``p`` to the centres of the
+    squares in the quadrants of :data:`_QUADS` (:func:`_frame`). Returns
+    ``(light_pp, contrast, angle)``: whether the squares in ``(+i, +j)`` and
+    ``(-i, -j)`` are the light ones (it turns with each label step, so
+    ``light_pp XOR (i + j odd)`` is one value on a board); the smallest
+    ``min(light samples) - max(dark samples)`` at ``p + s d``, ``s = 0.45, 0.7``
+    (the four wedges' contrast, beyond a gap where the dark squares do not
+    touch, inside the squares however sheared and small they are); the angle of
+    the light diagonal in ``[0, pi)``.
+    """
+    v = {t: _bilinear(grey, p[:, None, :] + t * d) for t in (0.45, 0.7)}  # (n, 4)
+    pp = v[0.7][:, :2].mean(axis=1) > v[0.7][:, 2:].mean(axis=1)
+    con = np.full(len(p), np.inf)
+    for vt in v.values():
+        hi = np.where(pp, vt[:, :2].min(axis=1), vt[:, 2:].min(axis=1))
+        lo = np.where(pp, vt[:, 2:].max(axis=1), vt[:, :2].max(axis=1))
+        con = np.minimum(con, hi - lo)
+    diag = np.where(pp[:, None], d[:, 0] - d[:, 1], d[:, 2] - d[:, 3])
+    return pp ^ (labels.sum(axis=1) % 2 == 1), con, np.mod(np.arctan2(diag[:, 1], diag[:, 0]), np.pi)
+
+
+def _predicted(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, pattern: tuple[int, int] | None,
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The free labels to try (:func:`_fill_labels`), the lattice's map there (n, 5, 2) and the local cells.
+
+    Only labels the map reaches and whose window (0.65 of the cell) lies inside the frame.
+    """
+    H, W = grey.shape
+    cand = _fill_labels(labels, pattern)
+    P = predict_labels(xy, labels, cand)
+    ok = np.isfinite(P).all(axis=(1, 2))
+    cand, P = cand[ok], P[ok]
+    p = P[:, 0]
+    cell = _frame(p, cand, xy, labels, P)[1]
+    room = np.min(np.c_[p, W - 1 - p[:, 0], H - 1 - p[:, 1]], axis=1)
+    ok = (cell > 2 * MIN_HALF) & (room >= WINDOW_FRACTION * cell + 2)
+    return cand[ok], P[ok], cell[ok]
+
+
+def _measured(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, cand: np.ndarray, p: np.ndarray,
+              cell: np.ndarray, thr: float) -> tuple[np.ndarray, np.ndarray]:
+    """The point symmetry refined from the predictions ``p``: positions and qualities.
+
+    The window of a border corner (:func:`sogdd.calib.targets.windows._edge_halves`); where the
+    asymmetry exceeds ``thr`` (a shadow or a reflection over the squares), also measured unshaded
+    (:func:`sogdd.calib.targets.windows._deshaded`), the better fit kept.
+    """
+    half = half_widths(p, None, cell)
+    r, q = refine_grey(grey, p, half, half.astype(np.float64), iterations=FILL_ITERATIONS)
+    at = np.where(q[:, None] > 0, r, p)
+    _recut(grey, at, r, q, half, _edge_halves(grey, at, cand, half, cell, also=np.ones(len(cand), bool)))
+    shaded = 1.0 - q > thr
+    cells = _local_cells(xy, labels)
+    inner = _inner(labels) & np.isfinite(cells)
+    ref = np.flatnonzero(inner if np.count_nonzero(inner) >= 5 else np.isfinite(cells))
+    if shaded.any() and len(ref):
+        rd, qd = _deshaded(grey, p[shaded], half[shaded], xy[ref], half_widths(xy[ref], None, cells[ref]),
+                           float(np.median(cells[ref])))
+        better = qd > q[shaded]
+        k = np.flatnonzero(shaded)[better]
+        r[k], q[k] = rd[better], qd[better]
+    return r, q
+
+
+def _board_wedges(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray) -> tuple[bool, float] | None:
+    """The board's own squares (:func:`_wedges`): its ``light_pp XOR (i + j odd)`` and median contrast."""
+    P = predict_labels(xy, labels, labels)
+    ok = np.isfinite(P).all(axis=(1, 2))
+    if not ok.any():
+        return None
+    d, _ = _frame(xy[ok], labels[ok], xy, labels, P[ok])
+    par, con, _ = _wedges(grey, xy[ok], d, labels[ok])
+    return bool(np.count_nonzero(par) * 2 > len(par)), float(np.median(con))
+
+
+def _fill(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, quality: np.ndarray,
+          light: np.ndarray, pattern: tuple[int, int] | None,
+          ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Corners at the labels the lattice did not reach, measured where the lattice puts them.
+
+    For each free label next to the board (:func:`_fill_labels`: within the
+    pattern, or inside the board without one) the board's second-order map
+    predicts the position (:func:`sogdd.calib.targets.lattice.predict_labels`),
+    the point symmetry is refined from there (:func:`_measured`: the window of a
+    border corner, and the image unshaded where a shadow breaks the symmetry),
+    and the point is kept when it is a board corner as the others are: its
+    window lies inside the frame (:func:`_predicted`), its asymmetry within
+    :data:`sogdd.calib.targets.windows.ASYMMETRY` times the board's median, its
+    light squares where the label's parity puts them and the contrast of its
+    four wedges at least :data:`FILL_CONTRAST` of the board's median (both
+    measured along the lattice's local steps, :func:`_frame` and
+    :func:`_wedges`: at a fisheye's rim the cells are too sheared and small for
+    an X-corner's own light axis), at least half a cell from every other
+    corner, and the check of its neighbours within :data:`FILL_TOL`
+    (:func:`sogdd.calib.targets.lattice.check`). Up to :data:`FILL_ROUNDS`
+    rounds; returns ``xy, labels, quality, light`` with the new corners
+    appended (``light``: the angle of the light diagonal).
+    """
+    thr = max(ASYMMETRY * float(np.median(1.0 - quality)), MIN_ASYMMETRY)
+    ref: tuple[bool, float] | None = None  # the board's own wedges, measured once a candidate needs them
+    for _ in range(FILL_ROUNDS):
+        cand, P, cell = _predicted(grey, xy, labels, pattern)
+        if len(cand) == 0:
+            break
+        r, q = _measured(grey, xy, labels, cand, P[:, 0], cell, thr)
+        keep = (q > 0) & (1.0 - q <= thr) & (cKDTree(xy).query(r)[0] > 0.5 * cell)
+        if keep.any() and ref is None:
+            ref = _board_wedges(grey, xy, labels)
+        if not keep.any() or ref is None:
+            break
+        par, con, lt = _wedges(grey, r, _frame(r, cand, xy, labels, P)[0], cand)
+        keep &= (par == ref[0]) & (con >= FILL_CONTRAST * ref[1])
+        if keep.sum() > 1:  # two labels on one point: neither
+            d, _ = cKDTree(r[keep]).query(r[keep], k=2)
+            keep[np.flatnonzero(keep)[d[:, 1] < 0.5 * cell[keep]]] = False
+        n0 = len(xy)
+        good = check(np.r_[xy, r[keep]], np.r_[labels, cand[keep]], tol=FILL_TOL,
+                     only=np.arange(n0, n0 + np.count_nonzero(keep)))[n0:]
+        if not good.any():
+            break
+        sel = np.flatnonzero(keep)[good]
+        xy, labels = np.r_[xy, r[sel]], np.r_[labels, cand[sel]]
+        quality, light = np.r_[quality, q[sel]], np.r_[light, lt[sel]]
+    return xy, labels, quality, light
+
+
+def _filled(grey: np.ndarray, xc: XCorners, idx: np.ndarray, xy: np.ndarray, labels: np.ndarray,
+            quality: np.ndarray, pattern: tuple[int, int] | None,
+            ) -> tuple[XCorners, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The board with :func:`_fill`'s corners, which join ``xc`` as X-corners of their own (``idx``)."""
+    n0 = len(xy)
+    xy, labels, quality, light = _fill(grey, xy, labels, quality, xc.light[idx], pattern)
+    extra = len(xy) - n0
+    if extra:
+        strength = np.full(extra, np.median(xc.strength[idx]))
+        xc = XCorners(np.r_[xc.xy, xy[n0:]], np.r_[xc.strength, strength], np.r_[xc.light, light[n0:]],
+                      np.r_[xc.spread, np.full(extra, np.pi / 4)])
+        idx = np.r_[idx, len(xc) - extra + np.arange(extra)]
+    return xc, idx, xy, labels, quality

@@ -1,0 +1,213 @@
+"""A board's corners refined: windows that stop at the board's edge, shading taken out, the symmetry test.
+
+:func:`_refine_board` refines every corner of a grown lattice to its centre of
+point symmetry (:func:`sogdd.calib.targets.refine.refine_grey`) with a window of
+0.65 of its local cell (:func:`_local_cells`), cut for the corners on the
+border and for those far less point-symmetric than the board's others to where
+the squares around them are point-symmetric (:func:`_edge_halves`,
+:func:`_recut`), and, for those still far less symmetric, measured again on
+the image divided by its light envelope (:func:`_deshaded`: a shadow or a
+reflection over part of a square). :func:`_symmetric` then keeps the corners
+whose asymmetry ``1 - quality`` is within :data:`ASYMMETRY` times the board's
+median.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from .refine import MAX_WINDOW, MIN_HALF, half_widths, refine_grey
+
+#: a refined corner is dropped when its asymmetry ``1 - quality`` exceeds this multiple of the board's median
+ASYMMETRY = 10.0
+#: ... unless it is below this (a board without noise has a median near 0)
+MIN_ASYMMETRY = 0.002
+
+
+def _symmetric(quality: np.ndarray) -> np.ndarray:
+    """The corners whose asymmetry ``1 - quality`` is within :data:`ASYMMETRY` times the board's median.
+
+    An occluder, a window cut by the frame or a corner that is not the board's
+    breaks the point symmetry; noise alone leaves ``1 - quality`` near its median.
+    """
+    asym = 1.0 - quality
+    if len(asym) == 0:
+        return np.zeros(0, dtype=bool)
+    return (quality > 0) & (asym <= max(ASYMMETRY * float(np.median(asym)), MIN_ASYMMETRY))
+
+
+def _bilinear(grey: np.ndarray, p: np.ndarray) -> np.ndarray:
+    H, W = grey.shape
+    x = np.clip(p[..., 0], 0, W - 1.001)
+    y = np.clip(p[..., 1], 0, H - 1.001)
+    x0, y0 = np.floor(x).astype(np.int64), np.floor(y).astype(np.int64)
+    fx, fy = x - x0, y - y0
+    return ((grey[y0, x0] * (1 - fx) + grey[y0, x0 + 1] * fx) * (1 - fy)
+            + (grey[y0 + 1, x0] * (1 - fx) + grey[y0 + 1, x0 + 1] * fx) * fy)
+
+
+def _local_cells(xy: np.ndarray, labels: np.ndarray) -> np.ndarray:
+    """Each corner's distance to its nearest 4-neighbour on the lattice (inf when it has none)."""
+    pos = {tuple(q): k for k, q in enumerate(labels.tolist())}
+    out = np.full(len(xy), np.inf)
+    for k, (i, j) in enumerate(labels.tolist()):
+        for di, dj in ((1, 0), (-1, 0), (0, 1), (0, -1)):
+            m = pos.get((i + di, j + dj))
+            if m is not None:
+                out[k] = min(out[k], float(np.hypot(*(xy[m] - xy[k]))))
+    return out
+
+
+#: radii (in cells) and directions at which a border corner's surroundings are compared with their mirror image
+_OUT_STEPS = np.arange(0.1, 0.96, 0.05)
+_OUT_DIRS = np.stack([np.cos(np.arange(16) * np.pi / 16), np.sin(np.arange(16) * np.pi / 16)], axis=1)
+
+
+def _edge_halves(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, half: np.ndarray,
+                 cells: np.ndarray, also: np.ndarray | None = None) -> np.ndarray:
+    """Half-widths of the refinement windows, cut for the corners on the board's border (and ``also``).
+
+    Beyond a border corner ``p`` (one without all four lattice neighbours) the
+    outer squares may be narrower than a cell, or end at the paper's edge with
+    the background right beyond, or at the frame's edge; the point symmetry
+    ``I(p + d) = I(p - d)`` holds only while ``p + d`` stays on the squares. Along
+    each of 32 rays ``u`` (16 directions and their opposites) the symmetric
+    extent ``r(u)`` is the first radius ``t cell`` (``t`` in :data:`_OUT_STEPS`)
+    at which ``|I(p + r u) - I(p - r u)| > 0.2 c``, with ``c`` the spread of the
+    image on the ring of radius 0.2 cell (10th to 90th percentile: the corner's
+    contrast): where a blurred edge that is not the corner's own begins. The
+    square window of half-width ``h`` reaches ``h (|u_x| + |u_y|)`` along ``u``, and
+    its Gaussian weight is still 0.6 at its rim, so
+    ``h <= 0.8 min_u r(u) / (|u_x| + |u_y|)`` keeps it on the squares (a ray
+    symmetric out to 0.95 cell sets no bound: the window's own rule holds). An inner
+    corner keeps its window unless ``also`` (bool, one per corner) names it: an
+    inner corner whose window is far less point-symmetric than the board's
+    others (a code printed in its white squares, which differs between the two
+    squares mirrored through it) is measured the same way. ``xy`` must be
+    refined already (:func:`_refine_board`).
+    """
+    pos = {tuple(q) for q in labels.tolist()}
+    border = np.array([any((i + a, j + b) not in pos for a, b in ((1, 0), (-1, 0), (0, 1), (0, -1)))
+                       for i, j in labels.tolist()], dtype=bool)
+    if also is not None:
+        border |= also
+    k = np.flatnonzero(border & np.isfinite(cells))
+    if len(k) == 0:
+        return half
+    p, cell = xy[k][:, None, None, :], cells[k][:, None, None, None]
+    d = _OUT_STEPS[None, :, None, None] * cell * _OUT_DIRS[None, None, :, :]  # (n, t, u, 2)
+    ring = _bilinear(grey, xy[k][:, None, :] + 0.2 * cells[k][:, None, None] * np.r_[_OUT_DIRS, -_OUT_DIRS])
+    c = np.percentile(ring, 90, axis=1) - np.percentile(ring, 10, axis=1)
+    bad = np.abs(_bilinear(grey, p + d) - _bilinear(grey, p - d)) > 0.2 * c[:, None, None]  # (n, t, u)
+    r = np.where(bad.any(axis=1), _OUT_STEPS[np.argmax(bad, axis=1)], np.inf) * cells[k][:, None]  # (n, u)
+    reach = np.abs(_OUT_DIRS[:, 0]) + np.abs(_OUT_DIRS[:, 1])
+    limit = np.floor(np.minimum(0.8 * np.min(r / reach, axis=1), MAX_WINDOW)).astype(np.int64)
+    out = half.copy()
+    out[k] = np.minimum(half[k], np.maximum(limit, MIN_HALF))
+    return out
+
+
+def _recut(grey: np.ndarray, start: np.ndarray, out: np.ndarray, quality: np.ndarray, half: np.ndarray,
+           cut: np.ndarray) -> None:
+    """Refine again, from ``start``, the corners whose window ``cut`` narrows; keep the more symmetric fit.
+
+    ``out`` and ``quality`` are updated in place where the cut window's fit has
+    the higher quality (the measure of the extent is noisy: a corner whose full
+    window stayed on the squares keeps it, and its accuracy).
+    """
+    redo = np.flatnonzero(cut < half)
+    if len(redo):
+        xy2, q2 = refine_grey(grey, start[redo], cut[redo], cut[redo].astype(np.float64))
+        better = q2 > quality[redo]
+        out[redo[better]], quality[redo[better]] = xy2[better], q2[better]
+
+
+def _refine_board(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The corners refined with windows of 0.65 of their local cell, cut to the plain squares where needed.
+
+    The symmetric extent of :func:`_edge_halves` is measured at the corners
+    refined with the full window (at the X-corners' coarse positions the
+    mirror images differ along the corner's own edge lines); the corners whose
+    window it cuts are refined again, from their start, with the cut window
+    (:func:`_recut`). First the border corners; then the corners that
+    :func:`_symmetric` would drop against the board's median with the border
+    cut (before it, the median itself may be that of windows reaching beyond
+    the squares): a code in the white squares (ECoCheck's dots), which differs
+    between the two squares mirrored through the corner, breaks the symmetry
+    beyond its clear margin only, so a window within that margin fits the
+    corner; an occluder over the corner leaves the cut fit asymmetric too.
+    """
+    cells = _local_cells(xy, labels)
+    half = half_widths(xy, None, cells)
+    out, quality = refine_grey(grey, xy, half, half.astype(np.float64))
+    at = np.where(quality[:, None] > 0, out, xy)
+    _recut(grey, xy, out, quality, half, _edge_halves(grey, at, labels, half, cells))
+    asym = (quality > 0) & ~_symmetric(quality)
+    if asym.any():
+        # measured on their own: the border corners' windows are cut already
+        cut = half.copy()
+        cut[asym] = _edge_halves(grey, at[asym], labels[asym], half[asym], cells[asym], also=asym[asym])
+        _recut(grey, xy, out, quality, half, cut)
+    bad = ~_symmetric(quality)
+    if bad.any() and np.isfinite(cells).any():
+        inner = _inner(labels) & ~bad
+        ref = np.flatnonzero(inner if np.count_nonzero(inner) >= 5 else ~bad)
+        cell = float(np.median(cells[np.isfinite(cells)]))
+        r, q = _deshaded(grey, xy[bad], half[bad], out[ref], half[ref], cell)
+        k = np.flatnonzero(bad)[q > quality[bad]]
+        out[k], quality[k] = r[q > quality[bad]], q[q > quality[bad]]
+    return out, quality
+
+
+def _inner(labels: np.ndarray) -> np.ndarray:
+    """The corners with all four lattice neighbours."""
+    pos = {tuple(q) for q in labels.tolist()}
+    return np.array([all((i + a, j + b) in pos for a, b in ((1, 0), (-1, 0), (0, 1), (0, -1)))
+                     for i, j in labels.tolist()], dtype=bool).reshape(-1)
+
+
+#: the light envelope of :func:`_deshaded`: a closing over this many cells, computed at this many px per cell
+SHADE_CELLS, SHADE_PX = 1.5, 16.0
+
+
+def _deshaded(grey: np.ndarray, start: np.ndarray, half: np.ndarray, ref: np.ndarray, ref_half: np.ndarray,
+              cell: float) -> tuple[np.ndarray, np.ndarray]:
+    """Corners refined on the image divided by its light envelope, their quality on the board's scale.
+
+    A shadow over part of a light square, or a bright reflection, makes the two
+    light squares mirrored through the corner differ in brightness: the point
+    symmetry breaks over the whole window, though the corner is where it was.
+    Shading multiplies the image by a smooth light ``L``; the envelope of the
+    light squares, a grey closing over :data:`SHADE_CELLS` cells (wider than a
+    dark square, so it fills them; computed at :data:`SHADE_PX` px per cell and
+    resized), follows it, and ``I / L`` is the board unshaded. The corners
+    ``start`` are refined on it with windows ``half``; their asymmetry
+    ``1 - q`` is put on the board's scale, ``a = (1 - q) m / m'`` with ``m`` the
+    board's median asymmetry on the image (at its symmetric corners ``ref``,
+    windows ``ref_half``) and ``m'`` the same on ``I / L``, so that
+    :func:`_symmetric` compares it with the board as the image shows it.
+    Returns ``(xy, 1 - a)``; an occluder or a code in the squares stays
+    asymmetric on ``I / L`` too. The region is the bounding box of all the
+    points, with a margin of the windows and the closing.
+    """
+    H, W = grey.shape
+    pts = np.r_[start, ref]
+    m = int(np.ceil(max(int(np.max(np.r_[half, ref_half])), 1) + SHADE_CELLS * cell + 4))
+    x0, y0 = (np.maximum(np.floor(pts.min(axis=0)) - m, 0)).astype(int)
+    x1, y1 = (np.minimum(np.ceil(pts.max(axis=0)) + m + 1, [W, H])).astype(int)
+    patch = grey[y0:y1, x0:x1].astype(np.float32)
+    f = min(1.0, SHADE_PX / max(cell, 1e-9))
+    small = cv2.resize(patch, None, fx=f, fy=f, interpolation=cv2.INTER_AREA) if f < 1 else patch
+    k = 2 * int(round(SHADE_CELLS * cell * f / 2)) + 1
+    env = cv2.morphologyEx(small, cv2.MORPH_CLOSE, cv2.getStructuringElement(cv2.MORPH_RECT, (k, k)))
+    if f < 1:
+        env = cv2.resize(env, (patch.shape[1], patch.shape[0]), interpolation=cv2.INTER_LINEAR)
+    flat = 255.0 * patch.astype(np.float64) / np.maximum(env.astype(np.float64), 1.0)
+    o = np.array([x0, y0], dtype=np.float64)
+    _, q_img = refine_grey(grey, ref, ref_half, ref_half.astype(np.float64), iterations=1)
+    _, q_flat = refine_grey(flat, ref - o, ref_half, ref_half.astype(np.float64), iterations=1)
+    scale = max(float(np.median(1.0 - q_img)), 1e-6) / max(float(np.median(1.0 - q_flat)), 1e-6)
+    r, q = refine_grey(flat, start - o, half, half.astype(np.float64))
+    a = (1.0 - q) * scale
+    return r + o, np.where(q > 0, np.clip(1.0 - a, 0.0, 1.0), 0.0)
