@@ -29,6 +29,7 @@ from .result import Calibration
 __all__ = [
     "FILES",
     "calibration_dict",
+    "open_storage",
     "read_camera",
     "selection_dict",
     "write_calibration",
@@ -168,6 +169,17 @@ def write_camera_yaml(cal: Calibration, path: str | os.PathLike) -> Path:
     return path
 
 
+def open_storage(path: Path) -> cv2.FileStorage:
+    """``path`` opened for reading by ``cv2.FileStorage``, or a one-line ``ValueError`` saying why not."""
+    try:
+        fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+    except cv2.error:
+        raise ValueError(f"{path}: not an OpenCV FileStorage file") from None
+    if not fs.isOpened():
+        raise ValueError(f"{path}: cannot be read")
+    return fs
+
+
 def read_camera(path: str | os.PathLike) -> dict:
     """Read a ``camera.yaml`` (through ``cv2.FileStorage``) or ``camera.json``.
 
@@ -184,12 +196,7 @@ def read_camera(path: str | os.PathLike) -> dict:
                     "camera_matrix": K, "distortion_coefficients": D, "rms": d.get("rms")}
         except (KeyError, TypeError, json.JSONDecodeError) as exc:
             raise ValueError(f"{p}: not a sogdd camera.json ({exc})") from None
-    try:
-        fs = cv2.FileStorage(str(p), cv2.FILE_STORAGE_READ)
-    except cv2.error:
-        raise ValueError(f"{p}: not an OpenCV FileStorage file") from None
-    if not fs.isOpened():
-        raise ValueError(f"{p}: cannot be read")
+    fs = open_storage(p)
     K, D = fs.getNode("camera_matrix").mat(), fs.getNode("distortion_coefficients").mat()
     if K is None or D is None or K.shape != (3, 3):
         raise ValueError(f"{p}: no camera_matrix / distortion_coefficients")

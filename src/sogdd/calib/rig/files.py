@@ -31,7 +31,7 @@ import numpy as np
 from ..._version import __version__
 from ...formats.safe_write import atomic_write, check_not_inputs, write_text
 from ..detection import ViewRecord
-from ..files import FILES, write_calibration
+from ..files import FILES, open_storage, write_calibration
 from .result import RigCalibration
 from .stereo import stereo_pair
 
@@ -238,12 +238,7 @@ def read_rig(path: str | os.PathLike) -> dict:
     (['left', 'right'], (3,), (640, 480))
     """
     p = Path(path)
-    try:
-        fs = cv2.FileStorage(str(p), cv2.FILE_STORAGE_READ)
-    except cv2.error:
-        raise ValueError(f"{p}: not an OpenCV FileStorage file") from None
-    if not fs.isOpened():
-        raise ValueError(f"{p}: cannot be read")
+    fs = open_storage(p)
     try:
         node = fs.getNode("cameras")
         if not node.isSeq() or node.size() == 0:
