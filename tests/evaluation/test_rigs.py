@@ -155,3 +155,15 @@ def test_cli_rigs_quick_writes_json_and_table(tmp_path, capsys):
 def test_cli_rigs_rejects_what_it_does_not_take():
     assert main(["eval", "calibration", "--rigs", "--quick", "--no-real", "--views", "3"]) == 2
     assert main(["eval", "calibration", "--quick", "--no-real", "--sessions", "3"]) == 2
+
+
+def test_sogdd_states_its_projection_uncertainty_where_the_methods_are_compared():
+    from sogdd.calib.rig.demo import demo_rig
+    from sogdd.calib.rig.uncertainty import projection_uncertainty
+    from sogdd.evaluation.calibration.rig_comparators import from_rig_calibration, uncertainty_pixels
+
+    rig = demo_rig()
+    est = from_rig_calibration(rig)
+    assert set(est.uncertainty) == {"left", "right"}
+    _, direct = projection_uncertainty(rig, "right", uncertainty_pixels((640, 480)))
+    assert np.allclose(est.uncertainty["right"], direct) and all(v > 0 for v in direct)

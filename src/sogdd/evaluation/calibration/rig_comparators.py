@@ -78,6 +78,7 @@ class RigEstimate:
     frames_used: dict[str, int] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
     rig: object | None = None
+    uncertainty: dict[str, list[float]] = field(default_factory=dict)
     pair_first: dict[str, tuple] = field(default_factory=dict)
 
     @property
@@ -175,7 +176,49 @@ def from_rig_calibration(rig, method: str = "sogdd", seconds: float = float("nan
         est.frames_used[c.name] = int(np.sum(np.asarray(cal.view_used, bool)))
         est.rms[c.name] = float(cal.rms)
     est.notes += list(getattr(rig, "notes", ()))
+    from ...calib.rig.uncertainty import projection_uncertainty
+
+    for c in rig.cameras:
+        try:
+            _, sigma = projection_uncertainty(rig, c.name, uncertainty_pixels(c.image_size))
+            est.uncertainty[c.name] = [float(v) for v in sigma]
+        except ValueError:
+            pass
     return est
+
+
+def uncertainty_pixels(size: tuple[int, int]) -> np.ndarray:
+    """Where the methods' projection uncertainties are compared: the frame's centre and (0.8 W, 0.2 H)."""
+    w, h = size
+    return np.array([[(w - 1) / 2, (h - 1) / 2], [0.8 * w, 0.2 * h]])
+
+
+# mrcal's own uncertainty of a far point's projection (its worst direction), by its Python module
+_MRCAL_UNCERTAINTY = """
+import json, sys
+import numpy as np
+import mrcal
+out = []
+for path, q in json.loads(sys.argv[1]):
+    m = mrcal.cameramodel(path)
+    v = mrcal.unproject(np.array(q, float), *m.intrinsics(), normalize=True)
+    out.append([float(x) for x in np.atleast_1d(mrcal.projection_uncertainty(
+        v, model=m, atinfinity=True, what="worstdirection-stdev"))])
+print(json.dumps(out))
+"""
+
+
+def _mrcal_uncertainty(paths: list[str], sizes: list[tuple[int, int]]) -> list[list[float]] | None:
+    """mrcal's projection uncertainty at :func:`uncertainty_pixels` per model, or None where it fails."""
+    import json
+
+    args = json.dumps([[p, uncertainty_pixels(s).tolist()] for p, s in zip(paths, sizes)])
+    try:
+        run = subprocess.run(["/usr/bin/python3", "-c", _MRCAL_UNCERTAINTY, args], capture_output=True,
+                             text=True, timeout=600, check=False)
+        return json.loads(run.stdout) if run.returncode == 0 else None
+    except (subprocess.SubprocessError, OSError, ValueError):
+        return None
 
 
 def _sogdd(boards: dict, sizes: dict, pattern, square: float, **_) -> RigEstimate:
@@ -309,6 +352,12 @@ def _mrcal(corners: Corners, sizes: dict, pattern, square: float, **_) -> RigEst
             rt = np.asarray(model.get("extrinsics", np.zeros(6)), dtype=np.float64)
             est.R[n], est.T[n] = cv2.Rodrigues(rt[:3])[0], rt[3:]
             est.frames_used[n] = sum(c is not None for c in corners[n])
+        unc = _mrcal_uncertainty([os.path.join(tmp, f"camera-{k}.cameramodel") for k in range(len(names))],
+                                 [tuple(sizes[n]) for n in names])
+        if unc is None:
+            est.notes.append("mrcal: its projection uncertainty could not be computed")
+        else:
+            est.uncertainty = dict(zip(names, unc))
     return est
 
 

@@ -210,6 +210,8 @@ def score_estimate(est: RigEstimate, spec: RigSpec, heldout: dict[str, tuple]) -
             row["epipolar"] = _r(epipolar_rms(est, first, c.name, *heldout[c.name]))
         row["frames_used"] = est.frames_used.get(c.name)
         row["rms"] = _r(est.rms.get(c.name))
+        if c.name in est.uncertainty:
+            row["uncertainty"] = [_r(v) for v in est.uncertainty[c.name]]
         cams[c.name] = row
     others = [cams[c.name] for c in spec.cameras[1:]]
     return {"rig": spec.name, "method": est.method, "seconds": _r(est.seconds, 3), "cameras": cams,
@@ -517,6 +519,19 @@ def _real_table(rows: list[dict]) -> list[str]:
     return out + [""]
 
 
+def _uncertainty_table(rows: list[dict]) -> list[str]:
+    """Each method's own projection uncertainty of a far point, where it gives one (sogdd, mrcal)."""
+    found = [(r, n, c["uncertainty"]) for r in rows for n, c in r["cameras"].items() if c.get("uncertainty")]
+    if not found:
+        return []
+    out = ["Each method's own projection uncertainty of a far point (1 sigma, worst direction, px), at the "
+           "frame's centre and at (0.8 W, 0.2 H):", "",
+           "| rig | method | camera | centre | (0.8 W, 0.2 H) |", "|---|---|---|---:|---:|"]
+    for r, n, u in found:
+        out.append(f"| {r['rig']} | {r['method']} | {n} | {_f(u[0], 4)} | {_f(u[1], 4)} |")
+    return out + [""]
+
+
 def rigs_markdown(res: dict) -> str:
     """The result as markdown: rendered rigs, the calibration ratios, the real rig, notes.
 
@@ -530,6 +545,7 @@ def rigs_markdown(res: dict) -> str:
         out += [f"`{res['command']}` ({res.get('seconds', 0)} s); lens model {res.get('model', MODEL)}", ""]
     if res.get("rendered"):
         out += _rendered_table(res["rendered"])
+        out += _uncertainty_table(res["rendered"])
     if res.get("sessions") and res["sessions"].get("ratios"):
         out += _sessions_table(res["sessions"])
     if res.get("real"):
