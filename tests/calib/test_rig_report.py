@@ -92,3 +92,8 @@ def test_a_model_selection_table_is_shown(tmp_path):
 def test_each_camera_keeps_its_own_view_of_the_fit(name):
     cam = demo_rig().camera(name)
     assert cam.calibration.rms < 0.1 and len(cam.calibration.names) == len(demo_rig().frames)
+
+
+def test_the_verdict_does_not_ask_a_rig_camera_for_the_halves_cross_validation():
+    texts = [t for _, t in rig_verdict(demo_rig())]
+    assert not any("no cross-validation" in t for t in texts)

@@ -53,7 +53,8 @@ def rig_verdict(rig: RigCalibration) -> list[tuple[str, str]]:
 
     The rules, beyond each camera's own verdict (:func:`sogdd.calib.verdict.verdict`,
     prefixed by the camera's name; its "looks sound" line dropped where the rig
-    says it):
+    says it, and its missing cross-validation too: a rig camera's stability is
+    its standard deviations from the joint covariance):
 
     - each camera's pose relative to the reference: its baseline
       :math:`\\lVert T \\rVert` and rotation angle with their standard deviations
@@ -82,7 +83,8 @@ def rig_verdict(rig: RigCalibration) -> list[tuple[str, str]]:
     typical = float(np.median(rms))
     for cam in rig.cameras:
         for level, text in verdict(cam.calibration):
-            if not text.startswith("the calibration looks sound"):
+            # the rig's covariance, not the halves' cross-validation, says how stable each camera is
+            if not text.startswith(("the calibration looks sound", "no cross-validation")):
                 out.append((level, f"{cam.name}: {text}"))
         if cam.name != first:
             b, sb = cam.baseline, cam.std.get("baseline", float("nan"))
