@@ -215,3 +215,20 @@ def reporter(args: argparse.Namespace) -> Callable[[str], None] | None:
     if getattr(args, "quiet", False):
         return None
     return lambda msg: print(msg, file=sys.stderr, flush=True)
+
+
+def run_calibration(out: str, calibrate: Callable[[], object], write: Callable[[object], dict],
+                    summary: Callable[[object, dict], None]) -> int:
+    """A calibration command's run: ``calibrate()``, then ``write(result)``, Ctrl-C saying that ``out`` is as it
+    was; each unreadable input on stderr, then ``summary(result, written)``. Returns the exit code: 2 when
+    an input could not be read, else 0 (one camera and a rig alike)."""
+    try:
+        result = calibrate()
+        written = write(result)
+    except KeyboardInterrupt:
+        print(f"sogdd: interrupted; {out} left as it was", file=sys.stderr)
+        raise
+    for v in result.unreadable:
+        print(f"sogdd: error: {v.reason}", file=sys.stderr)
+    summary(result, written)
+    return 2 if result.unreadable else 0

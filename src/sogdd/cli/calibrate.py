@@ -37,7 +37,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ._common import check_input_files, print_json
+from ._common import check_input_files, print_json, run_calibration
 from .calibrate_rig import RIG_HELP, add_rig_arguments, run_rig
 from .params import add_read_arguments, read_options
 
@@ -108,19 +108,14 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("no input images")
     check_input_files(paths)  # a device or a FIFO would be read for ever
     check_output_folder(args.out, paths)  # before any work
-    try:
-        result = calibrate_images(paths, spec, boards=args.boards, square=args.square, model=args.model,
-                                  jobs=args.jobs, scheduler=args.scheduler, min_views=args.min_views,
-                                  reject=args.reject, read_options=reading, thumbnails=args.report,
-                                  progress=not args.quiet)
-        written = write_outputs(result, args.out, report=args.report, inputs=paths)
-    except KeyboardInterrupt:
-        print(f"sogdd: interrupted; {args.out} left as it was", file=sys.stderr)
-        raise
-    for v in result.unreadable:
-        print(f"sogdd: error: {v.reason}", file=sys.stderr)
-    _summary(args, result, written)
-    return 2 if result.unreadable else 0
+    return run_calibration(
+        args.out,
+        lambda: calibrate_images(paths, spec, boards=args.boards, square=args.square, model=args.model,
+                                 jobs=args.jobs, scheduler=args.scheduler, min_views=args.min_views,
+                                 reject=args.reject, read_options=reading, thumbnails=args.report,
+                                 progress=not args.quiet),
+        lambda result: write_outputs(result, args.out, report=args.report, inputs=paths),
+        lambda result, written: _summary(args, result, written))
 
 
 def _summary(args: argparse.Namespace, result, written: dict) -> None:

@@ -13,7 +13,7 @@ import sys
 
 import numpy as np
 
-from ._common import check_input_files, print_json
+from ._common import check_input_files, print_json, run_calibration
 
 __all__ = ["add_rig_arguments", "run_rig"]
 
@@ -87,19 +87,14 @@ def run_rig(args: argparse.Namespace, spec, reading: dict) -> int:
     every = [p for ps in paths.values() for p in ps]
     check_input_files(every)  # a device or a FIFO would be read for ever
     check_rig_output_folder(args.out, every)  # before any work
-    try:
-        result = calibrate_rig_images(paths, spec, square=args.square, model=args.model, jobs=args.jobs,
-                                      scheduler=args.scheduler, min_views=args.min_views, reject=args.reject,
-                                      allow_missing=args.allow_missing_frames, read_options=reading,
-                                      thumbnails=args.report, progress=not args.quiet)
-        written = write_rig_outputs(result, args.out, report=args.report, inputs=every)
-    except KeyboardInterrupt:
-        print(f"sogdd: interrupted; {args.out} left as it was", file=sys.stderr)
-        raise
-    for v in result.unreadable:
-        print(f"sogdd: error: {v.reason}", file=sys.stderr)
-    _summary(args, result, written)
-    return 2 if result.unreadable else 0
+    return run_calibration(
+        args.out,
+        lambda: calibrate_rig_images(paths, spec, square=args.square, model=args.model, jobs=args.jobs,
+                                     scheduler=args.scheduler, min_views=args.min_views, reject=args.reject,
+                                     allow_missing=args.allow_missing_frames, read_options=reading,
+                                     thumbnails=args.report, progress=not args.quiet),
+        lambda result: write_rig_outputs(result, args.out, report=args.report, inputs=every),
+        lambda result, written: _summary(args, result, written))
 
 
 def _rotation_deg(R: np.ndarray) -> float:

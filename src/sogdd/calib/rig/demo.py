@@ -14,12 +14,10 @@ import cv2
 import numpy as np
 
 from ..cameras import project
-from ..targets.board import Board
+from ..targets.board import LABEL_TURNS, Board
 
 __all__ = ["DEMO_RIG", "SyntheticRig", "demo_rig", "demo_rig_boards", "synthetic_rig"]
 
-_ROT = [np.array([[1, 0], [0, 1]]), np.array([[0, -1], [1, 0]]), np.array([[-1, 0], [0, -1]]),
-        np.array([[0, 1], [-1, 0]])]
 
 
 @dataclass(frozen=True)
@@ -72,7 +70,7 @@ def _observe(px, inside, lab, pattern, rng, partial: bool, absolute: bool, relab
     cols, rows = pattern
     if inside.all():
         if relabel and cols == rows:  # a square board: any quarter turn
-            lab = lab @ _ROT[int(rng.integers(4))].T
+            lab = lab @ LABEL_TURNS[int(rng.integers(4))].T
             lab = lab - lab.min(axis=0)
         elif relabel and (cols + rows) % 2 == 0 and rng.uniform() < 0.5:
             lab = np.array([cols - 1, rows - 1]) - lab  # the half turn a symmetric board allows
@@ -83,7 +81,7 @@ def _observe(px, inside, lab, pattern, rng, partial: bool, absolute: bool, relab
         return None
     if not absolute:
         if relabel:
-            sub = sub @ _ROT[int(rng.integers(4))].T
+            sub = sub @ LABEL_TURNS[int(rng.integers(4))].T
         sub = sub - sub.min(axis=0)
     return Board(px[keep], sub)
 

@@ -29,7 +29,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ..cameras import project
-from ..targets.board import Board
+from ..targets.board import LABEL_TURNS, Board
 
 __all__ = ["MARGIN", "MAX_CELL", "ROT_TOL", "ambiguity", "consensus", "discrete", "inside", "relabel",
            "resolve", "transform"]
@@ -43,8 +43,6 @@ ROT_TOL = 5.0
 #: ... and this share of the boards' median distance from the camera
 DIST_TOL = 0.2
 
-_ROT = [np.array([[1, 0], [0, 1]]), np.array([[0, -1], [1, 0]]), np.array([[-1, 0], [0, -1]]),
-        np.array([[0, 1], [-1, 0]])]
 
 
 def ambiguity(board: Board, pattern: tuple[int, int] | None) -> str:
@@ -74,14 +72,14 @@ def ambiguity(board: Board, pattern: tuple[int, int] | None) -> str:
 
 def relabel(board: Board, k: int, offset) -> Board:
     """``board`` with labels :math:`R_k l + o` (corners in the same order; a partial board stays partial)."""
-    lab = board.labels @ _ROT[k % 4].T + np.asarray(offset, np.int64)
+    lab = board.labels @ LABEL_TURNS[k % 4].T + np.asarray(offset, np.int64)
     return Board(board.image_points, lab, board.quality, board.size, board.outline, board.ids)
 
 
 def transform(k: int, offset, square: float) -> tuple[np.ndarray, np.ndarray]:
     """The relabelling in board coordinates: ``(R, t)`` with :math:`X' = R X + t` (3-D, about the normal)."""
     R = np.eye(3)
-    R[:2, :2] = _ROT[k % 4]
+    R[:2, :2] = LABEL_TURNS[k % 4]
     return R, np.r_[np.asarray(offset, float) * square, 0.0]
 
 
@@ -98,7 +96,7 @@ def discrete(board: Board, anchor: Board, pattern: tuple[int, int] | None) -> li
     c, r = pattern  # type: ignore[misc]
     ext = np.array([c - 1, r - 1])
     out = []
-    for k, Rk in enumerate(_ROT):
+    for k, Rk in enumerate(LABEL_TURNS):
         if (np.abs(Rk) @ ext).tolist() == ext.tolist():
             corner = Rk @ ext
             out.append((k, tuple(int(v) for v in np.maximum(-corner, 0))))
@@ -110,7 +108,7 @@ def inside(board: Board, pattern: tuple[int, int]) -> list[tuple[int, tuple]]:
     (for matching it to a whole board of the same frame)."""
     c, r = pattern
     out = []
-    for k, Rk in enumerate(_ROT):
+    for k, Rk in enumerate(LABEL_TURNS):
         lab = board.labels @ Rk.T
         lo, hi = -lab.min(axis=0), np.array([c - 1, r - 1]) - lab.max(axis=0)
         out += [(k, (int(a), int(b))) for a in range(lo[0], hi[0] + 1) for b in range(lo[1], hi[1] + 1)]
@@ -183,7 +181,7 @@ def _grid_offsets(board: Board, predict, span: int) -> list[tuple[int, tuple]]:
     _, near = tree.query(board.image_points)
     lab_near = grid[ok][near]
     out = []
-    for k, Rk in enumerate(_ROT):
+    for k, Rk in enumerate(LABEL_TURNS):
         d = lab_near - board.labels @ Rk.T
         vals, counts = np.unique(d, axis=0, return_counts=True)
         o = vals[np.argmax(counts)]
@@ -227,17 +225,17 @@ def resolve(board: Board, anchor: Board, pattern: tuple[int, int], square: float
         if anchor.size is not None:
             c, r = pattern
             cands = [(k, o) for k, o in cands
-                     if _inside(board.labels @ _ROT[k].T + np.array(o), c, r)]
+                     if _inside(board.labels @ LABEL_TURNS[k].T + np.array(o), c, r)]
     if not cands:
         return None, f"labels ambiguous ({why}): no relabelling of the board lies in front of the camera"
     rms = []
     for k, o in cands:
-        lab = board.labels @ _ROT[k].T + np.array(o)
+        lab = board.labels @ LABEL_TURNS[k].T + np.array(o)
         e = board.image_points - predict(lab)
         rms.append(float(np.sqrt(np.mean(np.sum(e ** 2, axis=1)))) if np.isfinite(e).all() else np.inf)
     order = np.argsort(rms)
     k, o = cands[order[0]]
-    lab = board.labels @ _ROT[k].T + np.array(o)
+    lab = board.labels @ LABEL_TURNS[k].T + np.array(o)
     cell = float(np.nanmedian(np.hypot(*(predict(lab + [1, 0]) - predict(lab)).T)))
     best = rms[order[0]]
     nxt = rms[order[1]] if len(order) > 1 else np.inf

@@ -6,7 +6,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Board"]
+__all__ = ["LABEL_TURNS", "Board"]
+
+
+#: the four quarter turns of a board's label grid, ``labels @ T.T`` (identity, then a quarter turn at a time)
+LABEL_TURNS = (np.array([[1, 0], [0, 1]]), np.array([[0, -1], [1, 0]]), np.array([[-1, 0], [0, -1]]),
+               np.array([[0, 1], [-1, 0]]))
 
 
 @dataclass(frozen=True)

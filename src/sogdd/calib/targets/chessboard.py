@@ -63,7 +63,7 @@ import cv2
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .board import Board
+from .board import LABEL_TURNS, Board
 from .fill import _filled
 from .lattice import Lattice, check, grow, ray_neighbours, seeds
 from .windows import _bilinear, _local_cells, _refine_board, _symmetric
@@ -79,8 +79,6 @@ EDGE_CONTRAST = 0.3
 EDGE_SHARE = 0.8
 #: strong X-corners inside a board's outline that are not its corners, per board corner (:func:`_orphans`)
 MAX_ORPHANS = 0.25
-_ROT = [np.array([[1, 0], [0, 1]]), np.array([[0, -1], [1, 0]]), np.array([[-1, 0], [0, -1]]),
-        np.array([[0, 1], [-1, 0]])]
 
 
 def _check_pattern(pattern: object) -> tuple[int, int] | None:
@@ -213,9 +211,9 @@ def _orient(xc: XCorners, idx: np.ndarray, xy: np.ndarray, labels: np.ndarray,
     full = pattern is not None and sorted(ext.tolist()) == sorted(pattern)
     if pattern is not None and not full and (ext.max() > max(pattern) or ext.min() > min(pattern)):
         return None
-    rots = _ROT
+    rots = LABEL_TURNS
     if full:
-        rots = [R for R in _ROT if (np.abs(R) @ ext).tolist() == list(pattern)]
+        rots = [R for R in LABEL_TURNS if (np.abs(R) @ ext).tolist() == list(pattern)]
     scores = []
     for R in rots:
         a_i = R.T[:, 0] @ axes  # the image direction of the new +i: A R^-1 e_i
