@@ -43,14 +43,28 @@ class Board:
         A polygon around the detected corners, in image coordinates.
     ids : (N,) int64 or None
         Absolute corner IDs (ChArUco), when the board carries them.
+    source : str
+        Which detector proposed the board: ``"sogdd"`` (its own search),
+        ``"opencv"`` or ``"opencv-sb"`` (OpenCV's detectors as a second source,
+        :mod:`sogdd.calib.targets.proposals`), ``"charuco"``. Its corners are
+        measured and checked by sogdd whatever the source.
+    precision : (N,) float64 or None
+        Each corner's measured 1-sigma position uncertainty in px: the square
+        root of the largest eigenvalue of its covariance ``C`` under the
+        image's noise (:func:`sogdd.calib.targets.refine.corner_covariance`,
+        filled in by :func:`sogdd.calib.targets.precision.with_precision`), the
+        standard deviation along the corner's least precise direction (a
+        motion-blurred corner is imprecise along the motion only; this is that
+        direction's). NaN for a corner whose precision could not be measured;
+        None (the default) when unknown for the whole board.
 
     Examples
     --------
     >>> b = Board(np.array([[10.0, 20.0], [30.0, 20.0]]), np.array([[0, 0], [1, 0]]))
     >>> b.object_points(25.0).tolist()
     [[0.0, 0.0, 0.0], [25.0, 0.0, 0.0]]
-    >>> len(b), b.quality.tolist()
-    (2, [1.0, 1.0])
+    >>> len(b), b.quality.tolist(), b.precision
+    (2, [1.0, 1.0], None)
     """
 
     image_points: np.ndarray
@@ -59,6 +73,8 @@ class Board:
     size: tuple[int, int] | None = None
     outline: np.ndarray = field(default=None)  # type: ignore[assignment]
     ids: np.ndarray | None = None
+    source: str = "sogdd"
+    precision: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         pts = np.asarray(self.image_points, dtype=np.float64).reshape(-1, 2)
@@ -78,6 +94,13 @@ class Board:
         object.__setattr__(self, "outline", np.asarray(outline, dtype=np.float64).reshape(-1, 2))
         if self.ids is not None:
             object.__setattr__(self, "ids", np.asarray(self.ids, dtype=np.int64).reshape(-1))
+        if self.precision is not None:
+            sigma = np.asarray(self.precision, dtype=np.float64).reshape(-1)
+            if len(sigma) != n:
+                raise ValueError(f"{n} image points but {len(sigma)} precision values")
+            if np.any(sigma[np.isfinite(sigma)] < 0) or np.any(np.isinf(sigma)):
+                raise ValueError("precision must be standard deviations >= 0 (px), or NaN where unknown")
+            object.__setattr__(self, "precision", sigma)
 
     def __len__(self) -> int:
         return len(self.image_points)

@@ -92,4 +92,4 @@ def detect_charuco(image: np.ndarray, board: cv2.aruco.CharucoBoard, *, refine: 
     labels = np.stack([ids % (nx - 1), ids // (nx - 1)], axis=1)
     order = np.argsort(ids, kind="stable")
     size = (nx - 1, ny - 1) if len(ids) == (nx - 1) * (ny - 1) else None
-    return Board(xy[order], labels[order], quality[order], size=size, ids=ids[order])
+    return Board(xy[order], labels[order], quality[order], size=size, ids=ids[order], source="charuco")

@@ -66,8 +66,19 @@ from scipy.spatial import cKDTree
 from .board import LABEL_TURNS, Board
 from .fill import _filled
 from .lattice import Lattice, check, grow, ray_neighbours, seeds
+from .proposals import Source, propose
 from .windows import _bilinear, _local_cells, _refine_board, _symmetric
-from .xcorners import XCorners, check_search, default_scale, search, to_grey
+from .xcorners import (
+    SIGMA2,
+    XCorners,
+    check_search,
+    edge_geometry,
+    hessian_at,
+    junction_strength,
+    search,
+    search_levels,
+    to_grey,
+)
 
 __all__ = ["detect_board", "detect_boards"]
 
@@ -232,7 +243,7 @@ def _orient(xc: XCorners, idx: np.ndarray, xy: np.ndarray, labels: np.ndarray,
 
 
 def _finish(grey: np.ndarray, xc: XCorners, lat: Lattice, pattern: tuple[int, int] | None,
-            min_corners: int, refine: bool) -> Board | None:
+            min_corners: int, refine: bool, source: Source = "sogdd") -> Board | None:
     idx, labels = lat.index, lat.labels
     xy = xc.xy[idx]
     quality = np.ones(len(xy))
@@ -262,7 +273,7 @@ def _finish(grey: np.ndarray, xc: XCorners, lat: Lattice, pattern: tuple[int, in
         return None
     lab, size = oriented
     order = np.lexsort((lab[:, 0], lab[:, 1]))  # row by row, as OpenCV lists a pattern's corners
-    return Board(xy[order], lab[order], quality[order], size=size)
+    return Board(xy[order], lab[order], quality[order], size=size, source=source)
 
 
 def _boards(grey: np.ndarray, xc: XCorners, pattern: tuple[int, int] | None, min_corners: int, refine: bool,
@@ -293,7 +304,7 @@ def _boards(grey: np.ndarray, xc: XCorners, pattern: tuple[int, int] | None, min
 def detect_boards(image: np.ndarray, pattern: tuple[int, int] | None = None, *, min_corners: int = 12,
                   min_strength: float = 8.0, scale: float | None = None, refine: bool = True,
                   max_boards: int = 16, mask: np.ndarray | None = None,
-                  value_range: tuple[float, float] | None = None) -> list[Board]:
+                  value_range: tuple[float, float] | None = None, proposals: bool = True) -> list[Board]:
     """Find the chessboards in an image, label their corners and refine them.
 
     X-corners (saddle points with two edge lines, :func:`sogdd.calib.targets.xcorners.find_xcorners`)
@@ -319,10 +330,15 @@ def detect_boards(image: np.ndarray, pattern: tuple[int, int] | None = None, *, 
         Fewest corners a board may have (at least 9; three rows and three
         columns and a complete 3 x 3 block are needed too).
     min_strength : float
-        Weakest X-corner considered, in grey levels of contrast (0-255 scale).
+        Weakest X-corner considered, in grey levels of contrast (0-255 scale),
+        at least: each level of the search raises it to what noise alone
+        reaches there (:func:`sogdd.calib.targets.xcorners.noise_strength`).
     scale : float or None
-        Search scale (:func:`sogdd.calib.targets.xcorners.find_xcorners`); the corners are
-        refined at full resolution.
+        Search at this scale only (:func:`sogdd.calib.targets.xcorners.find_xcorners`);
+        None: over the pyramid of :func:`sogdd.calib.targets.xcorners.search_levels`,
+        finest first, until a level gives the whole ``pattern``, else the level
+        whose largest board is largest. The corners are refined at full
+        resolution.
     refine : bool
         Refine the corners (else the saddle points, coarse at a reduced scale).
     max_boards : int
@@ -333,6 +349,11 @@ def detect_boards(image: np.ndarray, pattern: tuple[int, int] | None = None, *, 
         The image's range, mapped to 0-255 (``(0, 255)`` for a float image of
         grey levels); None: the dtype's, and a float image outside [0, 1] is a
         one-line ``ValueError``.
+    proposals : bool
+        When ``pattern`` is given and the own search finds no complete board,
+        also take OpenCV's detectors' board as a proposal
+        (:mod:`sogdd.calib.targets.proposals`): refined, checked and labelled
+        as any other, ``Board.source`` naming its source.
 
     Returns
     -------
@@ -363,25 +384,54 @@ def detect_boards(image: np.ndarray, pattern: tuple[int, int] | None = None, *, 
     if not isinstance(max_boards, (int, np.integer)) or isinstance(max_boards, bool) or max_boards < 1:
         raise ValueError(f"max_boards must be a positive integer, got {max_boards!r}")
     check_search(grey, min_strength, scale, mask)
-    xc = search(grey, min_strength, scale, mask)
-    out = _boards(grey, xc, pat, int(min_corners), refine, int(max_boards))
-    if not out and scale is None and default_scale(grey.shape) < 1:
-        xc = search(grey, min_strength, 1.0, mask)
+    best: list[Board] = []
+    for level in (scale,) if scale is not None else search_levels(grey.shape):
+        xc = search(grey, min_strength, level, mask)
         out = _boards(grey, xc, pat, int(min_corners), refine, int(max_boards))
-    return out
+        if _rank(out, pat) > _rank(best, pat):
+            best = out
+        if pat is not None and _rank(best, pat)[0]:
+            break  # the whole board: no coarser level can do better
+    if pat is not None and not _rank(best, pat)[0] and proposals:
+        for prop in propose(grey, pat):
+            board = _finish(grey, _proposed(grey, prop.xy), Lattice(np.arange(len(prop.xy)), prop.labels), pat,
+                            int(min_corners), refine, prop.source)
+            if board is not None and _rank([board], pat) > _rank(best, pat):
+                best = [board, *(b for b in best if not _overlaps(b, board))]
+    return best
+
+
+def _proposed(grey: np.ndarray, xy: np.ndarray) -> XCorners:
+    """X-corners at a proposal's points: their edge lines and strength measured there (:mod:`.xcorners`)."""
+    hess = hessian_at(grey, xy, np.sqrt(SIGMA2))
+    light, phi, _ = edge_geometry(hess)
+    return XCorners(xy.copy(), junction_strength(hess), light, phi)
+
+
+def _overlaps(a: Board, b: Board) -> bool:
+    """Whether two boards share corners (within a quarter of ``b``'s smallest spacing)."""
+    d, _ = cKDTree(b.image_points).query(a.image_points)
+    step = float(np.min(cKDTree(b.image_points).query(b.image_points, k=2)[0][:, 1]))
+    return bool(np.any(d < 0.25 * step))
+
+
+def _rank(boards: list[Board], pattern: tuple[int, int] | None) -> tuple[bool, int]:
+    """How good one level's boards are: a complete board of ``pattern`` first, then the largest board."""
+    whole = pattern is not None and any(len(b) == pattern[0] * pattern[1] for b in boards)
+    return whole, max((len(b) for b in boards), default=0)
 
 
 def detect_board(image: np.ndarray, pattern: tuple[int, int] | None = None, *, min_corners: int = 12,
                  min_strength: float = 8.0, scale: float | None = None, refine: bool = True,
                  max_boards: int = 16, mask: np.ndarray | None = None,
-                 value_range: tuple[float, float] | None = None) -> Board | None:
+                 value_range: tuple[float, float] | None = None, proposals: bool = True) -> Board | None:
     """The largest board of :func:`detect_boards` (a complete one first when ``pattern`` is given), or None.
 
     Of the boards ``B`` found, the one that maximises ``(B.size is not None, len(B))``.
 
     Parameters
     ----------
-    image, pattern, min_corners, min_strength, scale, refine, max_boards, mask, value_range
+    image, pattern, min_corners, min_strength, scale, refine, max_boards, mask, value_range, proposals
         As :func:`detect_boards` (the same keywords and defaults).
 
     Returns
@@ -394,7 +444,8 @@ def detect_board(image: np.ndarray, pattern: tuple[int, int] | None = None, *, m
     True
     """
     boards = detect_boards(image, pattern, min_corners=min_corners, min_strength=min_strength, scale=scale,
-                           refine=refine, max_boards=max_boards, mask=mask, value_range=value_range)
+                           refine=refine, max_boards=max_boards, mask=mask, value_range=value_range,
+                           proposals=proposals)
     if not boards:
         return None
     return max(boards, key=lambda b: (b.size is not None, len(b)))

@@ -22,7 +22,7 @@ from .refine import MAX_WINDOW, MIN_HALF, half_widths, refine_grey
 #: a refined corner is dropped when its asymmetry ``1 - quality`` exceeds this multiple of the board's median
 ASYMMETRY = 10.0
 #: ... unless it is below this (a board without noise has a median near 0)
-MIN_ASYMMETRY = 0.002
+MIN_ASYMMETRY = 0.1
 
 
 def _symmetric(quality: np.ndarray) -> np.ndarray:

@@ -37,6 +37,11 @@ __all__ = ["XCorners", "find_xcorners"]
 SIGMA2 = float(PRESETS["hr"].sigma2)
 #: images above this many pixels are searched at a reduced scale by default (the refinement works at full scale)
 SEARCH_PIXELS = 2_000_000
+#: the saddle strength that noise alone reaches, in multiples of :func:`noise_strength`: the largest of the
+#: 3 x 3 saddle maxima of pure Gaussian noise, white or blurred by sigma 0.5-1.5 px, is 3.9-4.3 times it
+NOISE_FACTOR = 4.0
+#: the pyramid's coarsest level keeps at least this many pixels along the image's shorter side
+MIN_LEVEL_SIDE = 100
 
 
 @dataclass(frozen=True)
@@ -151,6 +156,24 @@ def edge_geometry(hess: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]
     return light, phi, saddle
 
 
+def junction_strength(hess: np.ndarray) -> np.ndarray:
+    """The saddle strength in grey levels of contrast from Hessians ``(g_xx, g_xy, g_yy)`` at :data:`SIGMA2`.
+
+    ``sigma^2 sqrt(max(g_xy^2 - g_xx g_yy, 0)) / u``, ``u`` that of an ideal
+    junction of unit contrast: what :class:`XCorners` holds as ``strength``.
+
+    Examples
+    --------
+    >>> t = np.arange(60) - 30.4
+    >>> img = np.where((t[:, None] > 0) == (t[None, :] > 0), 200.0, 40.0)
+    >>> xy = np.array([[30.5, 30.5]])
+    >>> round(float(junction_strength(hessian_at(img, xy, np.sqrt(SIGMA2)))[0]))  # contrast 160
+    160
+    """
+    h = np.asarray(hess, dtype=np.float64).reshape(-1, 3)
+    return SIGMA2 * np.sqrt(np.maximum(h[:, 1] ** 2 - h[:, 0] * h[:, 2], 0.0)) / _unit(SIGMA2)
+
+
 @lru_cache(maxsize=8)
 def _unit(sigma2: float) -> float:
     """The saddle strength of an ideal X-junction of contrast 1 (levels 0 and 1, 4x4 supersampled)."""
@@ -230,6 +253,69 @@ def default_scale(shape: tuple[int, int]) -> float:
     return min(1.0, float(np.sqrt(SEARCH_PIXELS / (shape[0] * shape[1]))))
 
 
+def noise_strength(grey: np.ndarray) -> float:
+    """The image's noise, measured as the saddle search sees it: grey levels of saddle strength.
+
+    ``N = median_x sigma^2 sqrt(|g_xy^2 - g_xx g_yy|) / u`` over every pixel, with
+    ``g`` the Gaussian derivatives at :data:`SIGMA2` and ``u`` the strength of
+    an ideal junction of unit contrast: the strength map's typical value where
+    there is no junction. A board's corners and edges cover few pixels (along
+    a straight edge ``g_xy^2 = g_xx g_yy``), so the median is that of the noise
+    and texture, of whatever spectrum: on Gaussian noise, white or blurred, the
+    largest saddle maximum is 3.9-4.3 ``N`` (:data:`NOISE_FACTOR`), where a
+    threshold in grey levels would pass noise at one sigma and miss faint
+    boards at another.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> n1 = noise_strength(128 + 2.0 * rng.standard_normal((200, 200)))
+    >>> n2 = noise_strength(128 + 8.0 * rng.standard_normal((200, 200)))
+    >>> round(n2 / n1, 1)  # proportional to the noise
+    4.0
+    >>> noise_strength(np.full((50, 50), 100.0)) < 1e-4  # a flat image: float rounding only
+    True
+    """
+    g, d1, d2 = (k.astype(np.float32) for k in _kernels(np.sqrt(SIGMA2)))
+    img = np.ascontiguousarray(grey, dtype=np.float32)
+    gxx = cv2.sepFilter2D(img, -1, d2, g, borderType=cv2.BORDER_REFLECT)
+    gyy = cv2.sepFilter2D(img, -1, g, d2, borderType=cv2.BORDER_REFLECT)
+    gxy = cv2.sepFilter2D(img, -1, d1, d1, borderType=cv2.BORDER_REFLECT)
+    det = np.abs(gxy * gxy - gxx * gyy)
+    return float(SIGMA2 * np.sqrt(np.median(det)) / _unit(SIGMA2))
+
+
+def search_levels(shape: tuple[int, int]) -> tuple[float, ...]:
+    """The scales at which the board search looks, in the order it tries them.
+
+    A pyramid of octaves: :func:`default_scale`, then half of it, a quarter...
+    while the shorter side keeps :data:`MIN_LEVEL_SIDE` pixels, and last the
+    full resolution when the first level is reduced (a board of small cells in a
+    large frame). Each octave halves a blur, a motion smear and a cell in pixels
+    and averages the noise of four pixels into one (its sigma halves), while the
+    saddle strength, in grey levels of contrast, is unchanged for a sharp
+    junction: a board too blurred or too noisy at one scale is clear at a coarser
+    one, and a board of 300 px cells is one of 37 px cells three octaves up.
+
+    Examples
+    --------
+    >>> search_levels((480, 640))
+    (1.0, 0.5, 0.25)
+    >>> [round(s, 3) for s in search_levels((3000, 4000))]  # 12 MP: from the 2 MP budget down, then full
+    [0.408, 0.204, 0.102, 0.051, 1.0]
+    >>> search_levels((60, 80))
+    (1.0,)
+    """
+    s0 = default_scale(shape)
+    side = min(shape)
+    out = [s0]
+    while side * out[-1] / 2 >= MIN_LEVEL_SIDE:
+        out.append(out[-1] / 2)
+    if s0 < 1:
+        out.append(1.0)
+    return tuple(out)
+
+
 def search(grey: np.ndarray, min_strength: float, scale: float | None, mask: np.ndarray | None) -> XCorners:
     """:func:`find_xcorners` on a validated grey image (float64, 0-255)."""
     from sogdd.select import find_saddles
@@ -241,6 +327,7 @@ def search(grey: np.ndarray, min_strength: float, scale: float | None, mask: np.
         size = (max(8, round(W * scale)), max(8, round(H * scale)))
         work = cv2.resize(grey.astype(np.float32), size, interpolation=cv2.INTER_AREA).astype(np.float64)
     unit = _unit(SIGMA2)
+    min_strength = max(float(min_strength), NOISE_FACTOR * noise_strength(work))
     xy, st = find_saddles(work, SIGMA2, min_strength=min_strength * unit)
     st = st / unit
     hess = hessian_at(work, xy, np.sqrt(SIGMA2))
