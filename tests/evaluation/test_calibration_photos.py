@@ -11,11 +11,14 @@ import pytest
 from sogdd.cli.main import main
 from sogdd.evaluation.calibration.comparators import Detection
 from sogdd.evaluation.calibration.photo_sets import (
+    camera_prefixes,
     hand_lattice,
+    infer_target,
     parse_info_txt,
     parse_target_yaml,
     photo_sets,
     read_reference,
+    read_storage,
 )
 from sogdd.evaluation.calibration.photos import count_view, merge_photos, run_set
 from sogdd.evaluation.calibration.render import Camera, ChessboardTarget, render_view
@@ -162,3 +165,162 @@ def test_shared_photo_sets(data_dir):
     assert (rows[0]["complete"], rows[0]["wrong_labels"]) == (1, 0)
     ref = sets["chessboard_sony"].reference
     assert ref["fx"] == pytest.approx(701.58, abs=0.01) and ref["cy"] == pytest.approx(246.63, abs=0.01)
+
+
+# OpenCV's calibration sample writes its board (inner corners) and camera this way (FileStorage YAML)
+_OPENCV_YML = """%YAML:1.0
+---
+image_width: 480
+image_height: 360
+board_width: 5
+board_height: 4
+square_size: 2.5e-02
+camera_matrix: !!opencv-matrix
+   rows: 3
+   cols: 3
+   dt: d
+   data: [ 4.0e+02, 0., 2.395e+02, 0., 4.01e+02, 1.795e+02, 0., 0., 1. ]
+"""
+# ROS 2 camera_calibration's ost.yaml (camera_info): no %YAML line, matrices as rows/cols/data maps
+_ROS_YAML = """image_width: 1440
+image_height: 1080
+camera_name: narrow_stereo
+camera_matrix:
+  rows: 3
+  cols: 3
+  data: [1820.89015,    0.     ,  704.20841,
+            0.     , 1825.42277,  536.74904,
+            0.     ,    0.     ,    1.     ]
+distortion_model: %s
+distortion_coefficients:
+  rows: 1
+  cols: 5
+  data: [-0.070137, 0.132547, -0.002117, 0.000433, 0.000000]
+"""
+
+
+def _matrix(fx: float, cx: float) -> str:
+    return (f"!!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
+            f"   data: [ {fx}, 0., {cx}, 0., {fx}, 240., 0., 0., 1. ]\n")
+
+
+def _render_views(folder, names, pattern=(5, 4)):
+    """Views of a ``pattern`` board (inner corners, 5 across, 4 down), complete in every view, one pose each."""
+    cam = Camera(np.array([[400.0, 0, 239.5], [0, 400, 179.5], [0, 0, 1]]), np.zeros(4), (480, 360))
+    target = ChessboardTarget(*pattern, 1.0)
+    folder.mkdir(parents=True, exist_ok=True)
+    for k, name in enumerate(names):
+        rvec = np.array([0.15 * np.cos(k), 0.2 * np.sin(k), 0.05 * k])
+        view = render_view(cam, target, rvec, np.array([-2.0 + 0.3 * k, -1.5, 11.0 + k]), blur=0.8, noise=1.0,
+                           rng=k)
+        cv2.imwrite(str(folder / name), view.image)
+
+
+def test_opencv_filestorage_gives_the_board_and_the_reference(tmp_path):
+    folder = tmp_path / "data" / "cam"
+    _render_views(folder, ["view1.png", "view2.png", "view3.png"])
+    (folder / "calib.yml").write_text(_OPENCV_YML)
+    (folder / "boofcv_like.yaml").write_text("a:\n  b: 1\n c: 2\n")  # not OpenCV's YAML: passed over
+    (s,) = photo_sets(tmp_path / "data")
+    assert s.name == "cam" and s.prefix is None and len(s.images) == 3
+    t = s.target
+    assert (t.kind, t.pattern, t.square, t.inferred) == ("chessboard", (5, 4), 0.025, False)
+    assert s.target.source == str(folder / "calib.yml")
+    ref = s.reference
+    assert (ref["fx"], ref["fy"], ref["cx"], ref["cy"], ref["model"]) == (400.0, 401.0, 239.5, 179.5, "pinhole")
+    assert ref["size"] == [480, 360] and "cam/calib.yml" in ref["note"] and "not ground truth" in ref["note"]
+    rows, notes = run_set(s, ["sogdd", "opencv"])
+    assert notes == []  # the board is the set's own file
+    assert {r["method"]: r["complete"] for r in rows} == {"sogdd": 3, "opencv": 3}
+    assert read_storage(folder / "boofcv_like.yaml") is None
+    (folder / "calib.yml").write_text(_OPENCV_YML.replace("board_width: 5", "board_width: 1"))
+    with pytest.raises(ValueError, match="board_width"):
+        photo_sets(tmp_path / "data")
+
+
+def test_a_board_with_no_file_is_inferred_from_a_clear_majority_of_views(tmp_path):
+    folder = tmp_path / "data" / "cam"
+    _render_views(folder, ["a1.png", "a2.png", "a3.png", "a4.png"])
+    (s,) = photo_sets(tmp_path / "data")
+    t = s.target
+    assert (t.kind, t.pattern, t.inferred, t.square) == ("chessboard", (5, 4), True, 1.0)
+    assert t.source.startswith("inferred from 3 of 3 views")  # stops once 3 views agree
+    rows, notes = run_set(s, ["opencv"])
+    assert rows[0]["complete"] == 4  # OpenCV is given the inferred pattern
+    assert len(notes) == 1 and "5 x 4 board inferred from 3 of 3 views" in notes[0]
+    blank = np.full((360, 480), 128, np.uint8)
+    one = cv2.imread(str(s.images[0]), cv2.IMREAD_GRAYSCALE)
+    assert infer_target([blank, one, blank, one]) is None  # 2 views agree: too few
+    wide = tmp_path / "wide"
+    _render_views(wide, ["w1.png", "w2.png"], pattern=(6, 4))
+    six = [cv2.imread(str(p), cv2.IMREAD_GRAYSCALE) for p in sorted(wide.iterdir())]
+    five = [cv2.imread(str(p), cv2.IMREAD_GRAYSCALE) for p in s.images]
+    assert infer_target([*six, *five[:3]]) is None  # 3 against 2: no clear majority
+    assert infer_target([*six, *five]).pattern == (5, 4)  # 4 against 2
+    assert infer_target([five[0].T.copy(), five[1], five[2].T.copy()]).pattern == (4, 5)  # seen turned most
+
+
+def test_ros_camera_info_is_a_reference(tmp_path):
+    (tmp_path / "ost.yaml").write_text(_ROS_YAML % "plumb_bob")
+    ref = read_reference(tmp_path)
+    assert (ref["fx"], ref["fy"], ref["cx"], ref["cy"]) == (1820.8901, 1825.4228, 704.2084, 536.749)
+    assert (ref["model"], ref["size"], ref["source"]) == ("pinhole", [1440, 1080], str(tmp_path / "ost.yaml"))
+    assert "ROS camera_info" in ref["note"] and "not ground truth" in ref["note"]
+    (tmp_path / "ost.yaml").write_text(_ROS_YAML % "equidistant")  # ROS's fisheye model
+    assert read_reference(tmp_path)["model"] == "fisheye"
+
+
+def _write_blank(folder, names):
+    folder.mkdir(parents=True, exist_ok=True)
+    for n in names:
+        cv2.imwrite(str(folder / n), np.zeros((8, 8), np.uint8))
+
+
+def test_a_folder_of_two_name_prefixes_is_two_cameras(tmp_path):
+    stereo = tmp_path / "data" / "stereo"
+    _write_blank(stereo, [f"{c}{k:02d}.jpg" for c in ("left", "right") for k in (1, 2, 3, 11)])
+    stereo_yml = "%YAML:1.0\nM1: " + _matrix(500.0, 330.0) + "M2: " + _matrix(510.0, 331.0)
+    (stereo / "intrinsics.yml").write_text(stereo_yml)
+    (stereo / "left_intrinsics.yml").write_text("%YAML:1.0\nboard_width: 9\nboard_height: 6\n"
+                                                "square_size: 0.025\ncamera_matrix: " + _matrix(536.0, 342.0))
+    mono = tmp_path / "data" / "mono"
+    _write_blank(mono, [f"left-{k:04d}.png" for k in (0, 3, 5, 8)])
+    (mono / "ost.yaml").write_text(_ROS_YAML % "plumb_bob")
+    (mono / "info.txt").write_text("chess true 5 4 24")
+    sets = {s.name: s for s in photo_sets(tmp_path / "data")}
+    assert sorted(sets) == ["mono", "stereo/left", "stereo/right"]
+    left, right = sets["stereo/left"], sets["stereo/right"]
+    assert [p.name for p in left.images] == ["left01.jpg", "left02.jpg", "left03.jpg", "left11.jpg"]
+    assert [p.name for p in right.images] == ["right01.jpg", "right02.jpg", "right03.jpg", "right11.jpg"]
+    assert (left.prefix, right.prefix, left.folder, right.folder) == ("left", "right", stereo, stereo)
+    assert left.target.pattern == right.target.pattern == (9, 6)  # the folder's board, for both cameras
+    assert left.reference["fx"] == 536.0 and "left_intrinsics.yml" in left.reference["source"]  # its own file
+    assert (right.reference["fx"], right.reference["cx"]) == (510.0, 331.0) and "M2" in right.reference["note"]
+    (stereo / "left_intrinsics.yml").write_text("%YAML:1.0\nboard_width: 9\nboard_height: 6\n")
+    # with no camera_matrix of its own, the stereo file's M1
+    assert photo_sets(tmp_path / "data", ["stereo/left"])[0].reference["fx"] == 500.0
+    assert [s.name for s in photo_sets(tmp_path / "data", ["stereo"])] == ["stereo/left", "stereo/right"]
+    assert len(sets["mono"].images) == 4 and sets["mono"].reference["fx"] == 1820.8901  # one prefix: one set
+    assert camera_prefixes(["left1.jpg", "left2.jpg", "left3.jpg", "right1.jpg", "right2.jpg"]) is None
+    assert camera_prefixes(["a1.jpg", "a2.jpg", "a3.jpg", "b1.jpg", "b2.jpg", "b3.jpg", "c.jpg"]) is None
+    assert camera_prefixes(["cam0_1.png", "cam0_2.png", "cam0_3.png", "cam1_1.png", "cam1_2.png",
+                            "cam1_3.png"]) == {"cam0": "cam0_", "cam1": "cam1_"}
+
+
+def test_shared_stereo_and_ros_sets(data_dir):
+    root = data_dir / "calibration"
+    if not (root / "opencv_stereo").is_dir() or not (root / "hik_mono_1440").is_dir():
+        pytest.skip("no opencv_stereo or hik_mono_1440 in the shared data")
+    sets = {s.name: s for s in photo_sets(root, ["opencv_stereo", "hik_mono_1440"])}
+    assert sorted(sets) == ["hik_mono_1440", "opencv_stereo/left", "opencv_stereo/right"]
+    left, right, hik = sets["opencv_stereo/left"], sets["opencv_stereo/right"], sets["hik_mono_1440"]
+    assert len(left.images) == len(right.images) == 13
+    assert all(p.name.startswith("left") for p in left.images) and left.images[-1].name == "left14.jpg"
+    assert left.target.pattern == (9, 6) and left.target.square == pytest.approx(0.025)
+    assert left.target.source.endswith("left_intrinsics.yml") and not left.target.inferred
+    assert left.reference["fx"] == pytest.approx(535.9157) and left.reference["cx"] == pytest.approx(342.2832)
+    assert right.reference["fx"] == pytest.approx(534.8033) and right.reference["cy"] == pytest.approx(242.0532)
+    assert len(hik.images) == 30 and hik.target.inferred and sorted(hik.target.pattern) == [6, 9]
+    assert hik.reference["fx"] == pytest.approx(1820.8901) and hik.reference["cy"] == pytest.approx(536.749)
+    rows, _ = run_set(right, ["opencv"], views=3)
+    assert rows[0]["complete"] == 3

@@ -4,6 +4,16 @@ A **set** is a folder of images (``*.jpg``, ``*.png``, ``*.bmp``, ``*.tif``);
 a folder with no images of its own whose sub-folders hold them is a rig, and
 each sub-folder (one camera) is a set of its own, named ``rig/camera``.
 
+A folder of images with two or more name prefixes is as many cameras in one
+folder (OpenCV's stereo sample: ``left01.jpg .. left14.jpg``,
+``right01.jpg .. right14.jpg``): when **every** image's name is
+``<prefix><number>.<ext>`` and there are two or more prefixes, each holding at
+least 3 images, each prefix is a set of its own, named like a rig's camera,
+``folder/prefix`` (the prefix less trailing ``-``, ``_``, ``.``:
+``opencv_stereo/left``, ``opencv_stereo/right``); its board and reference are
+read from the shared folder. Otherwise the folder is one set (``left-0000.png``,
+``left-0003.png``, ...: one prefix, one set).
+
 Board description
 -----------------
 Read from the set's folder; failing that, for a rig's camera, from the rig's
@@ -27,6 +37,22 @@ the board of all three, the data's README says). The file is one of:
   whose four corner squares are black: ``(2 cols - 1) x (2 rows - 1)`` squares,
   ``(2 cols - 2, 2 rows - 2)`` inner corners (``chess true 4 3 33``: 6 x 4).
   ``square ...`` describes a grid of separate squares.
+- an OpenCV FileStorage calibration (any ``*.yml`` / ``*.yaml`` of the folder,
+  in name order, that ``cv2.FileStorage`` reads and that holds ``board_width``
+  and ``board_height``): OpenCV's calibration samples write the board's
+  **inner corners** there, ``patternSize = (board_width, board_height)``, and
+  its ``square_size``; the board is taken to be a chessboard (the file does not
+  say).
+
+When no file describes the board (the folder's, a rig's or a sibling's), it is
+**inferred** from the set's own views (:func:`infer_target`): the chessboard
+size that ``sogdd.calib.detect_boards(image, None)`` returns as a complete,
+unambiguous grid in the most views, if it is seen in at least 3 views and in
+twice as many as every other size together (a clear majority); the views are
+read in order and reading stops as soon as that holds. Its ``source`` says
+``inferred from N of M views`` and its square is 1 (the unit does not change
+the intrinsics). Every method compared, OpenCV's detectors included, is then
+given that pattern: OpenCV's comparators are as good as the inferred size.
 
 Hand labels
 -----------
@@ -49,11 +75,32 @@ OpenCV's fisheye ``fx``: near the image centre a ray at angle ``theta`` lands
 ``fx theta / (1 + xi)`` from the principal point in the omnidirectional model
 and ``fx theta`` in OpenCV's fisheye model, so the comparable focal lengths are
 ``fx / (1 + xi)`` and ``fy / (1 + xi)``; ``cx, cy`` compare directly.
+
+Failing those, a ``*.yml`` / ``*.yaml`` of the folder that ``cv2.FileStorage``
+reads: an OpenCV calibration's ``camera_matrix`` (OpenCV's calibration sample),
+a ROS ``camera_info`` YAML's ``camera_matrix: data: [...]`` (ROS's
+``camera_calibration``, OpenCV's pixel convention; ``distortion_model:
+equidistant`` is OpenCV's fisheye model, anything else a pinhole), or a stereo
+calibration's ``M1`` / ``M2`` (OpenCV's stereo sample). Each is the source's own
+calibration of its camera, a reference, not ground truth: ``fx, fy, cx, cy``
+(``K[0, 0], K[1, 1], K[0, 2], K[1, 2]``) compare directly. For one camera of a
+folder of several (set discovery above) the camera's own single-camera file,
+one whose name starts with the camera's name (``left_intrinsics.yml``), is
+preferred, as a fit of that camera alone, like the ones compared with it;
+failing that, ``M<k>`` of a stereo file, camera ``k`` being the ``k``-th name
+prefix in name order (``left`` before ``right``, ``cam0`` before ``cam1``, as
+OpenCV's stereo sample lists each pair's left image first), which the stereo
+fit shares with the other camera (OpenCV's sample fixes one focal length for
+both). A file named for another of the folder's cameras, or a ``camera_matrix``
+file named for none of them, is not used for a camera of such a folder, and a
+set of its own does not read ``M1`` / ``M2`` (which camera is it?).
 """
 
 from __future__ import annotations
 
 import re
+from collections import Counter
+from collections.abc import Sequence
 from dataclasses import dataclass
 from itertools import combinations
 from pathlib import Path
@@ -63,7 +110,8 @@ import cv2
 import numpy as np
 
 __all__ = ["PhotoTarget", "PhotoSet", "parse_target_yaml", "parse_info_txt", "read_target", "photo_sets",
-           "hand_lattice", "read_labels", "read_reference", "IMAGE_SUFFIXES"]
+           "hand_lattice", "read_labels", "read_reference", "read_storage", "infer_target", "camera_prefixes",
+           "IMAGE_SUFFIXES"]
 
 IMAGE_SUFFIXES = (".jpg", ".jpeg", ".png", ".bmp", ".tif", ".tiff")
 TargetKind = Literal["chessboard", "ecocheck", "square_grid", "other"]
@@ -75,13 +123,16 @@ class PhotoTarget:
     """A set's board: its kind, inner corners ``(cols, rows)`` (OpenCV's ``patternSize``), square size.
 
     ``chessboard_like``: its inner corners are chessboard X-corners (a chessboard,
-    or an ECoCheck board, whose codes sit inside the white squares).
+    or an ECoCheck board, whose codes sit inside the white squares). ``inferred``:
+    no file describes it, its size was found in the set's views (:func:`infer_target`),
+    and ``source`` says how.
     """
 
     kind: TargetKind
     pattern: tuple[int, int]
     square: float
     source: str
+    inferred: bool = False
 
     @property
     def chessboard_like(self) -> bool:
@@ -187,12 +238,93 @@ def parse_info_txt(text: str, source: str = "info.txt") -> PhotoTarget:
     raise ValueError(f"{source}: no board line")
 
 
+_STORAGE_SUFFIXES = (".yml", ".yaml")
+
+
+def _storage_value(node: cv2.FileNode) -> float | str | np.ndarray | None:
+    """A FileStorage node as a number, a string or a matrix (``opencv-matrix``, or ROS's ``rows/cols/data``)."""
+    if node.isInt() or node.isReal():
+        return float(node.real())
+    if node.isString():
+        return node.string()
+    if not node.isMap() or "data" not in node.keys():
+        return None
+    data = node.getNode("data")
+    if not data.isSeq():
+        return None
+    vals = np.array([data.at(k).real() for k in range(data.size())], dtype=np.float64)
+    rows, cols = node.getNode("rows"), node.getNode("cols")
+    if rows.isInt() and cols.isInt() and int(rows.real()) * int(cols.real()) == len(vals):
+        return vals.reshape(int(rows.real()), int(cols.real()))
+    return vals
+
+
+def read_storage(path: str | Path) -> dict | None:
+    """The top-level numbers, strings and matrices of a file ``cv2.FileStorage`` reads; None if it cannot.
+
+    A matrix is an ``!!opencv-matrix`` (OpenCV's calibration samples) or a map
+    with ``rows``, ``cols`` and ``data`` (ROS's ``camera_info`` YAML), as an
+    array; other entries (lists, nested maps) are left out. A file that is not
+    OpenCV's YAML (BoofCV's, a parse error) is None, not an error.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> f = Path(tempfile.mkdtemp()) / "ost.yaml"
+    >>> _ = f.write_text("image_width: 640\\ncamera_matrix:\\n  rows: 3\\n  cols: 3\\n"
+    ...                  "  data: [500, 0, 320, 0, 501, 240, 0, 0, 1]\\ndistortion_model: plumb_bob\\n")
+    >>> st = read_storage(f)
+    >>> st["image_width"], st["camera_matrix"][1].tolist(), st["distortion_model"]
+    (640.0, [0.0, 501.0, 240.0], 'plumb_bob')
+    """
+    try:
+        fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+    except (cv2.error, SystemError):  # OpenCV's parse errors surface as either
+        return None
+    try:
+        if not fs.isOpened():
+            return None
+        root = fs.root()
+        if not root.isMap():
+            return None
+        out = {}
+        for key in root.keys():
+            v = _storage_value(root.getNode(key))
+            if v is not None:
+                out[key] = v
+        return out
+    except (cv2.error, SystemError):
+        return None
+    finally:
+        fs.release()
+
+
+def _storage_files(folder: Path) -> list[Path]:
+    """The folder's ``*.yml`` / ``*.yaml`` files in name order (BoofCV's own files are read elsewhere)."""
+    return sorted(p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in _STORAGE_SUFFIXES
+                  and p.name not in ("calibration_target.yaml", "fisheye.yaml"))
+
+
+def _storage_target(st: dict, source: str) -> PhotoTarget:
+    """A chessboard from an OpenCV calibration: ``board_width, board_height`` inner corners, ``square_size``."""
+    w, h = st["board_width"], st["board_height"]
+    if not all(isinstance(v, float) and v.is_integer() and v >= 2 for v in (w, h)):
+        raise ValueError(f"{source}: board_width and board_height must be whole numbers >= 2, got {w!r}, {h!r}")
+    square = st.get("square_size")
+    square = float(square) if isinstance(square, float) and square > 0 else 1.0
+    return PhotoTarget("chessboard", (int(w), int(h)), square, source)
+
+
 def _target_in(folder: Path) -> PhotoTarget | None:
     y, i = folder / "calibration_target.yaml", folder / "info.txt"
     if y.is_file():
         return parse_target_yaml(y.read_text(), str(y))
     if i.is_file():
         return parse_info_txt(i.read_text(), str(i))
+    for f in _storage_files(folder):
+        st = read_storage(f)
+        if st is not None and "board_width" in st and "board_height" in st:
+            return _storage_target(st, str(f))
     return None
 
 
@@ -221,6 +353,124 @@ def read_target(folder: Path, *, rig: bool = False) -> PhotoTarget | None:
             if t is not None:
                 return t
     return None
+
+
+def _view_size(boards: Sequence) -> tuple[int, int] | None:
+    """The ``(cols, rows)`` of a view's largest board when it is one complete, unambiguous grid, else None.
+
+    Unambiguous: every other board of the view with as many corners is a complete
+    grid of the same size, either way round (a second copy of the board, on a monitor).
+    """
+    from sogdd.calib.targets.spec import grid_dims
+
+    if not boards:
+        return None
+    first = max(boards, key=len)
+    dims = grid_dims(first)
+    if dims is None:
+        return None
+    for b in boards:
+        if b is not first and len(b) >= len(first):
+            other = grid_dims(b)
+            if other is None or sorted(other) != sorted(dims):
+                return None
+    return dims
+
+
+def infer_target(images: Sequence[str | Path | np.ndarray], *, min_views: int = 3) -> PhotoTarget | None:
+    """The chessboard size seen in a clear majority of views, when no file describes the board (module doc).
+
+    Each view votes for the ``(cols, rows)`` of the one complete, unambiguous
+    grid that ``sogdd.calib.detect_boards(image, None)`` finds there (its largest
+    board, whose labels fill a whole rectangle, with no other board as large of
+    another size), counted either way round. The views are read in order until
+    one size has at least ``min_views`` votes and twice as many as every other
+    size together; that size, in the orientation it was seen in most, is the
+    board (a chessboard of unit squares). None when no size gets there.
+
+    Parameters
+    ----------
+    images : sequence of path or ndarray
+        The views: image files (read grey; an unreadable file does not vote) or images.
+    min_views : int
+        Fewest views that must agree (at least 1).
+
+    Returns
+    -------
+    PhotoTarget or None
+        ``inferred`` True; ``source`` says ``inferred from N of M views`` (M: views read).
+
+    Examples
+    --------
+    >>> sq = np.kron((np.indices((6, 8)).sum(axis=0) % 2) * 200.0 + 30, np.ones((20, 20)))
+    >>> img = cv2.GaussianBlur(np.pad(sq, 30, constant_values=230.0), (0, 0), 1.0).astype(np.uint8)
+    >>> t = infer_target([img, img.T.copy(), img, np.zeros((60, 60), np.uint8), img])  # 7 x 5 inner corners
+    >>> t.pattern, t.inferred, t.source.split(" (")[0]
+    ((7, 5), True, 'inferred from 3 of 3 views')
+    >>> infer_target([img, img]) is None  # 2 views: too few
+    True
+    """
+    from sogdd.calib import detect_boards
+
+    if not isinstance(min_views, int) or isinstance(min_views, bool) or min_views < 1:
+        raise ValueError(f"min_views must be an integer >= 1, got {min_views!r}")
+    votes: Counter = Counter()
+    seen: dict[tuple[int, int], Counter] = {}
+    for k, image in enumerate(images, start=1):
+        grey = image if isinstance(image, np.ndarray) else cv2.imread(str(image), cv2.IMREAD_GRAYSCALE)
+        dims = None if grey is None else _view_size(detect_boards(grey, None))
+        if dims is None:
+            continue
+        key = (max(dims), min(dims))
+        votes[key] += 1
+        seen.setdefault(key, Counter())[dims] += 1
+        (lead, n), = votes.most_common(1)
+        others = sum(votes.values()) - n
+        if n >= min_views and n >= 2 * others:
+            pattern = seen[lead].most_common(1)[0][0]
+            rest = f"; {others} view{'s' if others != 1 else ''} with another size" if others else ""
+            return PhotoTarget("chessboard", pattern, 1.0,
+                               f"inferred from {n} of {k} views (a complete {pattern[0]} x {pattern[1]} grid "
+                               f"of sogdd.calib.detect_boards{rest})", inferred=True)
+    return None
+
+
+_NUMBERED = re.compile(r"^(?P<prefix>.*?)(?P<number>\d+)$")
+_MIN_PER_CAMERA = 3
+
+
+def camera_prefixes(names: Sequence[str | Path], *, min_images: int = _MIN_PER_CAMERA) -> dict[str, str] | None:
+    """The cameras of one folder of images, ``{camera: name prefix}`` in name order, or None for one camera.
+
+    Several cameras when every name is ``<prefix><number>.<ext>`` and there are
+    two or more prefixes, each with at least ``min_images`` images; a camera is
+    named by its prefix less trailing ``-``, ``_``, ``.`` and spaces (module doc).
+
+    Examples
+    --------
+    >>> camera_prefixes([f"{c}{k:02d}.jpg" for c in ("right", "left") for k in (1, 2, 3)])
+    {'left': 'left', 'right': 'right'}
+    >>> camera_prefixes(["left-0000.png", "left-0003.png", "left-0005.png"]) is None  # one prefix
+    True
+    >>> camera_prefixes(["l1.png", "l2.png", "l3.png", "r1.png", "r2.png", "notes.png"]) is None
+    True
+    """
+    prefixes: Counter = Counter()
+    for name in names:
+        m = _NUMBERED.match(Path(name).stem)
+        if m is None:
+            return None
+        prefixes[m.group("prefix")] += 1
+    cams = {p.rstrip("-_. "): p for p in prefixes}
+    if (len(prefixes) < 2 or min(prefixes.values()) < min_images or len(cams) != len(prefixes)
+            or any(not c or "/" in c for c in cams)):
+        return None
+    return dict(sorted(cams.items()))
+
+
+def _prefix_of(path: Path) -> str | None:
+    m = _NUMBERED.match(path.stem)
+    return None if m is None else m.group("prefix")
 
 
 def _images(folder: Path) -> list[Path]:
@@ -312,8 +562,76 @@ def _yaml_number(text: str, name: str) -> float | None:
     return float(m.group(1)) if m else None
 
 
-def read_reference(folder: Path) -> dict | None:
+def _pinhole_reference(K: object, path: Path, what: str, model: CameraModelName, st: dict) -> dict | None:
+    """``fx, fy, cx, cy`` of a 3 x 3 camera matrix read from ``path``, with its note; None if it is not one."""
+    K = np.asarray(K, dtype=np.float64) if isinstance(K, np.ndarray) else None
+    if K is None or K.size != 9:
+        return None
+    K = K.reshape(3, 3)
+    if not (K[0, 0] > 0 and K[1, 1] > 0):
+        return None
+    ref = {"fx": round(float(K[0, 0]), 4), "fy": round(float(K[1, 1]), 4), "cx": round(float(K[0, 2]), 4),
+           "cy": round(float(K[1, 2]), 4), "model": model, "source": str(path),
+           "note": f"{what} ({path.parent.name}/{path.name}), the source's own calibration: a reference, "
+                   "not ground truth; fx, fy, cx, cy compare directly"}
+    w, h = st.get("image_width"), st.get("image_height")
+    if isinstance(w, float) and isinstance(h, float):
+        ref["size"] = [int(w), int(h)]
+    return ref
+
+
+def _matrix_reference(path: Path, st: dict) -> dict | None:
+    """The ``camera_matrix`` of an OpenCV calibration or a ROS ``camera_info`` file (module doc)."""
+    dist = st.get("distortion_model")
+    if isinstance(dist, str):  # ROS camera_info: its distortion model names the lens model
+        model: CameraModelName = "fisheye" if dist == "equidistant" else "pinhole"
+        return _pinhole_reference(st.get("camera_matrix"), path, f"ROS camera_info, distortion_model {dist}",
+                                  model, st)
+    return _pinhole_reference(st.get("camera_matrix"), path, "OpenCV calibration, camera_matrix", "pinhole", st)
+
+
+def _owner(path: Path, cameras: Sequence[str]) -> str | None:
+    """The camera a file is named for (the longest camera name its name starts with), or None."""
+    named = [c for c in cameras if path.name.lower().startswith(c.lower())]
+    return max(named, key=len) if named else None
+
+
+def _storage_reference(folder: Path, camera: str | None, cameras: Sequence[str]) -> dict | None:
+    """A FileStorage / ROS reference of the set, or of one ``camera`` of a folder of ``cameras``: module doc."""
+    files = [(f, read_storage(f)) for f in _storage_files(folder)]
+    files = [(f, st) for f, st in files if st is not None]
+    if camera is None:
+        return next((r for f, st in files if (r := _matrix_reference(f, st)) is not None), None)
+    own = next((r for f, st in files if _owner(f, cameras) == camera
+                and (r := _matrix_reference(f, st)) is not None), None)
+    if own is not None:
+        return own
+    k = list(cameras).index(camera) + 1
+    for f, st in files:
+        if _owner(f, cameras) is None:
+            what = f"OpenCV stereo calibration, M{k}: camera {k} of {len(cameras)} in name order, {camera}"
+            ref = _pinhole_reference(st.get(f"M{k}"), f, what, "pinhole", st)
+            if ref is not None:
+                return ref
+    return None
+
+
+def read_reference(folder: Path, camera: str | None = None, cameras: Sequence[str] = ()) -> dict | None:
     """The reference camera beside a set (module doc): ``fx, fy, cx, cy`` comparable with OpenCV's, a note.
+
+    Parameters
+    ----------
+    folder : Path
+        The set's folder.
+    camera : str or None
+        For one camera of a folder of several: its name (one of ``cameras``).
+    cameras : sequence of str
+        Every camera of that folder, in name order (:func:`camera_prefixes`).
+
+    Returns
+    -------
+    dict or None
+        ``fx, fy, cx, cy, model, source, note`` (and ``size``, ``mirror_offset`` where known).
 
     Examples
     --------
@@ -324,6 +642,13 @@ def read_reference(folder: Path) -> dict | None:
     >>> ref = read_reference(d)
     >>> ref["fx"], ref["cx"], ref["model"]
     (200.0, 320.0, 'fisheye')
+    >>> d = Path(tempfile.mkdtemp())
+    >>> m = "!!opencv-matrix\\n rows: 3\\n cols: 3\\n dt: d\\n data: [%s, 0, 320, 0, %s, 240, 0, 0, 1.]\\n"
+    >>> _ = (d / "stereo.yml").write_text("%YAML:1.0\\nM1: " + m % (500, 500) + "M2: " + m % (510, 510))
+    >>> read_reference(d, "right", ["left", "right"])["fx"]  # M2: the second camera in name order
+    510.0
+    >>> read_reference(d) is None  # a set of its own does not read M1 / M2
+    True
     """
     xml, fish = folder / "intrinsic.xml", folder / "fisheye.yaml"
     if xml.is_file():
@@ -347,12 +672,16 @@ def read_reference(folder: Path) -> dict | None:
                 "note": "BoofCV universal omnidirectional model: fx, fy are its fx/(1 + mirror_offset) "
                         "(the focal length at the image centre, OpenCV fisheye's fx); cx, cy compare "
                         "directly; the distortion terms do not compare"}
-    return None
+    return _storage_reference(folder, camera, cameras)
 
 
 @dataclass(frozen=True)
 class PhotoSet:
-    """One camera's photos: name, folder, board, images, hand labels per image (or None), model, reference."""
+    """One camera's photos: name, folder, board, images, hand labels per image (or None), model, reference.
+
+    ``prefix``: for one camera of a folder of several (module doc), the name
+    prefix of its images in ``folder``; None for a folder of one camera.
+    """
 
     name: str
     folder: Path
@@ -361,34 +690,57 @@ class PhotoSet:
     labels: tuple[np.ndarray | None, ...]
     model: CameraModelName
     reference: dict | None
+    prefix: str | None = None
 
     @property
     def n_labelled(self) -> int:
         return sum(lab is not None for lab in self.labels)
 
 
-def _make_set(name: str, folder: Path) -> PhotoSet:
-    images = _images(folder)
+@dataclass(frozen=True)
+class _Place:
+    """Where a set is: name, folder; for one camera of a folder of several, its name, prefix, and all names."""
+
+    name: str
+    folder: Path
+    rig: bool = False
+    camera: str | None = None
+    prefix: str | None = None
+    cameras: tuple[str, ...] = ()
+
+
+def _make_set(place: _Place) -> PhotoSet:
+    images = _images(place.folder)
+    if place.prefix is not None:
+        images = [p for p in images if _prefix_of(p) == place.prefix]
     labels = tuple(read_labels(p.with_suffix(".txt")) if p.with_suffix(".txt").is_file() else None
                    for p in images)
-    ref = read_reference(folder)
-    fisheye = "fisheye" in name.lower() or (ref is not None and ref["model"] == "fisheye")
-    return PhotoSet(name, folder, read_target(folder, rig="/" in name), tuple(images), labels,
-                    "fisheye" if fisheye else "pinhole", ref)
+    ref = read_reference(place.folder, place.camera, place.cameras)
+    fisheye = "fisheye" in place.name.lower() or (ref is not None and ref["model"] == "fisheye")
+    target = read_target(place.folder, rig=place.rig)
+    if target is None and images:
+        target = infer_target(images)
+    return PhotoSet(place.name, place.folder, target, tuple(images), labels,
+                    "fisheye" if fisheye else "pinhole", ref, place.prefix)
 
 
 def _has_images(folder: Path) -> bool:
     return any(p.is_file() and p.suffix.lower() in IMAGE_SUFFIXES for p in folder.iterdir())
 
 
-def _set_folders(root: Path) -> list[tuple[str, Path]]:
+def _set_folders(root: Path) -> list[_Place]:
     out = []
     for d in sorted(p for p in root.iterdir() if p.is_dir()):
         if _has_images(d):
-            out.append((d.name, d))
+            cams = camera_prefixes([p.name for p in _images(d)])
+            if cams is None:
+                out.append(_Place(d.name, d))
+            else:
+                out += [_Place(f"{d.name}/{c}", d, camera=c, prefix=pre, cameras=tuple(cams))
+                        for c, pre in cams.items()]
             continue
         cams = sorted(p for p in d.iterdir() if p.is_dir())
-        out += [(f"{d.name}/{c.name}", c) for c in cams if _has_images(c)]
+        out += [_Place(f"{d.name}/{c.name}", c, rig=True) for c in cams if _has_images(c)]
     return out
 
 
@@ -399,6 +751,8 @@ def _selects(name: str, wanted: str) -> bool:
 def photo_sets(root: str | Path, names: list[str] | None = None) -> list[PhotoSet]:
     """Every set under ``root`` (module doc), or those named (a rig's name selects all its cameras).
 
+    A set with no board file has its board inferred from its views here
+    (:func:`infer_target`: a few seconds); a name selects its sets before that.
     Raises ``ValueError`` for a name that matches no set, or a board file that cannot be read.
     """
     root = Path(root)
@@ -406,8 +760,9 @@ def photo_sets(root: str | Path, names: list[str] | None = None) -> list[PhotoSe
         raise ValueError(f"{root} is not a folder")
     found = _set_folders(root)
     if names is not None:
-        bad = [n for n in names if not any(_selects(s, n) for s, _ in found)]
+        bad = [n for n in names if not any(_selects(f.name, n) for f in found)]
         if bad:
-            raise ValueError(f"unknown photo set(s) {', '.join(bad)}; known: {', '.join(s for s, _ in found)}")
-        found = [(s, f) for s, f in found if any(_selects(s, n) for n in names)]
-    return [_make_set(s, f) for s, f in found]
+            known = ", ".join(f.name for f in found)
+            raise ValueError(f"unknown photo set(s) {', '.join(bad)}; known: {known}")
+        found = [f for f in found if any(_selects(f.name, n) for n in names)]
+    return [_make_set(f) for f in found]

@@ -28,7 +28,9 @@ The methods are those of :mod:`.comparators` that return boards (``sogdd``
 here calls ``sogdd.calib.detect_boards`` itself so as to see every board).
 mrgingham reads ``N x N`` boards only and is skipped, with a note, on the
 others; a set whose board is not a chessboard (a grid of separate squares) is
-skipped with a note.
+skipped with a note. A set whose board no file describes has it inferred from
+its views (:func:`.photo_sets.infer_target`, said in a note): every method,
+OpenCV's detectors included, is then given that inferred pattern.
 """
 
 from __future__ import annotations
@@ -190,19 +192,30 @@ def _summary(counts: list[ViewCount]) -> dict:
     }
 
 
+def _board_notes(photo_set: PhotoSet) -> list[str]:
+    """What the set's board is when it is not its own file, or why the set is skipped (no chessboard)."""
+    t, name = photo_set.target, photo_set.name
+    if t is None:
+        return [f"{name}: no board file (calibration_target.yaml, info.txt, an OpenCV calibration with "
+                "board_width) and no board size in a clear majority of its views: skipped"]
+    if not t.chessboard_like:
+        return [f"{name}: a {t.kind.replace('_', ' ')} board, not a chessboard: "
+                "no method here reads it, skipped"]
+    if t.inferred:
+        return [f"{name}: no board file; a {t.pattern[0]} x {t.pattern[1]} board {t.source}; "
+                "every method, OpenCV's included, is given that pattern"]
+    if Path(t.source).parent != photo_set.folder:
+        return [f"{name}: no board file of its own; {'/'.join(Path(t.source).parts[-2:])} read"]
+    return []
+
+
 def run_set(photo_set: PhotoSet, methods: list[str], *, views: int | None = None,
             progress: Callable[[str], None] | None = None) -> tuple[list[dict], list[str]]:
     """Every method on one set (module doc): one row per method, and notes for what was not run."""
     t = photo_set.target
-    if t is None:
-        return [], [f"{photo_set.name}: no calibration_target.yaml or info.txt: skipped"]
-    notes: list[str] = []
-    if not t.chessboard_like:
-        return [], [f"{photo_set.name}: a {t.kind.replace('_', ' ')} board, not a chessboard: "
-                    "no method here reads it, skipped"]
-    if Path(t.source).parent != photo_set.folder:
-        borrowed = "/".join(Path(t.source).parts[-2:])
-        notes.append(f"{photo_set.name}: no board file of its own; {borrowed} read")
+    notes = _board_notes(photo_set)
+    if t is None or not t.chessboard_like:
+        return [], notes
     run = [m for m in methods if not (METHODS[m].square_only and t.pattern[0] != t.pattern[1])]
     notes += [f"{photo_set.name}: {m} reads N x N boards only, not run on {t.pattern[0]} x {t.pattern[1]}"
              for m in methods if m not in run]
