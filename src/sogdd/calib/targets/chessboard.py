@@ -59,15 +59,18 @@ returned.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import cv2
 import numpy as np
 from scipy.spatial import cKDTree
 
 from .board import LABEL_TURNS, Board
 from .fill import _filled
-from .lattice import Lattice, check, grow, ray_neighbours, seeds
+from .lattice import Lattice, check, grow, predict_labels, ray_neighbours, seeds
 from .proposals import Source, propose
-from .windows import _bilinear, _local_cells, _refine_board, _symmetric
+from .refine import half_widths, refine_grey
+from .windows import ASYMMETRY, MIN_ASYMMETRY, _bilinear, _local_cells, _refine_board, _symmetric
 from .xcorners import (
     SIGMA2,
     XCorners,
@@ -80,7 +83,7 @@ from .xcorners import (
     to_grey,
 )
 
-__all__ = ["detect_board", "detect_boards"]
+__all__ = ["BoardSearch", "detect_board", "detect_boards", "find_boards"]
 
 #: leave-one-out prediction error allowed for a refined corner, in cells
 CHECK_TOL = 0.12
@@ -243,7 +246,28 @@ def _orient(xc: XCorners, idx: np.ndarray, xy: np.ndarray, labels: np.ndarray,
 
 
 def _finish(grey: np.ndarray, xc: XCorners, lat: Lattice, pattern: tuple[int, int] | None,
-            min_corners: int, refine: bool, source: Source = "sogdd") -> Board | None:
+            min_corners: int, refine: bool, source: Source = "sogdd", others: list[Board] | None = None
+            ) -> Board | None:
+    """The lattice refined, checked and labelled (module doc, steps 3-7); None when it is no board.
+
+    A board that passes every check but cannot be ``pattern`` (more rows or
+    columns than it has) is appended to ``others``, labelled as one of unknown size.
+    """
+    checked = _checked(grey, xc, lat, pattern, min_corners, refine)
+    if checked is None:
+        return None
+    xc, idx, xy, labels, quality = checked
+    oriented = _orient(xc, idx, xy, labels, pattern)
+    if oriented is None:
+        if others is not None:
+            others.append(_labelled(xy, *_orient(xc, idx, xy, labels, None), quality, source))  # type: ignore[misc]
+        return None
+    return _labelled(xy, *oriented, quality, source)
+
+
+def _checked(grey: np.ndarray, xc: XCorners, lat: Lattice, pattern: tuple[int, int] | None,
+             min_corners: int, refine: bool) -> tuple | None:
+    """Steps 3-6 of the module doc: ``(xc, idx, xy, labels, quality)`` of the corners kept, or None."""
     idx, labels = lat.index, lat.labels
     xy = xc.xy[idx]
     quality = np.ones(len(xy))
@@ -268,16 +292,17 @@ def _finish(grey: np.ndarray, xc: XCorners, lat: Lattice, pattern: tuple[int, in
     idx, labels, xy, quality = idx[linked], labels[linked], xy[linked], quality[linked]
     if len(xy) < min_corners or not _has_block(labels):
         return None
-    oriented = _orient(xc, idx, xy, labels, pattern)
-    if oriented is None:
-        return None
-    lab, size = oriented
+    return xc, idx, xy, labels, quality
+
+
+def _labelled(xy: np.ndarray, lab: np.ndarray, size: tuple[int, int] | None, quality: np.ndarray,
+              source: Source) -> Board:
     order = np.lexsort((lab[:, 0], lab[:, 1]))  # row by row, as OpenCV lists a pattern's corners
     return Board(xy[order], lab[order], quality[order], size=size, source=source)
 
 
 def _boards(grey: np.ndarray, xc: XCorners, pattern: tuple[int, int] | None, min_corners: int, refine: bool,
-            max_boards: int) -> list[Board]:
+            max_boards: int, others: list[Board] | None = None) -> list[Board]:
     if len(xc) < 5:
         return []
     tree = cKDTree(xc.xy)
@@ -294,7 +319,7 @@ def _boards(grey: np.ndarray, xc: XCorners, pattern: tuple[int, int] | None, min
             free[lat.index] = True
             free[s] = False  # not a seed again
             continue
-        board = _finish(grey, xc, lat, pattern, min_corners, refine)
+        board = _finish(grey, xc, lat, pattern, min_corners, refine, others=others)
         if board is not None:
             out.append(board)
     out.sort(key=lambda b: -len(b))
@@ -379,15 +404,73 @@ def detect_boards(image: np.ndarray, pattern: tuple[int, int] | None = None, *, 
     """
     grey = to_grey(image, value_range)
     pat = _check_pattern(pattern)
+    _check_counts(min_corners, max_boards)
+    check_search(grey, min_strength, scale, mask)
+    return _search(grey, pat, int(min_corners), float(min_strength), scale, refine, int(max_boards), mask,
+                   proposals).boards
+
+
+@dataclass(frozen=True)
+class BoardSearch:
+    """What one search of an image found: ``boards`` (:func:`detect_boards`' result) and ``others``,
+    boards that passed every check but cannot be the pattern asked for (more rows or columns than it has),
+    labelled as boards of unknown size: what the image shows instead."""
+
+    boards: list[Board]
+    others: list[Board]
+
+
+def find_boards(image: np.ndarray, pattern: tuple[int, int] | None = None, *, min_corners: int = 12,
+                min_strength: float = 8.0, scale: float | None = None, refine: bool = True,
+                max_boards: int = 16, mask: np.ndarray | None = None,
+                value_range: tuple[float, float] | None = None, proposals: bool = True) -> BoardSearch:
+    """:func:`detect_boards`, and the boards of other sizes seen on the way, from one search.
+
+    A view without the board asked for is told what it shows (a board of
+    another size) without a second search.
+
+    Parameters
+    ----------
+    image, pattern, min_corners, min_strength, scale, refine, max_boards, mask, value_range, proposals
+        As :func:`detect_boards` (the same keywords and defaults).
+
+    Returns
+    -------
+    BoardSearch
+
+    Examples
+    --------
+    >>> import cv2
+    >>> sq = np.kron((np.indices((6, 8)).sum(axis=0) % 2) * 200.0 + 30, np.ones((20, 20)))
+    >>> img = cv2.GaussianBlur(np.pad(sq, 30, constant_values=230.0), (0, 0), 1.0)  # 7 x 5 inner corners
+    >>> found = find_boards(img, (5, 4), value_range=(0, 255))
+    >>> found.boards, grid_dims(found.others[0])
+    ([], (7, 5))
+    """
+    grey = to_grey(image, value_range)
+    pat = _check_pattern(pattern)
+    _check_counts(min_corners, max_boards)
+    check_search(grey, min_strength, scale, mask)
+    return _search(grey, pat, int(min_corners), float(min_strength), scale, refine, int(max_boards), mask,
+                   proposals)
+
+
+def _check_counts(min_corners: object, max_boards: object) -> None:
     if not isinstance(min_corners, (int, np.integer)) or isinstance(min_corners, bool) or min_corners < 9:
         raise ValueError(f"min_corners must be an integer >= 9, got {min_corners!r}")
     if not isinstance(max_boards, (int, np.integer)) or isinstance(max_boards, bool) or max_boards < 1:
         raise ValueError(f"max_boards must be a positive integer, got {max_boards!r}")
-    check_search(grey, min_strength, scale, mask)
+
+
+def _search(grey: np.ndarray, pat: tuple[int, int] | None, min_corners: int, min_strength: float,
+            scale: float | None, refine: bool, max_boards: int, mask: np.ndarray | None,
+            proposals: bool) -> BoardSearch:
+    """The search of :func:`find_boards` on a validated grey image."""
     best: list[Board] = []
+    others: list[Board] = []
     for level in (scale,) if scale is not None else search_levels(grey.shape):
         xc = search(grey, min_strength, level, mask)
-        out = _boards(grey, xc, pat, int(min_corners), refine, int(max_boards))
+        out = _boards(grey, xc, pat, min_corners, refine, max_boards, others)
         if _rank(out, pat) > _rank(best, pat):
             best = out
         if pat is not None and _rank(best, pat)[0]:
@@ -395,10 +478,50 @@ def detect_boards(image: np.ndarray, pattern: tuple[int, int] | None = None, *, 
     if pat is not None and not _rank(best, pat)[0] and proposals:
         for prop in propose(grey, pat):
             board = _finish(grey, _proposed(grey, prop.xy), Lattice(np.arange(len(prop.xy)), prop.labels), pat,
-                            int(min_corners), refine, prop.source)
-            if board is not None and _rank([board], pat) > _rank(best, pat):
+                            min_corners, refine, prop.source)
+            if board is not None and _extends(grey, board):
+                others.append(board)  # a part of a larger grid, which OpenCV may propose as the pattern
+            elif board is not None and _rank([board], pat) > _rank(best, pat):
                 best = [board, *(b for b in best if not _overlaps(b, board))]
-    return best
+    return BoardSearch(best, others)
+
+
+def _extends(grey: np.ndarray, board: Board) -> bool:
+    """Whether the grid goes on beyond a side of the board: a part of a larger board.
+
+    The labels one step beyond each side are put where the board's map puts
+    them (:func:`sogdd.calib.targets.lattice.predict_labels`) and refined there; a side
+    continues when at least half of them are X-junctions like the board's own:
+    saddle strength (:func:`sogdd.calib.targets.xcorners.junction_strength`) at least
+    half the board's median, and point-symmetric within the board's limit
+    (:func:`sogdd.calib.targets.windows._symmetric`'s rule). Beyond a board's last corners
+    lie the edges of its outer squares and the paper: no X-junction.
+    """
+    xy, labels = board.image_points, board.labels
+    lo, hi = labels.min(axis=0), labels.max(axis=0)
+    cols, rows = range(lo[0], hi[0] + 1), range(lo[1], hi[1] + 1)
+    sides = [[(lo[0] - 1, j) for j in rows], [(hi[0] + 1, j) for j in rows],
+             [(i, lo[1] - 1) for i in cols], [(i, hi[1] + 1) for i in cols]]
+    cells = _local_cells(xy, labels)
+    cell = float(np.median(cells[np.isfinite(cells)])) if np.isfinite(cells).any() else 0.0
+    own_half = half_widths(xy, None, np.where(np.isfinite(cells), cells, cell))
+    _, q_own = refine_grey(grey, xy, own_half, own_half.astype(np.float64), iterations=1)
+    limit = max(ASYMMETRY * float(np.median(1.0 - q_own)), MIN_ASYMMETRY)
+    strong = 0.5 * float(np.median(junction_strength(hessian_at(grey, xy, np.sqrt(SIGMA2)))))
+    H, W = grey.shape
+    for side in sides:
+        P = predict_labels(xy, labels, np.array(side))[:, 0]
+        room = np.min(np.c_[P, W - 1 - P[:, 0], H - 1 - P[:, 1]], axis=1)
+        P = P[np.isfinite(room) & (room > 0.5 * cell)]
+        if len(P) < max(2, len(side) // 2):
+            continue
+        half = half_widths(P, None, np.full(len(P), cell))
+        r, q = refine_grey(grey, P, half, 0.5 * half.astype(np.float64))
+        s_side = junction_strength(hessian_at(grey, r, np.sqrt(SIGMA2)))
+        like = (q > 0) & (1.0 - q <= limit) & (s_side >= strong)
+        if np.count_nonzero(like) >= max(2, len(side) / 2):
+            return True
+    return False
 
 
 def _proposed(grey: np.ndarray, xy: np.ndarray) -> XCorners:
