@@ -90,3 +90,15 @@ def test_opencv_sample_boards_are_complete_by_the_own_search(side):
         b = detect_board(sogdd.read_image(f), (9, 6), proposals=False)
         complete += b is not None and len(b) == 54
     assert complete == len(files) == 13
+
+
+def test_a_dim_board_is_searched_as_a_bright_one():
+    # the floor follows the image's range: a board at a quarter of the light gives the same corners
+    v, _ = board_view()
+    bright = v.image.astype(np.float64)
+    dim = 0.05 * bright + 20.0  # contrast under 10 grey levels
+    # one level, so that the pyramid's reduced blur cannot make up for a threshold in grey levels
+    b1 = detect_board(bright, (9, 6), value_range=(0, 255), proposals=False, scale=1.0)
+    b2 = detect_board(dim, (9, 6), value_range=(0, 255), proposals=False, scale=1.0)
+    assert b1 is not None and b2 is not None and len(b1) == len(b2) == 54
+    assert np.abs(b1.image_points - b2.image_points).max() < 0.05

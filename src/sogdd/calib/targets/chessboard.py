@@ -327,7 +327,7 @@ def _boards(grey: np.ndarray, xc: XCorners, pattern: tuple[int, int] | None, min
 
 
 def detect_boards(image: np.ndarray, pattern: tuple[int, int] | None = None, *, min_corners: int = 12,
-                  min_strength: float = 8.0, scale: float | None = None, refine: bool = True,
+                  min_strength: float | None = None, scale: float | None = None, refine: bool = True,
                   max_boards: int = 16, mask: np.ndarray | None = None,
                   value_range: tuple[float, float] | None = None, proposals: bool = True) -> list[Board]:
     """Find the chessboards in an image, label their corners and refine them.
@@ -354,10 +354,11 @@ def detect_boards(image: np.ndarray, pattern: tuple[int, int] | None = None, *, 
     min_corners : int
         Fewest corners a board may have (at least 9; three rows and three
         columns and a complete 3 x 3 block are needed too).
-    min_strength : float
-        Weakest X-corner considered, in grey levels of contrast (0-255 scale),
-        at least: each level of the search raises it to what noise alone
-        reaches there (:func:`sogdd.calib.targets.xcorners.noise_strength`).
+    min_strength : float or None
+        Weakest X-corner considered, in grey levels of contrast (0-255 scale);
+        None: a share of the image's range. Each level of the search raises it
+        to what noise alone reaches there
+        (:func:`sogdd.calib.targets.xcorners.threshold`).
     scale : float or None
         Search at this scale only (:func:`sogdd.calib.targets.xcorners.find_xcorners`);
         None: over the pyramid of :func:`sogdd.calib.targets.xcorners.search_levels`,
@@ -406,7 +407,7 @@ def detect_boards(image: np.ndarray, pattern: tuple[int, int] | None = None, *, 
     pat = _check_pattern(pattern)
     _check_counts(min_corners, max_boards)
     check_search(grey, min_strength, scale, mask)
-    return _search(grey, pat, int(min_corners), float(min_strength), scale, refine, int(max_boards), mask,
+    return _search(grey, pat, int(min_corners), min_strength, scale, refine, int(max_boards), mask,
                    proposals).boards
 
 
@@ -421,7 +422,7 @@ class BoardSearch:
 
 
 def find_boards(image: np.ndarray, pattern: tuple[int, int] | None = None, *, min_corners: int = 12,
-                min_strength: float = 8.0, scale: float | None = None, refine: bool = True,
+                min_strength: float | None = None, scale: float | None = None, refine: bool = True,
                 max_boards: int = 16, mask: np.ndarray | None = None,
                 value_range: tuple[float, float] | None = None, proposals: bool = True) -> BoardSearch:
     """:func:`detect_boards`, and the boards of other sizes seen on the way, from one search.
@@ -443,6 +444,7 @@ def find_boards(image: np.ndarray, pattern: tuple[int, int] | None = None, *, mi
     >>> import cv2
     >>> sq = np.kron((np.indices((6, 8)).sum(axis=0) % 2) * 200.0 + 30, np.ones((20, 20)))
     >>> img = cv2.GaussianBlur(np.pad(sq, 30, constant_values=230.0), (0, 0), 1.0)  # 7 x 5 inner corners
+    >>> from sogdd.calib.targets.spec import grid_dims
     >>> found = find_boards(img, (5, 4), value_range=(0, 255))
     >>> found.boards, grid_dims(found.others[0])
     ([], (7, 5))
@@ -451,7 +453,7 @@ def find_boards(image: np.ndarray, pattern: tuple[int, int] | None = None, *, mi
     pat = _check_pattern(pattern)
     _check_counts(min_corners, max_boards)
     check_search(grey, min_strength, scale, mask)
-    return _search(grey, pat, int(min_corners), float(min_strength), scale, refine, int(max_boards), mask,
+    return _search(grey, pat, int(min_corners), min_strength, scale, refine, int(max_boards), mask,
                    proposals)
 
 
@@ -462,7 +464,7 @@ def _check_counts(min_corners: object, max_boards: object) -> None:
         raise ValueError(f"max_boards must be a positive integer, got {max_boards!r}")
 
 
-def _search(grey: np.ndarray, pat: tuple[int, int] | None, min_corners: int, min_strength: float,
+def _search(grey: np.ndarray, pat: tuple[int, int] | None, min_corners: int, min_strength: float | None,
             scale: float | None, refine: bool, max_boards: int, mask: np.ndarray | None,
             proposals: bool) -> BoardSearch:
     """The search of :func:`find_boards` on a validated grey image."""
@@ -545,7 +547,7 @@ def _rank(boards: list[Board], pattern: tuple[int, int] | None) -> tuple[bool, i
 
 
 def detect_board(image: np.ndarray, pattern: tuple[int, int] | None = None, *, min_corners: int = 12,
-                 min_strength: float = 8.0, scale: float | None = None, refine: bool = True,
+                 min_strength: float | None = None, scale: float | None = None, refine: bool = True,
                  max_boards: int = 16, mask: np.ndarray | None = None,
                  value_range: tuple[float, float] | None = None, proposals: bool = True) -> Board | None:
     """The largest board of :func:`detect_boards` (a complete one first when ``pattern`` is given), or None.

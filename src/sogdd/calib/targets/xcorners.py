@@ -40,6 +40,9 @@ SEARCH_PIXELS = 2_000_000
 #: the saddle strength that noise alone reaches, in multiples of :func:`noise_strength`: the largest of the
 #: 3 x 3 saddle maxima of pure Gaussian noise, white or blurred by sigma 0.5-1.5 px, is 3.9-4.3 times it
 NOISE_FACTOR = 4.0
+#: the search's floor without ``min_strength``: this share of the image's range (1st to 99th percentile of
+#: its grey levels), 6-10 grey levels on the real sets, whose range is 112-255
+CONTRAST_SHARE = 0.04
 #: the pyramid's coarsest level keeps at least this many pixels along the image's shorter side
 MIN_LEVEL_SIDE = 100
 
@@ -187,17 +190,20 @@ def _unit(sigma2: float) -> float:
     return float(st.max()) / 100.0
 
 
-def check_search(grey: np.ndarray, min_strength: float, scale: float | None, mask) -> None:
+def check_search(grey: np.ndarray, min_strength: float | None, scale: float | None, mask) -> None:
     """The X-corner search's arguments, checked at the door (one-line ``ValueError``)."""
-    if not np.isfinite(min_strength) or min_strength < 0:
-        raise ValueError(f"min_strength must be a finite number >= 0, got {min_strength!r}")
+    ok = min_strength is None or (isinstance(min_strength, (int, float, np.integer, np.floating))
+                                  and not isinstance(min_strength, bool) and np.isfinite(min_strength)
+                                  and min_strength >= 0)
+    if not ok:
+        raise ValueError(f"min_strength must be None or a finite number >= 0, got {min_strength!r}")
     if scale is not None and not (0 < scale <= 1):
         raise ValueError(f"scale must be in (0, 1], got {scale!r}")
     if mask is not None and np.shape(mask) != grey.shape:
         raise ValueError(f"mask must have the image's shape {grey.shape}, got {np.shape(mask)}")
 
 
-def find_xcorners(image: np.ndarray, *, min_strength: float = 8.0, scale: float | None = None,
+def find_xcorners(image: np.ndarray, *, min_strength: float | None = None, scale: float | None = None,
                   mask: np.ndarray | None = None, value_range: tuple[float, float] | None = None) -> XCorners:
     """X-corner candidates: saddle points, their edge lines and grey-level strength.
 
@@ -214,9 +220,11 @@ def find_xcorners(image: np.ndarray, *, min_strength: float = 8.0, scale: float 
         Grey or colour image (RGB), any dtype :func:`sogdd.image.validate_image`
         takes, on its scale (:func:`to_grey`): a float image on [0, 1], else
         give ``value_range``.
-    min_strength : float
+    min_strength : float or None
         Candidates below this strength (grey levels of contrast on the 0-255
-        scale) are not fitted.
+        scale) are not fitted; None: :data:`CONTRAST_SHARE` of the image's
+        range (its 1st to 99th percentile). Either way the search raises it to
+        what noise alone reaches (:func:`threshold`).
     scale : float or None
         Search on the image resized by this factor (<= 1) and map the points back
         (``x = (x' + 0.5) / scale - 0.5``); None: 1 up to
@@ -316,7 +324,34 @@ def search_levels(shape: tuple[int, int]) -> tuple[float, ...]:
     return tuple(out)
 
 
-def search(grey: np.ndarray, min_strength: float, scale: float | None, mask: np.ndarray | None) -> XCorners:
+def threshold(grey: np.ndarray, min_strength: float | None = None) -> float:
+    """The weakest saddle strength the search keeps in ``grey`` (grey levels of contrast).
+
+    ``max(f, NOISE_FACTOR N)``: ``N`` the image's noise as the search sees it
+    (:func:`noise_strength`; noise alone stays under ``NOISE_FACTOR N``) and
+    ``f`` the floor, ``min_strength`` or, when None, :data:`CONTRAST_SHARE`
+    of the image's range (1st to 99th percentile): scaled with the light, so a
+    dim board and a bright one are searched alike. Both follow the image; no
+    grey level is fixed.
+
+    Examples
+    --------
+    >>> t = np.arange(60) - 30.4
+    >>> bright = np.where((t[:, None] > 0) == (t[None, :] > 0), 200.0, 40.0)
+    >>> dim = 0.25 * bright
+    >>> round(threshold(bright), 2), round(threshold(dim), 2)  # 4 % of the range: 160 and 40 grey levels
+    (6.4, 1.6)
+    >>> round(threshold(bright, 20.0), 1)
+    20.0
+    """
+    if min_strength is None:
+        lo, hi = np.percentile(grey[::2, ::2], [1, 99])
+        min_strength = CONTRAST_SHARE * float(hi - lo)
+    return max(float(min_strength), NOISE_FACTOR * noise_strength(grey))
+
+
+def search(grey: np.ndarray, min_strength: float | None, scale: float | None,
+           mask: np.ndarray | None) -> XCorners:
     """:func:`find_xcorners` on a validated grey image (float64, 0-255)."""
     from sogdd.select import find_saddles
 
@@ -327,7 +362,7 @@ def search(grey: np.ndarray, min_strength: float, scale: float | None, mask: np.
         size = (max(8, round(W * scale)), max(8, round(H * scale)))
         work = cv2.resize(grey.astype(np.float32), size, interpolation=cv2.INTER_AREA).astype(np.float64)
     unit = _unit(SIGMA2)
-    min_strength = max(float(min_strength), NOISE_FACTOR * noise_strength(work))
+    min_strength = threshold(work, min_strength)
     xy, st = find_saddles(work, SIGMA2, min_strength=min_strength * unit)
     st = st / unit
     hess = hessian_at(work, xy, np.sqrt(SIGMA2))
