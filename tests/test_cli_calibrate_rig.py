@@ -132,7 +132,7 @@ def test_ctrl_c_and_a_folder_of_other_files_leave_the_folder_as_it_was(rendered_
         raise KeyboardInterrupt
 
     # during the detection (in this process: --jobs 1); the library's test interrupts the writing
-    monkeypatch.setattr(chessboard, "detect_boards", interrupt)
+    monkeypatch.setattr(chessboard, "find_boards", interrupt)
     code, _, err = _run(capsys, *_cams(folder), "--board", "chessboard:9x6", "--model", "pinhole",
                         "--no-report", "--out", out)
     assert code == 130 and err == f"sogdd: interrupted; {out} left as it was\n"

@@ -66,7 +66,8 @@ def test_views_and_corners_csv(cal, tmp_path):
     assert views[4]["used"] == "0" and views[4]["reason"] and float(views[4]["rms"]) > 1.0
     assert views[2]["used"] == "1" and views[2]["corners_used"] == "53" and views[2]["corners_found"] == "54"
     corners = list(csv.DictReader(open(files["corners.csv"])))
-    assert list(corners[0]) == ["view", "i", "j", "x", "y", "residual", "used"]
+    assert list(corners[0]) == ["view", "i", "j", "x", "y", "residual", "used", "sigma_px"]
+    assert all(c["sigma_px"] == "" for c in corners)  # boards without a measured precision
     assert len(corners) == 9 * 54
     planted = [c for c in corners if c["view"] == "f2.png" and (c["i"], c["j"]) == ("7", "0")]
     assert len(planted) == 1 and planted[0]["used"] == "0" and float(planted[0]["residual"]) > 1.5
@@ -118,7 +119,8 @@ def test_views_csv_and_camera_json_account_for_every_input(cal, tmp_path):
     rows = list(csv.DictReader(open(files["views.csv"])))
     assert [r["view"] for r in rows] == [v.name for v in views]
     assert rows[3] == {"view": "bad.png", "corners_found": "0", "corners_used": "0", "rms": "", "used": "0",
-                       "reason": "in/bad.png: not a readable image", "status": "unreadable"}
+                       "reason": "in/bad.png: not a readable image", "status": "unreadable", "precision_px": "",
+                       "weight": ""}
     assert rows[4]["view"] == "f3.png" and rows[4]["corners_found"] == "54"
     js = json.loads(files["camera.json"].read_text())
     assert js["rejected_views"]["bad.png"] == "in/bad.png: not a readable image"

@@ -3,8 +3,6 @@ differ between cameras, rejection, errors, speed."""
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 import pytest
 
@@ -180,12 +178,9 @@ def test_the_consensus_follows_the_majority_of_frames():
     assert relabel(b, 2, (1, 1)).labels.tolist() == [[1, 1], [0, 1], [1, 0], [0, 0]]
 
 
-def test_the_joint_fit_is_fast():
-    """2 cameras x 20 frames x 54 corners (the per-camera starts included) in well under 10 s."""
+def test_the_joint_fit_of_a_full_session():
+    """2 cameras x 20 frames x 54 corners, the per-camera starts included (timed: benchmarks/bench_rig.py)."""
     d = synthetic_rig(cameras=2, frames=20, noise=0.05, seed=7, spread=0.5, baseline=2.0)
     assert all(sum(b is not None and len(b) == 54 for b in d.boards[n]) >= 19 for n in d.names)
-    t = time.perf_counter()
     rig = calibrate_rig(d.boards, d.image_sizes)
-    took = time.perf_counter() - t
-    assert took < 5.0, f"{took:.2f} s"
     assert _errors(rig, d)[1][0] < 0.03

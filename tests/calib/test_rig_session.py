@@ -122,6 +122,10 @@ def test_the_output_folder_is_complete_or_as_it_was(rig_result, tmp_path, monkey
     assert list(read_rig(out / "rig.yaml")["cameras"]) == ["left", "right"]
     rows = list(csv.DictReader(open(out / "right" / "views.csv")))
     assert [r["view"] for r in rows] == [f"right{k:02d}.png" for k in range(1, 9)]
+    # each camera's views and corners carry their measured precision, and the joint fit's weights
+    assert all(0 < float(r["precision_px"]) < 0.1 and 0.5 < float(r["weight"]) <= 2 for r in rows)
+    corners = list(csv.DictReader(open(out / "left" / "corners.csv")))
+    assert all(0 < float(c["sigma_px"]) < 0.2 for c in corners)
     before = _tree(out)
 
     def interrupt(*a, **k):

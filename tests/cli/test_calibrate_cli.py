@@ -62,8 +62,10 @@ def test_end_to_end_writes_every_output(frames, tmp_path, capsys):
     views = list(csv.DictReader(open(out / "views.csv")))
     assert [v["view"] for v in views] == [f"f{k}.png" for k in range(8)]
     assert all(v["corners_found"] == "54" and v["status"] == "used" for v in views)
+    assert all(0 < float(v["precision_px"]) < 0.05 and float(v["weight"]) > 0 for v in views)
     corners = list(csv.DictReader(open(out / "corners.csv")))
     assert len(corners) == 8 * 54 and {c["view"] for c in corners} == {f"f{k}.png" for k in range(8)}
+    assert list(corners[0])[-1] == "sigma_px" and all(float(c["sigma_px"]) > 0 for c in corners)
     html = (out / "report.html").read_text()
     assert "Verdict" in html and (out / "report" / "coverage.png").is_file()
     assert len(list((out / "report").glob("view_*.png"))) == 8
@@ -110,8 +112,8 @@ def test_a_board_size_that_contradicts_the_option(frames, tmp_path, capsys, wron
 def test_a_board_smaller_than_the_option(frames, tmp_path, capsys, monkeypatch):
     """A detector that returns every view's whole 9x6 grid as a partial board of --board 10x7."""
     real = chessboard.detect_boards
-    monkeypatch.setattr(chessboard, "detect_boards", lambda img, pattern=None, **kw: [
-        Board(b.image_points, b.labels + 1) for b in real(img, (9, 6), **kw)])
+    monkeypatch.setattr(chessboard, "find_boards", lambda img, pattern=None, **kw: chessboard.BoardSearch([
+        Board(b.image_points, b.labels + 1) for b in real(img, (9, 6), **kw)], []))
     code, _, err = _run(capsys, frames, "--board", "chessboard:10x7", "--out", tmp_path / "o")
     assert code == 2 and err.count("\n") == 1
     assert "all 8 boards show exactly 9x6 inner corners; give chessboard:9x6" in err
@@ -128,9 +130,10 @@ def test_two_boards_in_one_image_are_one_view_or_two_on_request(frames, tmp_path
         # split where the image says: boards that all showed one same grid would be a miscounted --board
         cut = 2 + int(img.sum()) % 5
         left, right = b.labels[:, 0] < cut, b.labels[:, 0] >= cut
-        return [Board(b.image_points[left], b.labels[left]), Board(b.image_points[right], b.labels[right])]
+        return chessboard.BoardSearch([Board(b.image_points[left], b.labels[left]),
+                                       Board(b.image_points[right], b.labels[right])], [])
 
-    monkeypatch.setattr(chessboard, "detect_boards", two)
+    monkeypatch.setattr(chessboard, "find_boards", two)
     code, _, err = _run(capsys, frames, "--board", "chessboard:9x6", "--out", tmp_path / "o", "--no-report",
                         "--boards", "all")
     assert code == 0, err
@@ -267,7 +270,7 @@ def test_ctrl_c_leaves_the_output_folder_as_it_was(frames, tmp_path, capsys, mon
     assert _tree(out) == before and read_camera(out / "camera.yaml")["model"] == "pinhole"
     assert [p.name for p in tmp_path.iterdir()] == ["calib"]
     # and during the detection, in a new folder: nothing made
-    monkeypatch.setattr(chessboard, "detect_boards", interrupt)
+    monkeypatch.setattr(chessboard, "find_boards", interrupt)
     code, _, err = _run(capsys, frames, "--board", "chessboard:9x6", "--out", tmp_path / "new")
     assert code == 130 and err == f"sogdd: interrupted; {tmp_path / 'new'} left as it was\n"
     assert [p.name for p in tmp_path.iterdir()] == ["calib"]

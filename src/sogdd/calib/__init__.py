@@ -6,6 +6,7 @@ A client of the core (:mod:`sogdd.detector` and its stages); the core never impo
 :mod:`.cameras`: the camera models and their maths (used by the evaluations too).
 :mod:`.solvers`: the OpenCV calls (one fit, one pose).
 :mod:`.rejection`: the fit of one model with its rejection rounds (shared by the fit and the model selection).
+:mod:`.weighting`: each corner's weight in the fit from its measured precision, and the smeared views' rule.
 :mod:`.model_selection`: :func:`select_model`, the lens model chosen by cross-validation over views.
 :mod:`.fit`: :func:`calibrate`, the fit of a camera to labelled boards with robust rejection.
 :mod:`.cross_validation`: the two halves' cross-validation.

@@ -80,14 +80,16 @@ class CrossValidation:
 
 def cross_validate(boards: Sequence[Board], corner_ok: Sequence[np.ndarray], used: np.ndarray, *,
                    square: float, image_size: tuple[int, int], model: str, flags: int,
-                   min_views: int) -> tuple[CrossValidation | None, str]:
+                   min_views: int, weights: Sequence[np.ndarray] | None = None
+                   ) -> tuple[CrossValidation | None, str]:
     """Calibrate the even- and odd-ranked used views separately and compare the two cameras.
 
     The halves are ``used[0::2]`` and ``used[1::2]`` (disjoint, their union the
     used views); each is calibrated with the same ``model`` and ``flags`` as the
     whole, from the corners ``corner_ok`` keeps. The difference is
     :func:`projection_difference` with ``fit_rotation=True``, the rotation fitted
-    inside the convex hull of the used corners.
+    inside the convex hull of the used corners. ``weights`` (per view, one per
+    kept corner, as the whole's fit used them) weigh each half's fit the same way.
 
     Returns
     -------
@@ -102,8 +104,9 @@ def cross_validate(boards: Sequence[Board], corner_ok: Sequence[np.ndarray], use
     for half in halves:
         obj = [boards[v].object_points(square)[corner_ok[v]] for v in half]
         img = [boards[v].image_points[corner_ok[v]] for v in half]
+        w = None if weights is None else [weights[v] for v in half]
         try:
-            K, D, rv, tv, _ = fit_camera(obj, img, image_size, model, flags)
+            K, D, rv, tv, _ = fit_camera(obj, img, image_size, model, flags, w)
         except cv2.error:
             return None, "no cross-validation: OpenCV could not calibrate one of the halves"
         r = np.concatenate([i - project(o, K, D, model, rv[n], tv[n])

@@ -28,6 +28,7 @@ from ..image.validate import validate_image
 from .result import Calibration
 from .targets import charuco, chessboard
 from .targets.board import Board
+from .targets.precision import measure_precision
 from .targets.spec import BoardSpec, grid_dims
 
 __all__ = ["BOARD_CHOICES", "READ_OPTIONS", "SMALL_CELL", "THUMB_WIDTH", "BoardChoice", "Thumbnail",
@@ -267,6 +268,8 @@ def detect_view(path: str | os.PathLike, spec: BoardSpec, read_options: Mapping 
     A file that cannot be read gives a :class:`ViewResult` with ``error`` set
     (one line, naming the file). ``read_options`` go to :func:`sogdd.read_image`;
     ``thumb_width`` is the width of the thumbnail kept for the report (None: none).
+    Every board returned carries its corners' measured precision
+    (:func:`~sogdd.calib.targets.precision.measure_precision`).
 
     Examples
     --------
@@ -295,41 +298,35 @@ def detect_view(path: str | os.PathLike, spec: BoardSpec, read_options: Mapping 
     thumb = make_thumbnail(image, thumb_width) if thumb_width else None
     if spec.kind == "charuco":
         b = charuco.detect_charuco(image, spec.charuco_board())
-        return ViewResult(path, (b,) if b is not None and len(b) else (), size,
-                          seen="" if b is not None else "no ChArUco markers/corners", thumbnail=thumb)
-    found = _boards(path, image, size, spec)
-    return ViewResult(found.path, found.boards, size, seen=found.seen, other_size=found.other_size,
-                      thumbnail=thumb)
+        found = ViewResult(path, (b,) if b is not None and len(b) else (), size,
+                           seen="" if b is not None else "no ChArUco markers/corners")
+    else:
+        found = _boards(path, image, size, spec)
+    return ViewResult(found.path, measure_precision(image, found.boards), size, seen=found.seen,
+                      other_size=found.other_size, thumbnail=thumb)
 
 
 def _boards(path: str, grey: np.ndarray, size, spec: BoardSpec) -> ViewResult:
-    boards = [b for b in chessboard.detect_boards(grey, spec.pattern) if len(b)]
+    """The view's boards of ``spec``; where there is none, what the same search saw instead.
+
+    A complete grid that does not fit in the pattern (in either orientation)
+    cannot be part of it: its size contradicts the pattern.
+    """
+    found = chessboard.find_boards(grey, spec.pattern)
+    boards = [b for b in found.boards if len(b)]
     if spec.pattern is None:
         return ViewResult(path, tuple(boards), size, seen="" if boards else "no board")
     wrong = [b for b in boards if not _matches(b.size, spec.pattern)]
     boards = [b for b in boards if _matches(b.size, spec.pattern)]
     if boards:
         return ViewResult(path, tuple(boards), size)
-    if wrong:
-        s = wrong[0].size
-        return ViewResult(path, (), size, seen=f"a board of {s[0]}x{s[1]} inner corners", other_size=s)
-    return _what_else(path, grey, size, spec.pattern)
-
-
-def _what_else(path: str, grey: np.ndarray, size, pattern) -> ViewResult:
-    """No board of the given size: look for a board of any size, to say what the image shows.
-
-    A complete grid that does not fit in the pattern (in either orientation)
-    cannot be part of it: its size contradicts the pattern.
-    """
-    others = [b for b in chessboard.detect_boards(grey, None) if len(b)]
-    for b in others:
+    for b in wrong + found.others:
         dims = b.size if b.size is not None else grid_dims(b)
-        if dims is not None and not _fits(dims, pattern):
+        if dims is not None and not _fits(dims, spec.pattern):
             return ViewResult(path, (), size, seen=f"a board of {dims[0]}x{dims[1]} inner corners",
                               other_size=tuple(dims))
-    if others:
-        return ViewResult(path, (), size, seen=f"a partial board ({max(len(b) for b in others)} corners)")
+    if found.others:
+        return ViewResult(path, (), size, seen=f"a partial board ({max(len(b) for b in found.others)} corners)")
     return ViewResult(path, (), size, seen="no board")
 
 

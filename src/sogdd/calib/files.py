@@ -25,6 +25,7 @@ from ..formats.safe_write import atomic_write, check_not_inputs, write_text
 from .detection import ViewRecord, view_records
 from .model_selection import ModelSelection
 from .result import Calibration
+from .weighting import view_precision
 
 __all__ = [
     "FILES",
@@ -86,6 +87,7 @@ def calibration_dict(cal: Calibration, views: Sequence[ViewRecord] | None = None
         },
         "model_selection": selection_dict(cal.model_selection),
         "thresholds": {k: _num(v) for k, v in cal.thresholds.items()},
+        "typical_precision": _num(cal.typical_precision),
         "rejected_views": {n: r for n, r, u in zip(cal.names, cal.reasons, cal.view_used) if not u}
         if views is None else {v.name: v.reason or v.status for v in views if v.status != "used"},
         **({} if views is None else {"views": [{"view": v.name, "file": v.file, "status": v.status,
@@ -226,53 +228,73 @@ def _fmt(v: float, digits: int = 4) -> str:
     return f"{v:.{digits}f}" if math.isfinite(v) else ""
 
 
+def _sig(v: float) -> str:
+    """A precision in px to 3 significant digits (they span 0.002 to 1 px); empty when unknown."""
+    return f"{v:.3g}" if math.isfinite(v) else ""
+
+
 def write_views_csv(cal: Calibration, path: str | os.PathLike, *,
                     views: Sequence[ViewRecord] | None = None) -> Path:
-    """``view,corners_found,corners_used,rms,used,reason,status``: one row per view.
+    """``view,corners_found,corners_used,rms,used,reason,status,precision_px,weight``: one row per view.
 
     ``rms`` is over the used corners (all corners of a rejected view, from its
     pose re-estimated with the final camera; empty without a pose); ``used`` is
-    1 or 0 and ``reason`` says why a view was not used; ``status`` is ``used``,
+    1 or 0 and ``reason`` says why a view was not used (a smeared view: by how
+    much its corners are less precise than the set's,
+    :func:`~sogdd.calib.weighting.smeared_views`); ``status`` is ``used``,
     ``rejected``, ``ignored`` (a board of another kind or size; a board beside
     the image's view, its corners counted in ``corners_found``), ``no board`` or
-    ``unreadable``. With ``views`` (every input's fate,
-    :attr:`sogdd.calib.ImageCalibration.views`) every input is a row, the
-    images that could not be read too; without it, the views of ``cal``.
+    ``unreadable``. ``precision_px`` is the view's median corner precision
+    (:func:`~sogdd.calib.weighting.view_precision`, px), ``weight`` its corners'
+    median weight in the fit relative to the set's typical corner
+    (:func:`~sogdd.calib.weighting.corner_weights`: 1 typical, 0.5 a view twice
+    as imprecise; a rejected view's what it would have had); both empty where
+    unknown (no precision measured; ``weight`` also for an unweighted fit). With
+    ``views`` (every input's fate, :attr:`sogdd.calib.ImageCalibration.views`)
+    every input is a row, the images that could not be read too; without it,
+    the views of ``cal``.
     """
     if views is None:
         views = view_records(cal)
-    rows: list[list] = [["view", "corners_found", "corners_used", "rms", "used", "reason", "status"]]
+    rows: list[list] = [["view", "corners_found", "corners_used", "rms", "used", "reason", "status",
+                         "precision_px", "weight"]]
     for row in views:
         v = row.view
         if v is None:
-            rows.append([row.name, row.corners or 0, 0, "", 0, row.reason, row.status])
+            rows.append([row.name, row.corners or 0, 0, "", 0, row.reason, row.status, "", ""])
             continue
         b, used = cal.boards[v], cal.corner_used[v]
+        w = cal.corner_weights(v)
         rows.append([row.name, 0 if b is None else len(b), 0 if used is None else int(used.sum()),
-                     _fmt(cal.view_rms[v]), int(bool(cal.view_used[v])), row.reason, row.status])
+                     _fmt(cal.view_rms[v]), int(bool(cal.view_used[v])), row.reason, row.status,
+                     _sig(view_precision(b)), "" if w is None or len(w) == 0 else _fmt(float(np.median(w)), 3)])
     path = Path(path)
     write_text(path, _csv(rows))
     return path
 
 
 def write_corners_csv(cal: Calibration, path: str | os.PathLike) -> Path:
-    """``view,i,j,x,y,residual,used``: one row per corner found.
+    """``view,i,j,x,y,residual,used,sigma_px``: one row per corner found.
 
     ``i, j`` the integer board label, ``x, y`` the position (OpenCV's pixel
     convention: pixel centres at integers), ``residual`` the reprojection
-    error in px (empty without a pose), ``used`` 1 if the calibration used it.
+    error in px (empty without a pose), ``used`` 1 if the calibration used it,
+    ``sigma_px`` its measured 1-sigma precision (``Board.precision``, px; empty
+    where unknown).
     """
-    rows: list[list] = [["view", "i", "j", "x", "y", "residual", "used"]]
+    rows: list[list] = [["view", "i", "j", "x", "y", "residual", "used", "sigma_px"]]
     for v, name in enumerate(cal.names):
         b = cal.boards[v]
         if b is None:
             continue
         res = cal.residuals[v]
         r = np.full(len(b), np.nan) if res is None else np.hypot(res[:, 0], res[:, 1])
+        sigma = np.full(len(b), np.nan) if b.precision is None else b.precision
         for c in range(len(b)):
             i, j = b.labels[c]
             x, y = b.image_points[c]
-            rows.append([name, int(i), int(j), _fmt(x), _fmt(y), _fmt(r[c]), int(bool(cal.corner_used[v][c]))])
+            rows.append([name, int(i), int(j), _fmt(x), _fmt(y), _fmt(r[c]), int(bool(cal.corner_used[v][c])),
+                         _sig(sigma[c])])
     path = Path(path)
     write_text(path, _csv(rows))
     return path

@@ -76,6 +76,19 @@ def calibrate(
     calibrates the even- and odd-ranked used views separately and measures
     :func:`projection_difference` between the two cameras.
 
+    Boards that carry their corners' measured precision ``sigma``
+    (``Board.precision``; :func:`sogdd.calib.detection.detect_view` measures
+    it) are weighted (:mod:`~sogdd.calib.weighting`): the fit minimises
+    :math:`\\sum w_{vc}^2 \\lVert x_{vc} - \\pi(\\dots) \\rVert^2` with
+    :math:`w = \\sigma_{set} / \\max(\\sigma_{vc}, \\sigma_{set} / 2)`,
+    :math:`\\sigma_{set}` the median over the views of their median corner
+    precision (``Calibration.typical_precision``). OpenCV's calibration has no
+    weights: its solution starts a weighted Levenberg-Marquardt refinement
+    (:func:`~sogdd.calib.solvers.refine_weighted`), whose standard deviations
+    are reported. Before the fit, ``reject`` drops the smeared views: those whose
+    median corner precision exceeds 3 times :math:`\\sigma_{set}` (their reason
+    says by how much). The rejection rules above judge the residuals in px.
+
     Parameters
     ----------
     boards : sequence of Board or None
@@ -171,7 +184,7 @@ def _stds(st: State, idx: np.ndarray, fit) -> tuple[np.ndarray | None, str]:
     if st.model == "fisheye":  # cv2.fisheye.calibrate gives none: the same estimate, computed here
         obj = [st.boards[v].object_points(st.square)[st.corner_ok[v]] for v in idx]
         img = [st.boards[v].image_points[st.corner_ok[v]] for v in idx]
-        std = jacobian_std(obj, img, K, D, rv, tv, st.model, fisheye_fixed(st.flags))
+        std = jacobian_std(obj, img, K, D, rv, tv, st.model, fisheye_fixed(st.flags), st.weights(idx))
     if std is None or not np.all(np.isfinite(std)):
         return None, _DEGENERATE
     return std, ""
@@ -195,7 +208,8 @@ def _result(st: State, idx, fit, res, thresholds, min_views: int, cross_validate
     cv = None
     if cross_validate:
         cv, note = _cv.cross_validate(st.boards, st.corner_ok, idx, square=st.square, image_size=st.size,
-                                  model=st.model, flags=st.flags, min_views=min_views)
+                                      model=st.model, flags=st.flags, min_views=min_views,
+                                      weights=st.weights(range(V)))
         if note:
             notes.append(note)
     std, std_note = _stds(st, idx, fit)
@@ -208,4 +222,5 @@ def _result(st: State, idx, fit, res, thresholds, min_views: int, cross_validate
         std=_std_dict(std, st.model), std_note=std_note, names=tuple(st.names), boards=tuple(st.boards),
         residuals=tuple(res), corner_used=corner_used, view_used=st.view_ok.copy(), view_rms=view_rms,
         reasons=tuple(st.reasons), corner_reasons=tuple(st.corner_reasons), rvecs=rvecs, tvecs=tvecs,
-        cross_validation=cv, thresholds=thresholds, notes=tuple(notes), square=st.square)
+        cross_validation=cv, thresholds=thresholds, notes=tuple(notes), square=st.square,
+        typical_precision=st.typical)

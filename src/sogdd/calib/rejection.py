@@ -1,9 +1,12 @@
 """The fit of one camera model to the views with robust rejection: the rounds of :func:`~.fit.calibrate`.
 
-The views are checked at the door (:func:`check_boards`, :func:`usable_reason`),
-then fitted (:func:`~.solvers.fit_camera`) and cleaned round by round: the worst
-view beyond the view rule goes, or every corner beyond the corner rule
-(:func:`robust_limit`), until nothing changes (:func:`fit_with_rejection`).
+The views are checked at the door (:func:`check_boards`, :func:`usable_reason`,
+and with rejection the smeared ones: :func:`~.weighting.smeared_views`), then
+fitted (:func:`~.solvers.fit_camera`, each corner weighted by its measured
+precision where the boards carry one: :func:`~.weighting.corner_weights`) and
+cleaned round by round: the worst view beyond the view rule goes, or every
+corner beyond the corner rule (:func:`robust_limit`, on the residuals in px),
+until nothing changes (:func:`fit_with_rejection`).
 :func:`~.fit.calibrate` and :func:`~.model_selection.select_model` share it.
 """
 
@@ -16,6 +19,7 @@ import numpy as np
 from .cameras import project
 from .solvers import fit_camera_checked, solve_pose
 from .targets.board import Board
+from .weighting import corner_weights, smeared_views, typical_precision
 
 __all__ = ["State", "check_boards", "fit_with_rejection", "robust_limit", "usable_reason"]
 
@@ -83,13 +87,22 @@ class State:
     reasons: list[str]
     corner_ok: list
     corner_reasons: list
+    #: the set's typical corner precision (px) the weights are relative to; NaN: unweighted
+    typical: float = float("nan")
+
+    def weights(self, views) -> list | None:
+        """The kept corners' weights of ``views`` (:func:`~.weighting.corner_weights`), None unweighted."""
+        if not np.isfinite(self.typical):
+            return None
+        return [None if self.boards[v] is None
+                else corner_weights(self.boards[v], self.typical)[self.corner_ok[v]] for v in views]
 
 
 def _solve(st: State):
     idx = np.flatnonzero(st.view_ok)
     obj = [st.boards[v].object_points(st.square)[st.corner_ok[v]] for v in idx]
     img = [st.boards[v].image_points[st.corner_ok[v]] for v in idx]
-    return idx, fit_camera_checked(obj, img, st.size, st.model, st.flags, f"{len(idx)} views")
+    return idx, fit_camera_checked(obj, img, st.size, st.model, st.flags, f"{len(idx)} views", st.weights(idx))
 
 
 def _all_residuals(st: State, idx, fit) -> list:
@@ -195,6 +208,11 @@ def fit_with_rejection(boards: list, names: list[str], size: tuple[int, int], *,
     """The views' usability, then the fit with its rejection rounds: ``(state, used, fit, residuals,
     thresholds)`` (``fit`` as :func:`~.solvers.fit_camera` returns it, for the ``used`` views).
 
+    Where every usable board carries its corners' precision, the fit weighs each
+    corner by it relative to the set's typical corner (``state.typical``,
+    :func:`~.weighting.typical_precision`) and, with ``reject``, the smeared
+    views go first (:func:`~.weighting.smeared_views`, never below ``min_views``).
+
     ``boards`` and ``names`` as :func:`check_boards` returns them. Raises ``ValueError`` with fewer
     than ``min_views`` usable views (saying how many more are needed), or when OpenCV cannot calibrate.
     """
@@ -202,7 +220,12 @@ def fit_with_rejection(boards: list, names: list[str], size: tuple[int, int], *,
     usable = np.array([r == "" for r in reasons])
     if usable.sum() < min_views:
         _too_few(int(usable.sum()), min_views, reasons, names)
+    typical = typical_precision(boards, usable)
+    if reject:
+        for v, why in smeared_views(boards, usable, min_views).items():
+            usable[v], reasons[v] = False, why
     st = State(boards, names, float(square), size, model, int(flags), usable.copy(), reasons,
-               [np.ones(len(b), bool) if b is not None else None for b in boards], [{} for _ in boards])
+               [np.ones(len(b), bool) if b is not None else None for b in boards], [{} for _ in boards],
+               typical)
     idx, fit, res, thresholds = _iterate(st, k, floor, min_views, min_corners, reject, max_iterations)
     return st, idx, fit, res, thresholds

@@ -9,6 +9,7 @@ import numpy as np
 from .cameras import MODELS, CameraModel
 from .cross_validation import CrossValidation
 from .model_selection import ModelSelection
+from .weighting import corner_weights
 
 __all__ = ["Calibration"]
 
@@ -71,6 +72,12 @@ class Calibration:
         the intrinsics, or a degenerate fit (also in ``notes``).
     model_selection : ModelSelection or None
         How ``model`` was chosen, with ``model="auto"`` (None when it was given).
+    typical_precision : float
+        The set's typical corner precision (px): the median over the usable
+        views of each view's median corner precision (``Board.precision``),
+        which the fit's corner weights are relative to
+        (:mod:`~sogdd.calib.weighting`); NaN when the boards carry none (the
+        fit is then unweighted).
     """
 
     model: CameraModel
@@ -95,6 +102,7 @@ class Calibration:
     square: float = 1.0
     std_note: str = ""
     model_selection: ModelSelection | None = None
+    typical_precision: float = float("nan")
 
     @property
     def n_used(self) -> int:
@@ -105,6 +113,14 @@ class Calibration:
     def n_corners_used(self) -> int:
         """Number of corners the calibration used."""
         return int(sum(int(u.sum()) for u in self.corner_used if u is not None))
+
+    def corner_weights(self, view: int) -> np.ndarray | None:
+        """The fit's weight of each corner of ``view`` (:func:`~sogdd.calib.weighting.corner_weights`);
+        None without a board, or when the fit was unweighted."""
+        b = self.boards[view]
+        if b is None or not np.isfinite(self.typical_precision):
+            return None
+        return corner_weights(b, self.typical_precision)
 
     def coefficients(self) -> dict:
         """The distortion coefficients by name."""

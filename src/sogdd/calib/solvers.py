@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import cv2
 import numpy as np
 from scipy.optimize import least_squares
@@ -12,14 +14,15 @@ from .cameras.models import fisheye_distorted, fisheye_theta
 from .targets.board import Board
 
 __all__ = ["fisheye_fixed", "fit_camera", "fit_fisheye", "fit_fisheye_from", "fit_camera_checked",
-           "jacobian_std", "solve_pose"]
+           "jacobian_std", "refine_weighted", "solve_pose"]
 
 # (JᵀJ with unit columns) beyond this condition number leaves some parameters undetermined: its
 # inverse would carry the rounding of the other parameters, about 1e-16 times this, into them
 _COND_MAX = 1e12
 
 
-def fit_camera(obj: list[np.ndarray], img: list[np.ndarray], size: tuple[int, int], model: str, flags: int):
+def fit_camera(obj: list[np.ndarray], img: list[np.ndarray], size: tuple[int, int], model: str, flags: int,
+               weights: list[np.ndarray] | None = None):
     """One calibration: ``(K, dist, rvecs (V, 3), tvecs (V, 3), std (array or None))``.
 
     Pinhole and rational: ``cv2.calibrateCameraExtended`` (``pinhole4`` with ``CALIB_FIX_K3``: k3
@@ -28,10 +31,18 @@ def fit_camera(obj: list[np.ndarray], img: list[np.ndarray], size: tuple[int, in
     so it is never worse than OpenCV's where OpenCV works, and works where OpenCV's
     initialisation fails (rays near and beyond 90 degrees); its standard deviations
     come from :func:`jacobian_std` (None here). Raises ``cv2.error`` when no fit is possible.
+
+    ``weights`` (per view, one per corner; :func:`sogdd.calib.weighting.corner_weights`)
+    make the fit minimise :math:`\\sum w^2 \\lVert x - \\pi(X) \\rVert^2`: OpenCV's
+    calibration has no weights, so its (unweighted) solution is the start of
+    :func:`refine_weighted`, whose standard deviations replace OpenCV's; the
+    fisheye fit weighs its final least squares. Equal weights change nothing.
     """
     crit = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 100, 1e-12)
+    w = None if weights is None or np.ptp(np.concatenate([np.ravel(x) for x in weights])) == 0 else weights
     if model == "fisheye":
-        K, D, rv, tv = fit_fisheye(obj, img, size, flags, start=_opencv_fisheye(obj, img, size, flags, crit))
+        K, D, rv, tv = fit_fisheye(obj, img, size, flags, start=_opencv_fisheye(obj, img, size, flags, crit),
+                                   weights=w)
         std = None
     else:
         f = flags | (cv2.CALIB_RATIONAL_MODEL if model == "rational" else 0)
@@ -45,13 +56,194 @@ def fit_camera(obj: list[np.ndarray], img: list[np.ndarray], size: tuple[int, in
         std = std.ravel()
     rv = np.array([np.asarray(r, dtype=np.float64).ravel() for r in rv])
     tv = np.array([np.asarray(t, dtype=np.float64).ravel() for t in tv])
+    if w is not None and model != "fisheye":
+        return refine_weighted(obj, img, w, K, D, rv, tv, model, flags)
     return K, np.asarray(D, dtype=np.float64).ravel(), rv, tv, std
 
 
-def fit_camera_checked(obj, img, size, model, flags, what: str):
+def _intrinsic_steps(model: str, flags: int, K: np.ndarray) -> np.ndarray:
+    """The directions in which OpenCV's calibration ``flags`` let ``fx, fy, cx, cy`` and the distortion
+    move, as the columns of a matrix ``T`` ((4 + nd) x free): a step ``z`` moves them by ``T z``.
+
+    ``CALIB_FIX_PRINCIPAL_POINT``, ``CALIB_FIX_FOCAL_LENGTH``, ``CALIB_ZERO_TANGENT_DIST`` /
+    ``CALIB_FIX_TANGENT_DIST`` and ``CALIB_FIX_K1`` .. ``K6`` hold those; ``CALIB_FIX_ASPECT_RATIO``
+    moves ``fy`` with ``fx``, keeping their ratio.
+    """
+    names = ("fx", "fy", "cx", "cy") + MODELS[model]
+    fixed = set()
+    if flags & cv2.CALIB_FIX_PRINCIPAL_POINT:
+        fixed |= {"cx", "cy"}
+    if flags & cv2.CALIB_FIX_FOCAL_LENGTH:
+        fixed |= {"fx", "fy"}
+    if flags & (cv2.CALIB_ZERO_TANGENT_DIST | cv2.CALIB_FIX_TANGENT_DIST):
+        fixed |= {"p1", "p2"}
+    ks = (cv2.CALIB_FIX_K1, cv2.CALIB_FIX_K2, cv2.CALIB_FIX_K3, cv2.CALIB_FIX_K4, cv2.CALIB_FIX_K5,
+          cv2.CALIB_FIX_K6)
+    fixed |= {f"k{i}" for i, bit in enumerate(ks, start=1) if flags & bit}
+    aspect = bool(flags & cv2.CALIB_FIX_ASPECT_RATIO)
+    cols = []
+    for i, n in enumerate(names):
+        if n in fixed or (aspect and n == "fy"):
+            continue
+        c = np.zeros(len(names))
+        c[i] = 1.0
+        if aspect and n == "fx":
+            c[1] = K[1, 1] / K[0, 0]
+        cols.append(c)
+    return np.array(cols).reshape(-1, len(names)).T
+
+
+@dataclass
+class _Normal:
+    """The normal equations :math:`N \\delta = g` of the weighted fit, by blocks: ``U`` (z, z) of the free
+    intrinsics, ``W`` (V, z, 6) between them and each view's pose, ``P`` (V, 6, 6) of each pose (the
+    poses share no residual: ``N``'s pose part is block-diagonal), and ``g`` split the same way."""
+
+    U: np.ndarray
+    W: np.ndarray
+    P: np.ndarray
+    gi: np.ndarray
+    gp: np.ndarray
+
+    def solve(self, lam: float) -> np.ndarray:
+        """The step of :math:`(N + \\lambda\\,\\mathrm{diag} N) \\delta = g`, the poses eliminated (their
+        Schur complement), as ``(intrinsics, poses)`` stacked; raises ``LinAlgError`` when singular."""
+        U = self.U + lam * np.diag(np.maximum(np.diag(self.U), 1e-12))
+        d = np.maximum(np.diagonal(self.P, axis1=1, axis2=2), 1e-12)
+        Pinv = np.linalg.inv(self.P + lam * d[:, :, None] * np.eye(6))
+        WP = np.einsum("vzi,vij->vzj", self.W, Pinv)
+        S = U - np.einsum("vzj,vyj->zy", WP, self.W)
+        di = np.linalg.solve(S, self.gi - np.einsum("vzj,vj->z", WP, self.gp))
+        dp = np.einsum("vij,vj->vi", Pinv, self.gp - np.einsum("vzi,z->vi", self.W, di))
+        return np.r_[di, dp.ravel()]
+
+    def intrinsic_inverse(self) -> np.ndarray:
+        """The intrinsics' block of :math:`N^{-1}`: the inverse of the Schur complement
+        :math:`U - \\sum_v W_v P_v^{-1} W_v^T`; raises ``LinAlgError`` when singular."""
+        WP = np.einsum("vzi,vij->vzj", self.W, np.linalg.inv(self.P))
+        S = self.U - np.einsum("vzj,vyj->zy", WP, self.W)
+        norms = np.sqrt(np.diag(S))
+        if not np.all(norms > 0) or np.linalg.cond(S / np.outer(norms, norms)) > _COND_MAX:
+            raise np.linalg.LinAlgError("degenerate")
+        return np.linalg.inv(S / np.outer(norms, norms)) / np.outer(norms, norms)
+
+
+def _weighted_system(obj, img, weights, intr, poses, T, nd: int, jacobian: bool = True):
+    """Whitened residuals ``w (x - pi)`` (2N,) and, with ``jacobian``, the normal equations
+    (:class:`_Normal`) of the free intrinsics (``T``) and every pose, from ``cv2.projectPoints``' analytic
+    derivatives."""
+    K = np.array([[intr[0], 0.0, intr[2]], [0.0, intr[1], intr[3]], [0.0, 0.0, 1.0]])
+    z, V = T.shape[1], len(obj)
+    ne = _Normal(np.zeros((z, z)), np.zeros((V, z, 6)), np.zeros((V, 6, 6)), np.zeros(z), np.zeros((V, 6)))
+    out = []
+    for v in range(V):
+        p, J = cv2.projectPoints(np.asarray(obj[v], np.float64).reshape(-1, 1, 3), poses[v, :3], poses[v, 3:],
+                                 K, intr[4:4 + nd])
+        w2 = np.repeat(np.asarray(weights[v], np.float64), 2)
+        r = w2 * (np.asarray(img[v], np.float64).reshape(-1, 2) - p.reshape(-1, 2)).ravel()
+        out.append(r)
+        if not jacobian:
+            continue
+        # columns: rvec, tvec, fx, fy, cx, cy, distortion
+        Jp = w2[:, None] * J[:, :6]
+        Ji = (w2[:, None] * J[:, 6:10 + nd]) @ T
+        ne.U += Ji.T @ Ji
+        ne.W[v] = Ji.T @ Jp
+        ne.P[v] = Jp.T @ Jp
+        ne.gi += Ji.T @ r
+        ne.gp[v] = Jp.T @ r
+    return np.concatenate(out), (ne if jacobian else None)
+
+
+def refine_weighted(obj: list[np.ndarray], img: list[np.ndarray], weights: list[np.ndarray], K: np.ndarray,
+                    dist: np.ndarray, rvecs: np.ndarray, tvecs: np.ndarray, model: str, flags: int = 0,
+                    max_iterations: int = 50):
+    """A pinhole or rational calibration refined to minimise the weighted reprojection error.
+
+    Minimises :math:`\\sum_{v,c} w_{vc}^2 \\lVert x_{vc} - \\pi(K, d, R_v X_c + t_v) \\rVert^2`
+    over ``fx, fy, cx, cy`` (skew 0), the distortion (OpenCV's ``model``, the
+    ``flags``' fixed terms held: :func:`_intrinsic_steps`) and every view's pose,
+    by Levenberg-Marquardt from the start ``(K, dist, rvecs, tvecs)`` (OpenCV's
+    unweighted solution): the step solves
+    :math:`(N + \\lambda\\,\\mathrm{diag} N) \\delta = J_w^T r_w` (the poses' blocks eliminated by their
+    Schur complement: they share no residual) with the whitened
+    residuals :math:`r_w = w (x - \\pi)` and Jacobian :math:`J_w = w\\,\\partial\\pi/\\partial\\theta`
+    (``cv2.projectPoints``' analytic one), :math:`N = J_w^T J_w`, and is kept when
+    it lowers the cost. The standard deviations are OpenCV's estimate for the
+    whitened problem: the diagonal of :math:`s^2 N^{-1}`,
+    :math:`s^2 = \\lVert r_w \\rVert^2 / (2N_c - P)` (``P`` free parameters,
+    ``N_c`` corners), 0 for a held parameter; None when :math:`N` (unit columns)
+    has a condition number above 1e12.
+
+    Returns
+    -------
+    ``(K, dist, rvecs (V, 3), tvecs (V, 3), std (4 + nd,) or None)``, as :func:`fit_camera`.
+
+    Examples
+    --------
+    >>> K = np.array([[600.0, 0, 320], [0, 600, 240], [0, 0, 1]])
+    >>> obj = np.array([(i, j, 0.0) for j in range(6) for i in range(9)])
+    >>> poses = [(np.array([0.3 * np.sin(a), 0.3 * np.cos(a), 0.1]), np.array([-4.0, -2.5, 12.0]))
+    ...          for a in range(8)]
+    >>> img = [project(obj, K, np.zeros(5), "pinhole", r, t) for r, t in poses]
+    >>> img[0] = img[0] + 2.0   # one view 2 px off, weighted down a hundredfold
+    >>> w = [np.full(54, 0.01)] + [np.ones(54)] * 7
+    >>> K0 = K * [[1.03], [1.03], [1]]
+    >>> rv, tv = np.array([p[0] for p in poses]), np.array([p[1] for p in poses])
+    >>> Kw, D, _, _, std = refine_weighted([obj] * 8, img, w, K0, np.zeros(5), rv, tv, "pinhole")
+    >>> bool(abs(Kw[0, 0] - 600) < 0.5), std.shape
+    (True, (9,))
+    """
+    nd = len(MODELS[model])
+    T = _intrinsic_steps(model, flags, K)
+    intr = np.r_[K[0, 0], K[1, 1], K[0, 2], K[1, 2], np.asarray(dist, np.float64).ravel()[:nd],
+                 np.zeros(max(0, nd - len(np.ravel(dist))))]
+    poses = np.c_[np.asarray(rvecs, np.float64), np.asarray(tvecs, np.float64)]
+    z = T.shape[1]
+    r, ne = _weighted_system(obj, img, weights, intr, poses, T, nd)
+    cost, lam = float(r @ r), 1e-3
+    for _ in range(int(max_iterations)):
+        improved = done = False
+        while lam < 1e10:
+            try:
+                step = ne.solve(lam)
+            except np.linalg.LinAlgError:
+                lam *= 10
+                continue
+            i2, p2 = intr + T @ step[:z], poses + step[z:].reshape(-1, 6)
+            r2, _ = _weighted_system(obj, img, weights, i2, p2, T, nd, jacobian=False)
+            c2 = float(r2 @ r2)
+            if np.isfinite(c2) and c2 < cost:
+                done = cost - c2 <= 1e-12 * cost
+                intr, poses, cost, lam, improved = i2, p2, c2, max(lam / 10, 1e-9), True
+                break
+            lam *= 10
+        if not improved or done:
+            break
+        r, ne = _weighted_system(obj, img, weights, intr, poses, T, nd)
+    r, ne = _weighted_system(obj, img, weights, intr, poses, T, nd)
+    Kw = np.array([[intr[0], 0.0, intr[2]], [0.0, intr[1], intr[3]], [0.0, 0.0, 1.0]])
+    return Kw, intr[4:].copy(), poses[:, :3].copy(), poses[:, 3:].copy(), _whitened_std(ne, r, T)
+
+
+def _whitened_std(ne: _Normal, r: np.ndarray, T: np.ndarray) -> np.ndarray | None:
+    """The intrinsics' standard deviations :math:`\\sqrt{\\mathrm{diag}(T\\,[s^2 N^{-1}]_{zz} T^T)}`,
+    :math:`s^2 = \\lVert r \\rVert^2 / (\\dim r - \\dim N)`; None when degenerate (a singular pose
+    block, or the intrinsics' Schur complement, columns scaled to unit length, beyond 1e12)."""
+    dof = len(r) - T.shape[1] - ne.P.size // 6
+    try:
+        cov = ne.intrinsic_inverse() * (float(r @ r) / dof) if dof > 0 else None
+    except np.linalg.LinAlgError:
+        cov = None
+    if cov is None or not np.all(np.isfinite(cov)):
+        return None
+    return np.sqrt(np.clip(np.diag(T @ cov @ T.T), 0, None))
+
+
+def fit_camera_checked(obj, img, size, model, flags, what: str, weights=None):
     """:func:`fit_camera`, with OpenCV's failure as a one-line ``ValueError`` naming ``what``."""
     try:
-        return fit_camera(obj, img, size, model, flags)
+        return fit_camera(obj, img, size, model, flags, weights)
     except cv2.error as exc:
         msg = " ".join(str(exc).split())
         raise ValueError(f"OpenCV could not calibrate {what} ({model} model): {msg[-160:]}") from None
@@ -99,7 +291,7 @@ def _residuals(obj, img, theta: np.ndarray, nd: int, model: str, views) -> np.nd
 
 def jacobian_std(obj: list[np.ndarray], img: list[np.ndarray], K: np.ndarray, dist: np.ndarray,
                  rvecs: np.ndarray, tvecs: np.ndarray, model: str,
-                 fixed: np.ndarray | None = None) -> np.ndarray | None:
+                 fixed: np.ndarray | None = None, weights: list[np.ndarray] | None = None) -> np.ndarray | None:
     """Standard deviations of ``fx, fy, cx, cy`` and the distortion at a solution, from the Jacobian.
 
     With :math:`J` the Jacobian of the :math:`2N` reprojection residuals :math:`r`
@@ -109,6 +301,8 @@ def jacobian_std(obj: list[np.ndarray], img: list[np.ndarray], K: np.ndarray, di
     the estimate ``cv2.calibrateCameraExtended`` makes, here for any model (OpenCV's
     fisheye calibration gives none). Skew is held at 0, as the fits do. A
     ``fixed`` parameter (bool per intrinsic) has a standard deviation of 0.
+    With ``weights`` (per view, one per corner) the residuals and their
+    Jacobian are whitened, :math:`w r`: the same estimate for the weighted fit.
 
     Returns
     -------
@@ -150,6 +344,9 @@ def jacobian_std(obj: list[np.ndarray], img: list[np.ndarray], K: np.ndarray, di
         J[sl, j] = (_residuals(obj, img, up, nd, model, views)
                     - _residuals(obj, img, down, nd, model, views)) / (2 * h)
     J = J[:, free]
+    if weights is not None:
+        w2 = np.repeat(np.concatenate([np.ravel(w) for w in weights]).astype(np.float64), 2)
+        r0, J = w2 * r0, w2[:, None] * J
     dof = len(r0) - J.shape[1]
     norms = np.linalg.norm(J, axis=0)
     if dof <= 0 or not np.all(norms > 0):
@@ -237,15 +434,16 @@ def _sparsity(view: np.ndarray, n_views: int, n_intr: int):
     return coo_matrix((np.ones(len(r), np.int8), (r, c)), shape=(len(rows), n_intr + 6 * n_views)).tocsr()
 
 
-def _fisheye_lsq(intr0, poses0, X, uv, view, free, max_nfev, robust: bool):
+def _fisheye_lsq(intr0, poses0, X, uv, view, free, max_nfev, robust: bool, weights=None):
     """Least squares over the free intrinsics and every pose (TRF, finite differences on the sparse
-    Jacobian); returns ``(intrinsics, poses, cost)``."""
+    Jacobian), each corner's residual times its weight (none: 1); returns ``(intrinsics, poses, cost)``."""
     V, nf = len(poses0), int(free.sum())
+    w = 1.0 if weights is None else np.repeat(np.asarray(weights, np.float64), 2)
 
     def fun(x):
         intr = intr0.copy()
         intr[free] = x[:nf]
-        return _fisheye_residuals(intr, x[nf:].reshape(V, 6), X, uv, view)
+        return w * _fisheye_residuals(intr, x[nf:].reshape(V, 6), X, uv, view)
 
     x0 = np.r_[intr0[free], poses0.ravel()]
     kw = {"loss": "soft_l1", "f_scale": _START_LOSS_SCALE} if robust else {}
@@ -325,7 +523,7 @@ def _initial_poses(obj, img, intr: np.ndarray, X, uv, view) -> np.ndarray | None
 
 
 def fit_fisheye(obj: list[np.ndarray], img: list[np.ndarray], size: tuple[int, int], flags: int = 0,
-                start: tuple[np.ndarray, np.ndarray] | None = None):
+                start: tuple[np.ndarray, np.ndarray] | None = None, weights: list[np.ndarray] | None = None):
     """Fit OpenCV's fisheye model to views by least squares, for lenses up to and beyond 180 degrees.
 
     The model is ``cv2.fisheye``'s (skew 0): a point :math:`X_c = R_v X + t_v`
@@ -358,6 +556,9 @@ def fit_fisheye(obj: list[np.ndarray], img: list[np.ndarray], size: tuple[int, i
         ``CALIB_FIX_FOCAL_LENGTH`` and ``CALIB_FIX_PRINCIPAL_POINT`` at the start's.
     start : (intrinsics (8,), poses (V, 6)), optional
         One more start.
+    weights : list of (N_v,) arrays, optional
+        Per view, each corner's weight ``w`` (:func:`sogdd.calib.weighting.corner_weights`): the final
+        fit minimises :math:`\\sum w^2 \\lVert x - \\pi(X) \\rVert^2` (the starts are ranked unweighted).
 
     Returns
     -------
@@ -404,7 +605,8 @@ def fit_fisheye(obj: list[np.ndarray], img: list[np.ndarray], size: tuple[int, i
     order = np.argsort([_robust_cost(_fisheye_residuals(i, p, X, uv, view)) for i, p in starts])
     ranked = [_fisheye_lsq(*starts[n], X, uv, view, free, _START_STEPS, True) for n in order[:_STARTS_FITTED]]
     intr, poses, _ = min(ranked, key=lambda s: s[2] if np.isfinite(s[2]) else np.inf)
-    intr, poses, _ = _fisheye_lsq(intr, poses, X, uv, view, free, 500, robust=False)
+    wts = None if weights is None else np.concatenate([np.ravel(w) for w in weights])
+    intr, poses, _ = _fisheye_lsq(intr, poses, X, uv, view, free, 500, robust=False, weights=wts)
     K = np.array([[intr[0], 0.0, intr[2]], [0.0, intr[1], intr[3]], [0.0, 0.0, 1.0]])
     return K, intr[4:8].copy(), poses[:, :3].copy(), poses[:, 3:].copy()
 

@@ -87,8 +87,9 @@ def verdict(cal: Calibration) -> list[tuple[str, str]]:
     both 2 px and 3 times the largest inside is extrapolation; corners in
     fewer than half of the outer ring of an 8 x 6 grid of the frame cover
     "only the centre"; no view tilting the board 15 degrees or
-    more leaves the focal length weak; more than a fifth of the views rejected
-    is reported; with ``model="auto"``, how the model was chosen (a "warn" when
+    more leaves the focal length weak; any view rejected as smeared
+    (:func:`~sogdd.calib.weighting.smeared_views`) and more than a fifth of the
+    views rejected are reported; with ``model="auto"``, how the model was chosen (a "warn" when
     too few views left the choice to the simplest model). Without a "warn" or
     "bad" finding it opens with an "ok" saying the calibration looks sound.
 
@@ -142,6 +143,10 @@ def verdict(cal: Calibration) -> list[tuple[str, str]]:
     out += _coverage_findings(cal)
     out += _cross_validation_findings(cal)
     out += _selection_findings(cal)
+    smeared = sum(r.startswith("smeared") for r in cal.reasons)
+    if smeared:
+        out.append(("warn", f"{smeared} of {total} views rejected as smeared (views.csv): their corners far "
+                            "less precise than the set's, from motion or focus blur; hold the board still"))
     rejected = total - n - sum(r == "no board" for r in cal.reasons)
     if rejected > 0.2 * total:
         out.append(("warn", f"{rejected} of {total} views rejected (see views.csv): check those images"))

@@ -20,7 +20,7 @@ reflection or a pattern in the background) is never a view.
 
 Writes into --out: camera.yaml (OpenCV FileStorage), camera.json, views.csv (per
 input: corners found, RMS, used or not and why; an image that could not be read
-too), corners.csv (view,i,j,x,y,residual,used) and report.html with its figures
+too), corners.csv (view,i,j,x,y,residual,used,sigma_px) and report.html with its figures
 (report/). Corners and views whose residuals lie far beyond the rest are
 rejected and reported. The folder ends complete or as it was: a new or empty
 folder, or a previous output of sogdd calibrate, which is replaced whole; a

@@ -27,6 +27,7 @@ from ..rejection import State, _reject_corners, _reject_view, robust_limit
 from ..result import Calibration
 from ..solvers import _rodrigues
 from ..targets.board import Board
+from ..weighting import corner_weights
 from . import labels as _labels
 from . import uncertainty as _unc
 from .result import RigCalibration, RigCamera
@@ -287,19 +288,21 @@ def _layout(nds: list[int], frames: list[int], private: list[bool]) -> _Layout:
 
 @dataclass
 class _Corners:
-    """Corners as flat arrays: camera, frame, board point, pixel; and where each view's corners lie."""
+    """Corners as flat arrays: camera, frame, board point, pixel, weight in the fit; and where each view's
+    corners lie."""
 
     cam: np.ndarray
     frame: np.ndarray
     X: np.ndarray
     uv: np.ndarray
     segments: list  # (camera, frame, corner indices in the board, slice in the arrays)
+    w: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
 def _gather(states, square, take, private) -> _Corners:
     """The corners ``take(c, f, state)`` selects (an index array into the board, or None), their
     frames mapped by :func:`_joint_frame`."""
-    cam, frm, X, uv, seg, at = [], [], [], [], [], 0
+    cam, frm, X, uv, seg, w, at = [], [], [], [], [], [], 0
     for c, st in enumerate(states):
         for f, b in enumerate(st.boards):
             idx = None if b is None else take(c, f, st)
@@ -309,11 +312,13 @@ def _gather(states, square, take, private) -> _Corners:
             frm.append(np.full(len(idx), _joint_frame(c, f, len(st.boards), private[c])))
             X.append(b.object_points(square)[idx])
             uv.append(b.image_points[idx])
+            w.append(corner_weights(b, st.typical)[idx])
             seg.append((c, f, idx, slice(at, at + len(idx))))
             at += len(idx)
     if not seg:
         return _Corners(np.zeros(0, int), np.zeros(0, int), np.zeros((0, 3)), np.zeros((0, 2)), [])
-    return _Corners(np.concatenate(cam), np.concatenate(frm), np.concatenate(X), np.concatenate(uv), seg)
+    return _Corners(np.concatenate(cam), np.concatenate(frm), np.concatenate(X), np.concatenate(uv), seg,
+                    np.concatenate(w))
 
 
 def _predict(x: np.ndarray, lay: _Layout, models: list[str], co: _Corners) -> np.ndarray:
@@ -413,8 +418,8 @@ def _solve(states, par: _Params, models, square, private):
     for f, s in lay.frame.items():
         x0[s] = par.frames[f]
 
-    def fun(x):
-        return (used.uv - _predict(x, lay, models, used)).ravel()
+    def fun(x):  # whitened: each corner's residual times its weight (each camera's own set's, mono's)
+        return ((used.uv - _predict(x, lay, models, used)) * used.w[:, None]).ravel()
 
     S = _sparsity(lay, used).tocsc()
     dense = S.shape[0] * S.shape[1] <= _DENSE_MAX
@@ -511,7 +516,8 @@ def _camera_result(c, name, st, res, par, thresholds, cov, lay, std_note, privat
         names=tuple(st.names), boards=tuple(st.boards), residuals=tuple(res), corner_used=corner_used,
         view_used=st.view_ok.copy(), view_rms=_view_rms(res, st), reasons=tuple(st.reasons),
         corner_reasons=tuple(st.corner_reasons), rvecs=rvecs, tvecs=tvecs, cross_validation=None,
-        thresholds=thresholds, notes=(), square=st.square, std_note=std_note, model_selection=selection)
+        thresholds=thresholds, notes=(), square=st.square, std_note=std_note, model_selection=selection,
+        typical_precision=st.typical)
     if private:  # no frame ties it to the reference: its pose is unknown
         Pc = (np.full((3, 3), np.nan), np.full(3, np.nan))
         std.update({"T": [float("nan")] * 3, "baseline": float("nan"), "rotation_deg": float("nan")})
@@ -547,7 +553,11 @@ def calibrate_rig(
         \\sum_{c, f, i} \\lVert u_{cfi} - \\pi_c(R_c (R_f X_i + t_f) + T_c) \\rVert^2
 
     (``scipy.optimize.least_squares``, TRF, the Jacobian's sparsity given: a
-    residual depends on its camera's intrinsics and pose and its frame's pose).
+    residual depends on its camera's intrinsics and pose and its frame's pose),
+    each corner's residual whitened by its measured precision where the boards
+    carry one: times :func:`~sogdd.calib.weighting.corner_weights` relative to
+    its camera's typical corner (``Calibration.typical_precision`` of its own
+    calibration, whose smeared views stay out of the joint fit too).
     A frame seen by one camera still constrains that camera's intrinsics.
 
     The start: each camera's :func:`~sogdd.calib.calibrate` (its rejection too);
@@ -626,7 +636,7 @@ def calibrate_rig(
                      np.array([bool(mono[n].view_used[f] and start.resolved[n][f]) for f in range(F)]),
                      start.reasons[n], [np.asarray(u, bool).copy() if u is not None else None
                                         for u in mono[n].corner_used],
-                     [dict(r) for r in mono[n].corner_reasons]) for n in names]
+                     [dict(r) for r in mono[n].corner_reasons], mono[n].typical_precision) for n in names]
     for n, st in zip(names, states):
         if st.view_ok.sum() < min_views:
             why = sorted({r.split(" (")[0] for r in st.reasons if r and r != "no board"})
@@ -665,8 +675,11 @@ def _finish(names, states, par, frame_names, square, notes, resolved, private, s
         layout[f"frame.{f}.pose" if f < F else f"{names[f // F - 1]}.frame.{f % F}.pose"] = s
     used = np.array([f in lay.frame for f in range(F)])
     fr = np.where(used[:, None], par.frames[:F], np.nan)
+    # in px, not whitened: over every camera's used corners
+    r2 = np.concatenate([np.sum(res[c][f][st.corner_ok[f]] ** 2, axis=1) for c, st in enumerate(states)
+                         for f in np.flatnonzero(st.view_ok) if res[c][f] is not None])
     return RigCalibration(
         cameras=cameras, frames=tuple(frame_names), rvecs=fr[:, :3].copy(), tvecs=fr[:, 3:].copy(),
-        frame_used=used, rms=float(np.sqrt(np.mean(sol.fun ** 2) * 2)), sigma=sigma, covariance=cov,
+        frame_used=used, rms=float(np.sqrt(np.mean(r2))), sigma=sigma, covariance=cov,
         layout=layout, square=square, notes=tuple(notes),
         model_selection={n: s for n, s in selections.items() if s is not None} or None)

@@ -24,6 +24,8 @@ board's normal and ``s`` the square.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import cv2
 import numpy as np
 from scipy.spatial import cKDTree
@@ -73,7 +75,7 @@ def ambiguity(board: Board, pattern: tuple[int, int] | None) -> str:
 def relabel(board: Board, k: int, offset) -> Board:
     """``board`` with labels :math:`R_k l + o` (corners in the same order; a partial board stays partial)."""
     lab = board.labels @ LABEL_TURNS[k % 4].T + np.asarray(offset, np.int64)
-    return Board(board.image_points, lab, board.quality, board.size, board.outline, board.ids)
+    return replace(board, labels=lab)
 
 
 def transform(k: int, offset, square: float) -> tuple[np.ndarray, np.ndarray]:

@@ -95,7 +95,9 @@ class RigCalibration:
         RMS reprojection error over every used corner of every camera (px).
     sigma : float
         The corner noise the covariance is scaled by (px):
-        :math:`\\sqrt{\\lVert r \\rVert^2 / (2N - P)}`.
+        :math:`\\sqrt{\\lVert r \\rVert^2 / (2N - P)}`, of the whitened residuals
+        ``r = w (x - pi)`` where the corners carry their precision (px of each
+        camera's typical corner, :mod:`~sogdd.calib.weighting`).
     covariance : (P, P) float64
         Of the fit's free parameters, :math:`\\sigma^2 (J^T J)^{-1}`; empty when
         the fit is degenerate.

@@ -6,25 +6,29 @@
 :mod:`.lattice`: the lattice grown from X-corners by local-homography prediction, and its check.
 :mod:`.windows`: a board's corners refined: windows that stop at its edge, shading out, the symmetry test.
 :mod:`.fill`: corners at the labels a grown lattice left free, measured where the lattice puts them.
+:mod:`.proposals`: OpenCV's chessboard detectors as a second source of board candidates.
 :mod:`.chessboard`: chessboard detection, from X-corners to refined, labelled boards.
 :mod:`.charuco`: ChArUco detection (OpenCV's markers, sogdd's refinement).
 :mod:`.refine`: corner refinement to the centre of point symmetry (``cv2.cornerSubPix``'s contract).
+:mod:`.precision`: a board's corner precision, each corner's measured 1-sigma position uncertainty.
 """
 
 from .board import Board
 from .charuco import detect_charuco
-from .chessboard import detect_board, detect_boards
+from .chessboard import BoardSearch, detect_board, detect_boards, find_boards
 from .refine import refine_corners
 from .spec import BoardSpec, grid_dims, parse_board
 from .xcorners import XCorners, find_xcorners
 
 __all__ = [
     "Board",
+    "BoardSearch",
     "BoardSpec",
     "XCorners",
     "detect_board",
     "detect_boards",
     "detect_charuco",
+    "find_boards",
     "find_xcorners",
     "grid_dims",
     "parse_board",

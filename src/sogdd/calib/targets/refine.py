@@ -47,7 +47,7 @@ from scipy.spatial import cKDTree
 
 from .xcorners import to_grey
 
-__all__ = ["cell_sizes", "refine_corners"]
+__all__ = ["cell_sizes", "corner_covariance", "half_widths", "refine_corners"]
 
 _JIT = dict(cache=True, nogil=True, error_model="numpy")
 #: the most sampling steps of the window each way from the centre (larger windows are strided)
@@ -168,6 +168,90 @@ def _refine(img, pts, half, stride, max_shift, iterations, tol, out, quality):  
             out[k, 0] = px0
             out[k, 1] = py0
             quality[k] = 0.0
+
+
+@numba.njit(**_JIT)
+def _spread(acc, x, y, ox, oy, gx, gy):  # pragma: no cover - jit
+    """Add ``(gx, gy)`` times the bilinear weights of the sample at ``(x, y)`` (inside the image, as the
+    windows keep it) to its four pixels in ``acc`` (pixel ``(i, j)`` at ``acc[j - oy, i - ox]``); return the
+    sum of the squared weights."""
+    x0 = int(x)
+    y0 = int(y)
+    fx = x - x0
+    fy = y - y0
+    q = 0.0
+    for j in range(2):
+        wy = fy if j else 1.0 - fy
+        for i in range(2):
+            c = wy * (fx if i else 1.0 - fx)
+            acc[y0 + j - oy, x0 + i - ox, 0] += c * gx
+            acc[y0 + j - oy, x0 + i - ox, 1] += c * gy
+            q += c * c
+    return q
+
+
+@numba.njit(**_JIT)
+def _noise_gain(img, px, py, R, s, inv):  # pragma: no cover - jit
+    """``G = sum_i g_i g_i^T`` (as ``G00, G01, G11``) and ``q = sum_d w_d sum_i l_di^2`` of
+    :func:`corner_covariance` at ``(px, py)``: each term's ``w_d J_d`` spread onto the pixels its two
+    samples interpolate, ``+`` at ``p + d`` and ``-`` at ``p - d``."""
+    H, W = img.shape
+    ox = max(int(math.floor(px)) - R - 1, 0)  # the pixels of the samples p +- d, |d| <= R
+    oy = max(int(math.floor(py)) - R - 1, 0)
+    acc = np.zeros((min(int(math.floor(py)) + R + 3, H) - oy, min(int(math.floor(px)) + R + 3, W) - ox, 2))
+    q = 0.0
+    for dy in range(0, R + 1, s):
+        for dx in range(-R, R + 1, s):
+            if dy == 0 and dx <= 0:
+                continue  # d and -d give the same term
+            w = math.exp(-(dx * dx + dy * dy) * inv)
+            xa = px + dx
+            ya = py + dy
+            xb = px - dx
+            yb = py - dy
+            gx = w * 0.5 * (_bil(img, xa + 1, ya) - _bil(img, xa - 1, ya)
+                            - _bil(img, xb + 1, yb) + _bil(img, xb - 1, yb))
+            gy = w * 0.5 * (_bil(img, xa, ya + 1) - _bil(img, xa, ya - 1)
+                            - _bil(img, xb, yb + 1) + _bil(img, xb, yb - 1))
+            q += w * _spread(acc, xa, ya, ox, oy, gx, gy)
+            q += w * _spread(acc, xb, yb, ox, oy, -gx, -gy)
+    g = acc.reshape(-1, 2)
+    return np.sum(g[:, 0] * g[:, 0]), np.sum(g[:, 0] * g[:, 1]), np.sum(g[:, 1] * g[:, 1]), q
+
+
+@numba.njit(parallel=True, **_JIT)
+def _covariance(img, pts, half, stride, out):  # pragma: no cover - jit
+    """Each point's position covariance (:func:`corner_covariance`); NaN where it has none."""
+    for k in numba.prange(pts.shape[0]):
+        px = pts[k, 0]
+        py = pts[k, 1]
+        R = half[k]
+        sig = max(R / 1.0, 1.0)
+        inv = 1.0 / (2.0 * sig * sig)
+        A = np.empty((2, 2))
+        b = np.empty(2)
+        e, _ = _normal(img, px, py, R, stride[k], inv, A, b)
+        out[k, :, :] = np.nan
+        det = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
+        if not (det > 1e-12 * (A[0, 0] * A[1, 1] + 1e-300)):
+            continue
+        G00, G01, G11, q = _noise_gain(img, px, py, R, stride[k], inv)
+        a00 = A[1, 1] / det
+        a01 = -A[0, 1] / det
+        a11 = A[0, 0] / det
+        # M = A^-1 G, its trace, and A^-1 G A^-1
+        m00 = a00 * G00 + a01 * G01
+        m01 = a00 * G01 + a01 * G11
+        m10 = a01 * G00 + a11 * G01
+        m11 = a01 * G01 + a11 * G11
+        dof = q - (m00 + m11)
+        if not (dof > 0.0):
+            continue
+        noise = e / dof
+        out[k, 0, 0] = noise * (m00 * a00 + m01 * a01)
+        out[k, 0, 1] = noise * (m00 * a01 + m01 * a11)
+        out[k, 1, 0] = out[k, 0, 1]
+        out[k, 1, 1] = noise * (m10 * a01 + m11 * a11)
 
 
 def cell_sizes(points: np.ndarray) -> np.ndarray:
@@ -378,19 +462,117 @@ def refine_corners(image: np.ndarray, corners: object, winSize: int | tuple[int,
     return (result, quality) if return_quality else result
 
 
+def _windows(shape: tuple[int, ...], pts: np.ndarray, half: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The half-widths cut to stay inside the image (with the gradient's pixel), and their sampling strides."""
+    H, W = shape[:2]
+    room = np.floor(np.min(np.c_[pts, W - 1 - pts[:, 0], H - 1 - pts[:, 1]], axis=1)) - 2  # and the gradient
+    half = np.maximum(np.minimum(half, room), 1).astype(np.int64)  # the window stays inside the image
+    stride = np.maximum(1, -(-half // MAX_HALF)).astype(np.int64)
+    return half, stride
+
+
 def refine_grey(grey: np.ndarray, pts: np.ndarray, half: np.ndarray, shift: np.ndarray,
                 iterations: int = 20, tol: float = DEFAULT_TOL) -> tuple[np.ndarray, np.ndarray]:
     """:func:`refine_corners` on a validated grey image with per-point half-widths and shift bounds.
 
     At most ``iterations`` Gauss-Newton steps, stopping after a step of at most ``tol`` px.
     """
-    H, W = grey.shape
-    room = np.floor(np.min(np.c_[pts, W - 1 - pts[:, 0], H - 1 - pts[:, 1]], axis=1)) - 2  # and the gradient
-    half = np.maximum(np.minimum(half, room), 1).astype(np.int64)  # the window stays inside the image
-    stride = np.maximum(1, -(-half // MAX_HALF)).astype(np.int64)
+    half, stride = _windows(grey.shape, pts, half)
     out = np.empty_like(pts)
     quality = np.zeros(len(pts))
     if len(pts):
         _refine(np.ascontiguousarray(grey, dtype=np.float64), pts, half.astype(np.int64), stride,
                 shift.astype(np.float64), int(iterations), float(tol), out, quality)
     return out, quality
+
+
+def corner_covariance(grey: np.ndarray, xy: np.ndarray, half: np.ndarray | int) -> np.ndarray:
+    """The covariance of refined corners' positions under the image's noise, (N, 2, 2) px^2.
+
+    The refinement (module doc) minimises ``E(p) = sum_d w_d r_d^2`` over the
+    half-window of offsets ``d`` (``d`` and ``-d`` are one term), with
+    ``r_d = I(p + d) - I(p - d)``, ``J_d = grad I(p + d) - grad I(p - d)`` and the
+    normal matrix ``A = sum_d w_d J_d J_d^T``. Each sample ``I(q)`` is the bilinear
+    interpolation ``sum_i b_i(q) I_i`` of the pixels ``I_i``; with white pixel
+    noise ``n_i`` of variance ``sigma_n^2``, the residuals' noise is
+    ``e_d = sum_i l_di n_i``, ``l_di = b_i(p + d) - b_i(p - d)``, and linearising
+    the optimum's condition ``sum_d w_d J_d r_d = 0`` moves the corner by
+
+        delta p = -A^-1 sum_d w_d J_d e_d = -A^-1 sum_i g_i n_i,
+        g_i = sum_d w_d J_d l_di,
+
+    so that its covariance is
+
+        C = sigma_n^2 A^-1 G A^-1,   G = sum_i g_i g_i^T.
+
+    ``sigma_n^2`` is measured from the fit's own residuals: with the hat matrix
+    ``H = J A^-1 J^T W``, the fitted residuals are ``(I - H) e`` and
+    ``E[E] = sigma_n^2 (tr(W L L^T) - tr(A^-1 G))`` (the two cross terms are
+    both ``tr(A^-1 G)``), ``tr(W L L^T) = sum_d w_d sum_i l_di^2``, so
+
+        sigma_n^2 = E / (sum_d w_d sum_i l_di^2 - tr(A^-1 G)).
+
+    This is the weighted form of ``s^2 = E / (n - 2)``, ``C = s^2 A^-1``, which
+    it is for unit weights and independent samples: ``G = A`` and
+    ``sum_i l_di^2 = 1`` make ``C = E / (n - 2) A^-1``. Here neither holds: the
+    Gaussian weights are a window, not inverse variances (hence the sandwich
+    ``A^-1 G A^-1``), and the samples at neighbouring offsets share pixels
+    through the interpolation (at a fraction ``f`` of a pixel each sample's
+    variance is ``((1 - f_x)^2 + f_x^2)((1 - f_y)^2 + f_y^2)`` of a pixel's, as
+    little as a quarter, while their sum over the window carries a pixel's
+    whole noise): ``G`` and ``l`` count every pixel once, exactly, so the
+    covariance holds at any fraction. A departure from point symmetry
+    (a shadow, a window reaching beyond the squares) adds to ``E`` as noise
+    does, and makes ``C`` larger: it is the corner's precision as measured,
+    never better than its noise.
+
+    Parameters
+    ----------
+    grey : (H, W) ndarray
+        The grey image the corners were refined on, float on 0-255 (what
+        :func:`sogdd.calib.targets.xcorners.to_grey` returns; any real dtype).
+    xy : (N, 2) array_like
+        The refined corners (x = column, y = row).
+    half : int or (N,) array_like of int
+        The refinement windows' half-widths (:func:`half_widths`); cut to stay
+        inside the image, and sampled with the strides, as :func:`refine_grey` does.
+
+    Returns
+    -------
+    (N, 2, 2) float64
+        Each corner's covariance in px^2; NaN where the normal matrix is
+        singular (a flat or one-edge window), the residuals have no degrees
+        of freedom left, or the corner lies within 3 px of the image's edge.
+
+    Examples
+    --------
+    >>> import cv2
+    >>> t = np.arange(40) + 0.5 - 20.3   # pixel centres relative to a corner at x = y = 19.8
+    >>> edge = np.clip(t, -0.5, 0.5)
+    >>> clean = cv2.GaussianBlur(128 + 160 * edge[:, None] * edge[None, :], (0, 0), 1.5)
+    >>> img = clean + np.random.default_rng(0).normal(0, 2.0, clean.shape)  # noise of 2 grey levels
+    >>> xy = refine_grey(img, np.array([[19.5, 19.5]]), np.array([6]), np.array([6.0]))[0]
+    >>> C = corner_covariance(img, xy, 6)
+    >>> C.shape, bool(0.01 < np.sqrt(np.linalg.eigvalsh(C[0])[-1]) < 0.05)
+    ((1, 2, 2), True)
+    """
+    img = np.ascontiguousarray(grey, dtype=np.float64)
+    if img.ndim != 2 or min(img.shape) < 8:
+        raise ValueError(f"grey must be a 2-D image of at least 8 x 8 pixels, got shape {np.shape(grey)}")
+    pts = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    if not np.isfinite(pts).all():
+        raise ValueError("xy must be finite")
+    h = np.broadcast_to(np.asarray(half), (len(pts),)) if np.ndim(half) == 0 else np.asarray(half).reshape(-1)
+    if len(h) != len(pts) or not np.all(np.isfinite(h)) or np.any(h < 1):
+        raise ValueError(f"half must be a half-width >= 1, one or one per point, got {np.shape(half)}")
+    H, W = img.shape
+    # a window of at least 1 px and its gradient's pixel inside the image
+    inside = np.min(np.c_[pts, W - 1 - pts[:, 0], H - 1 - pts[:, 1]], axis=1) >= 3
+    out = np.full((len(pts), 2, 2), np.nan)
+    k = np.flatnonzero(inside)
+    if len(k):
+        hk, stride = _windows(img.shape, pts[k], np.rint(h[k]).astype(np.int64))
+        cov = np.empty((len(k), 2, 2))
+        _covariance(img, np.ascontiguousarray(pts[k]), hk, stride, cov)
+        out[k] = cov
+    return out
