@@ -26,10 +26,9 @@ from ..image.files import max_pixels_limit, opencv_message, read_image
 from ..image.grey import to_gray255
 from ..image.validate import validate_image
 from .result import Calibration
-from .targets import charuco, chessboard
 from .targets.board import Board
 from .targets.precision import measure_precision
-from .targets.spec import BoardSpec, grid_dims
+from .targets.spec import BoardSpec, view_boards
 
 __all__ = ["BOARD_CHOICES", "READ_OPTIONS", "SMALL_CELL", "THUMB_WIDTH", "BoardChoice", "Thumbnail",
            "ViewRecord", "ViewResult", "ViewStatus", "cell_size", "check_read_options", "detect_files",
@@ -251,10 +250,6 @@ def pick_boards(boards: Sequence[Board], spec: BoardSpec, choice: BoardChoice = 
     return tuple(boards[k] for k in views), tuple((boards[k], why) for k, why in ignored)
 
 
-def _matches(size, pattern) -> bool:
-    return size is None or tuple(size) in (tuple(pattern), tuple(pattern)[::-1])
-
-
 def _read(path: str, read_options: Mapping | None) -> np.ndarray:
     """The image file as read (:func:`sogdd.read_image`), checked by the core's rules; the detectors make it
     grey, once, by the core's conversion."""
@@ -296,43 +291,9 @@ def detect_view(path: str | os.PathLike, spec: BoardSpec, read_options: Mapping 
         return ViewResult(path, error=f"{path}: out of memory")
     size = (int(image.shape[1]), int(image.shape[0]))
     thumb = make_thumbnail(image, thumb_width) if thumb_width else None
-    if spec.kind == "charuco":
-        b = charuco.detect_charuco(image, spec.charuco_board())
-        found = ViewResult(path, (b,) if b is not None and len(b) else (), size,
-                           seen="" if b is not None else "no ChArUco markers/corners")
-    else:
-        found = _boards(path, image, size, spec)
-    return ViewResult(found.path, measure_precision(image, found.boards), size, seen=found.seen,
+    found = view_boards(image, spec)
+    return ViewResult(path, measure_precision(image, found.boards), size, seen=found.seen,
                       other_size=found.other_size, thumbnail=thumb)
-
-
-def _boards(path: str, grey: np.ndarray, size, spec: BoardSpec) -> ViewResult:
-    """The view's boards of ``spec``; where there is none, what the same search saw instead.
-
-    A complete grid that does not fit in the pattern (in either orientation)
-    cannot be part of it: its size contradicts the pattern.
-    """
-    found = chessboard.find_boards(grey, spec.pattern)
-    boards = [b for b in found.boards if len(b)]
-    if spec.pattern is None:
-        return ViewResult(path, tuple(boards), size, seen="" if boards else "no board")
-    wrong = [b for b in boards if not _matches(b.size, spec.pattern)]
-    boards = [b for b in boards if _matches(b.size, spec.pattern)]
-    if boards:
-        return ViewResult(path, tuple(boards), size)
-    for b in wrong + found.others:
-        dims = b.size if b.size is not None else grid_dims(b)
-        if dims is not None and not _fits(dims, spec.pattern):
-            return ViewResult(path, (), size, seen=f"a board of {dims[0]}x{dims[1]} inner corners",
-                              other_size=tuple(dims))
-    if found.others:
-        return ViewResult(path, (), size, seen=f"a partial board ({max(len(b) for b in found.others)} corners)")
-    return ViewResult(path, (), size, seen="no board")
-
-
-def _fits(dims, pattern) -> bool:
-    (w, h), (c, r) = dims, pattern
-    return (w <= c and h <= r) or (w <= r and h <= c)
 
 
 def _died(a: tuple, message: str) -> ViewResult:

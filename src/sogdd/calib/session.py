@@ -53,8 +53,8 @@ from .files import FILES, write_calibration
 from .fit import calibrate
 from .model_selection import ModelChoice, check_model_choice
 from .result import Calibration
-from .targets.board import Board
-from .targets.spec import BoardSpec, grid_dims, parse_board
+from .targets.board import Board, grid_dims
+from .targets.spec import BoardSpec, parse_board
 
 __all__ = ["OUTPUTS", "ImageCalibration", "calibrate_images", "check_output_folder", "foreign_entry",
            "write_folder", "write_outputs"]

@@ -13,11 +13,11 @@
 :mod:`.precision`: a board's corner precision, each corner's measured 1-sigma position uncertainty.
 """
 
-from .board import Board
+from .board import Board, grid_dims
 from .charuco import detect_charuco
 from .chessboard import BoardSearch, detect_board, detect_boards, find_boards
 from .refine import refine_corners
-from .spec import BoardSpec, grid_dims, parse_board
+from .spec import BoardSpec, parse_board
 from .xcorners import XCorners, find_xcorners
 
 __all__ = [

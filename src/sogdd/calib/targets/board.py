@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["LABEL_TURNS", "Board"]
+__all__ = ["LABEL_TURNS", "Board", "ViewBoards", "grid_dims", "parse_grid"]
 
 
 #: the four quarter turns of a board's label grid, ``labels @ T.T`` (identity, then a quarter turn at a time)
@@ -118,3 +119,45 @@ def _hull(pts: np.ndarray) -> np.ndarray:
     import cv2
 
     return cv2.convexHull(pts.astype(np.float32)).reshape(-1, 2).astype(np.float64)
+
+
+def grid_dims(board: Board) -> tuple[int, int] | None:
+    """(columns, rows) of a board whose labels fill a whole rectangle, else None.
+
+    Examples
+    --------
+    >>> grid_dims(Board(np.zeros((6, 2)), [(i, j) for j in range(2) for i in range(3)]))
+    (3, 2)
+    """
+    lab = board.labels
+    if len(lab) == 0:
+        return None
+    w, h = (int(v) for v in lab.max(axis=0) - lab.min(axis=0) + 1)
+    return (w, h) if w * h == len(lab) else None
+
+
+@dataclass(frozen=True)
+class ViewBoards:
+    """A view's boards of the kind asked for and, where there is none, what the view shows instead.
+
+    ``boards`` as the kind's detector returns them; ``seen`` says in a few
+    words what the detector found where no board matched ("" when one did);
+    ``other_size`` is the (columns, rows) of a complete board of another size
+    than the one asked for, seen and ignored.
+    """
+
+    boards: tuple[Board, ...]
+    seen: str = ""
+    other_size: tuple[int, int] | None = None
+
+
+def parse_grid(text: str) -> tuple[int, int] | None:
+    """``COLSxROWS`` of a board specification as two integers, or None when the text is not of that form.
+
+    Examples
+    --------
+    >>> parse_grid("9x6"), parse_grid("9X6"), parse_grid("9 x 6")
+    ((9, 6), (9, 6), None)
+    """
+    m = re.fullmatch(r"(\d+)[xX](\d+)", text)
+    return (int(m.group(1)), int(m.group(2))) if m else None

@@ -19,11 +19,64 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from .board import Board
+from .board import Board, ViewBoards, parse_grid
 from .refine import cell_sizes, refine_grey
 from .xcorners import to_grey
 
-__all__ = ["detect_charuco"]
+__all__ = ["charuco_board", "detect_charuco", "parse_spec", "spec_text", "view_boards"]
+
+
+def charuco_board(squares: tuple[int, int], marker: float, dictionary: str,
+                  square: float = 1.0) -> cv2.aruco.CharucoBoard:
+    """OpenCV's ChArUco board of ``squares`` (columns, rows), markers ``marker`` of a square, ``dictionary``.
+
+    Examples
+    --------
+    >>> charuco_board((5, 7), 0.7, "DICT_5X5_100").getChessboardSize()
+    (5, 7)
+    """
+    d = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, dictionary))
+    return cv2.aruco.CharucoBoard(tuple(squares), float(square), float(square) * float(marker), d)
+
+
+def parse_spec(parts: list[str], spec: str) -> dict | None:
+    """The fields of ``charuco:COLSxROWS:MARKER:DICT`` after its name (a row of
+    :data:`sogdd.calib.targets.spec.KINDS`); None when they are not of that form.
+
+    Examples
+    --------
+    >>> parse_spec(["5x7", "0.7", "dict_5x5_100"], "charuco:5x7:0.7:dict_5x5_100")
+    {'squares': (5, 7), 'marker': 0.7, 'dictionary': 'DICT_5X5_100'}
+    """
+    if len(parts) != 3:
+        return None
+    size = parse_grid(parts[0])
+    if size is None:
+        raise ValueError(f"board {spec!r}: {parts[0]!r} is not COLSxROWS")
+    try:
+        marker = float(parts[1])
+    except ValueError:
+        marker = float("nan")
+    if not 0 < marker < 1:
+        raise ValueError(f"board {spec!r}: MARKER is the marker's side over the square's, in (0, 1)")
+    name = parts[2].upper()
+    if not name.startswith("DICT_") or not isinstance(getattr(cv2.aruco, name, None), int):
+        raise ValueError(f"board {spec!r}: {parts[2]!r} is not an OpenCV ArUco dictionary (e.g. DICT_5X5_100)")
+    if min(size) < 3:
+        raise ValueError(f"board {spec!r}: a ChArUco board needs at least 3x3 squares")
+    return {"squares": size, "marker": marker, "dictionary": name}
+
+
+def spec_text(spec) -> str:
+    """A ChArUco :class:`~sogdd.calib.targets.spec.BoardSpec` as its string."""
+    return f"charuco:{spec.squares[0]}x{spec.squares[1]}:{spec.marker:g}:{spec.dictionary}"
+
+
+def view_boards(image: np.ndarray, spec) -> ViewBoards:
+    """The ChArUco board of ``spec`` in an image (:func:`detect_charuco`), or what was missing."""
+    b = detect_charuco(image, spec.charuco_board())
+    seen = "" if b is not None else "no ChArUco markers/corners"
+    return ViewBoards((b,) if b is not None and len(b) else (), seen)
 
 
 def detect_charuco(image: np.ndarray, board: cv2.aruco.CharucoBoard, *, refine: bool = True,

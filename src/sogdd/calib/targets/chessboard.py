@@ -65,7 +65,7 @@ import cv2
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .board import LABEL_TURNS, Board
+from .board import LABEL_TURNS, Board, ViewBoards, grid_dims, parse_grid
 from .fill import _filled
 from .lattice import Lattice, check, grow, predict_labels, ray_neighbours, seeds
 from .proposals import Source, propose
@@ -83,7 +83,8 @@ from .xcorners import (
     to_grey,
 )
 
-__all__ = ["BoardSearch", "detect_board", "detect_boards", "find_boards"]
+__all__ = ["BoardSearch", "detect_board", "detect_boards", "find_boards", "parse_spec", "spec_text",
+           "view_boards"]
 
 #: leave-one-out prediction error allowed for a refined corner, in cells
 CHECK_TOL = 0.12
@@ -444,7 +445,6 @@ def find_boards(image: np.ndarray, pattern: tuple[int, int] | None = None, *, mi
     >>> import cv2
     >>> sq = np.kron((np.indices((6, 8)).sum(axis=0) % 2) * 200.0 + 30, np.ones((20, 20)))
     >>> img = cv2.GaussianBlur(np.pad(sq, 30, constant_values=230.0), (0, 0), 1.0)  # 7 x 5 inner corners
-    >>> from sogdd.calib.targets.spec import grid_dims
     >>> found = find_boards(img, (5, 4), value_range=(0, 255))
     >>> found.boards, grid_dims(found.others[0])
     ([], (7, 5))
@@ -574,3 +574,69 @@ def detect_board(image: np.ndarray, pattern: tuple[int, int] | None = None, *, m
     if not boards:
         return None
     return max(boards, key=lambda b: (b.size is not None, len(b)))
+
+
+def parse_spec(parts: list[str], spec: str) -> dict | None:
+    """The fields of ``chessboard:COLSxROWS`` or ``chessboard:auto`` after its name (a row of
+    :data:`sogdd.calib.targets.spec.KINDS`); None when they are not of that form.
+
+    Examples
+    --------
+    >>> parse_spec(["9x6"], "chessboard:9x6"), parse_spec(["AUTO"], "chessboard:AUTO")
+    ({'pattern': (9, 6)}, {})
+    """
+    if len(parts) != 1:
+        return None
+    if parts[0].lower() == "auto":
+        return {}
+    size = parse_grid(parts[0])
+    if size is None:
+        raise ValueError(f"board {spec!r}: {parts[0]!r} is not COLSxROWS")
+    if min(size) < 2:
+        raise ValueError(f"board {spec!r}: a chessboard needs at least 2x2 inner corners")
+    return {"pattern": size}
+
+
+def spec_text(spec) -> str:
+    """A chessboard :class:`~sogdd.calib.targets.spec.BoardSpec` as its string."""
+    return "chessboard:auto" if spec.pattern is None else f"chessboard:{spec.pattern[0]}x{spec.pattern[1]}"
+
+
+def view_boards(image: np.ndarray, spec) -> ViewBoards:
+    """The chessboards of ``spec`` in an image and, where there is none, what the same search saw instead.
+
+    A board of unknown size (``spec.pattern`` None) is any board. Otherwise the
+    boards that can be the pattern (complete, or partial with relative labels);
+    failing them, a complete grid that does not fit in the pattern (either way
+    round) contradicts it: "a board of WxH inner corners" (:func:`find_boards`'
+    ``others``, no second search).
+
+    Examples
+    --------
+    >>> from sogdd.calib.targets.spec import parse_board
+    >>> sq = np.kron((np.indices((6, 8)).sum(axis=0) % 2) * 200 + 30, np.ones((20, 20)))
+    >>> img = cv2.GaussianBlur(np.pad(sq, 30, constant_values=230).astype(np.uint8), (0, 0), 1.0)
+    >>> v = view_boards(img, parse_board("chessboard:5x4"))
+    >>> v.boards, v.seen, v.other_size
+    ((), 'a board of 7x5 inner corners', (7, 5))
+    """
+    pattern = spec.pattern
+    found = find_boards(image, pattern)
+    boards = [b for b in found.boards if len(b)]
+    if pattern is None:
+        return ViewBoards(tuple(boards), "" if boards else "no board")
+    fit = [b for b in boards if b.size is None or tuple(b.size) in (tuple(pattern), tuple(pattern)[::-1])]
+    if fit:
+        return ViewBoards(tuple(fit))
+    for b in [b for b in boards if b not in fit] + found.others:
+        dims = b.size if b.size is not None else grid_dims(b)
+        if dims is not None and not _fits(dims, pattern):
+            return ViewBoards((), f"a board of {dims[0]}x{dims[1]} inner corners", tuple(dims))
+    if found.others:
+        return ViewBoards((), f"a partial board ({max(len(b) for b in found.others)} corners)")
+    return ViewBoards((), "no board")
+
+
+def _fits(dims: tuple[int, int], pattern: tuple[int, int]) -> bool:
+    (w, h), (c, r) = dims, pattern
+    return (w <= c and h <= r) or (w <= r and h <= c)

@@ -1,4 +1,4 @@
-"""The board specification: which board to look for, as a short string.
+"""The board specification: which board to look for, as a short string, and the registry of board kinds.
 
 - ``chessboard:COLSxROWS`` -- a chessboard of COLS x ROWS *inner* corners
   (OpenCV's ``patternSize``; a board of 10 x 7 squares has 9 x 6 inner corners);
@@ -6,27 +6,40 @@
 - ``charuco:COLSxROWS:MARKER:DICT`` -- a ChArUco board of COLS x ROWS *squares*,
   markers MARKER times the square's side, OpenCV's dictionary DICT (e.g.
   ``charuco:5x7:0.7:DICT_5X5_100``).
+
+Board kinds
+-----------
+:data:`KINDS` holds one :class:`Kind` per kind of board: its name, its syntax,
+and three functions of the kind's own module: ``parse`` (the specification's
+fields after the name, to :class:`BoardSpec`'s fields), ``text`` (a
+:class:`BoardSpec` back to its string) and ``view`` (an image's boards of a
+:class:`BoardSpec`, a :class:`~sogdd.calib.targets.board.ViewBoards`). A new
+kind of board is one module and one row.
+
+========== ============================================ =======================
+kind       module                                        ``view`` finds
+========== ============================================ =======================
+chessboard :mod:`sogdd.calib.targets.chessboard`        own search, OpenCV's as proposals
+charuco    :mod:`sogdd.calib.targets.charuco`           OpenCV's markers, sogdd's corners
+========== ============================================ =======================
 """
 
 from __future__ import annotations
 
-import re
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal
 
 import cv2
-import numpy as np  # noqa: F401  (used by the doctests)
+import numpy as np
 
-from .board import Board
+from . import charuco, chessboard
+from .board import ViewBoards
 
-__all__ = ["BoardKind", "BoardSpec", "grid_dims", "parse_board"]
+__all__ = ["KINDS", "BoardKind", "BoardSpec", "Kind", "parse_board", "view_boards"]
 
-#: the kinds of board a specification names
+#: the kinds of board a specification names (:data:`KINDS`)
 BoardKind = Literal["chessboard", "charuco"]
-
-_SYNTAX = ("expected chessboard:COLSxROWS (inner corners), chessboard:auto or "
-           "charuco:COLSxROWS:MARKER:DICT (squares, marker/square ratio, OpenCV dictionary), "
-           "e.g. chessboard:9x6 or charuco:5x7:0.7:DICT_5X5_100")
 
 
 @dataclass(frozen=True)
@@ -47,20 +60,32 @@ class BoardSpec:
 
     def charuco_board(self, square: float = 1.0) -> cv2.aruco.CharucoBoard:
         """The OpenCV ChArUco board (square side ``square``)."""
-        d = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, self.dictionary))
-        return cv2.aruco.CharucoBoard(self.squares, float(square), float(square) * self.marker, d)
+        return charuco.charuco_board(self.squares, self.marker, self.dictionary, square)
 
     def __str__(self) -> str:
-        if self.kind == "charuco":
-            return f"charuco:{self.squares[0]}x{self.squares[1]}:{self.marker:g}:{self.dictionary}"
-        return "chessboard:auto" if self.pattern is None else f"chessboard:{self.pattern[0]}x{self.pattern[1]}"
+        return KINDS[self.kind].text(self)
 
 
-def _size(text: str, spec: str) -> tuple[int, int]:
-    m = re.fullmatch(r"(\d+)[xX](\d+)", text)
-    if not m:
-        raise ValueError(f"board {spec!r}: {text!r} is not COLSxROWS; {_SYNTAX}")
-    return int(m.group(1)), int(m.group(2))
+@dataclass(frozen=True)
+class Kind:
+    """One kind of board (module doc): ``name``, ``syntax`` and its module's ``parse``, ``text``, ``view``."""
+
+    name: str
+    syntax: str
+    parse: Callable[[list[str], str], dict]
+    text: Callable[[BoardSpec], str]
+    view: Callable[[np.ndarray, BoardSpec], ViewBoards]
+
+
+KINDS: dict[str, Kind] = {k.name: k for k in (
+    Kind("chessboard", "chessboard:COLSxROWS (inner corners), chessboard:auto", chessboard.parse_spec,
+         chessboard.spec_text, chessboard.view_boards),
+    Kind("charuco", "charuco:COLSxROWS:MARKER:DICT (squares, marker/square ratio, OpenCV dictionary)",
+         charuco.parse_spec, charuco.spec_text, charuco.view_boards),
+)}
+
+_SYNTAX = ("expected " + " or ".join(k.syntax for k in KINDS.values())
+           + ", e.g. chessboard:9x6 or charuco:5x7:0.7:DICT_5X5_100")
 
 
 def parse_board(spec: str) -> BoardSpec:
@@ -73,46 +98,33 @@ def parse_board(spec: str) -> BoardSpec:
     >>> parse_board("chessboard:auto").pattern is None
     True
     >>> b = parse_board("charuco:5x7:0.7:DICT_5X5_100")
-    >>> b.squares, b.marker, b.dictionary
-    ((5, 7), 0.7, 'DICT_5X5_100')
+    >>> b.squares, b.marker, b.dictionary, str(b)
+    ((5, 7), 0.7, 'DICT_5X5_100', 'charuco:5x7:0.7:DICT_5X5_100')
+    >>> parse_board("dots:3x3")
+    Traceback (most recent call last):
+    ...
+    ValueError: board 'dots:3x3': expected chessboard:COLSxROWS (inner corners), chessboard:auto or ...
     """
     parts = str(spec).strip().split(":")
-    kind = parts[0].lower()
-    if kind == "chessboard" and len(parts) == 2:
-        if parts[1].lower() == "auto":
-            return BoardSpec("chessboard")
-        cols, rows = _size(parts[1], spec)
-        if cols < 2 or rows < 2:
-            raise ValueError(f"board {spec!r}: a chessboard needs at least 2x2 inner corners")
-        return BoardSpec("chessboard", pattern=(cols, rows))
-    if kind == "charuco" and len(parts) == 4:
-        cols, rows = _size(parts[1], spec)
-        try:
-            marker = float(parts[2])
-        except ValueError:
-            marker = float("nan")
-        if not 0 < marker < 1:
-            raise ValueError(f"board {spec!r}: MARKER is the marker's side over the square's, in (0, 1)")
-        name = parts[3].upper()
-        if not name.startswith("DICT_") or not isinstance(getattr(cv2.aruco, name, None), int):
-            raise ValueError(f"board {spec!r}: {parts[3]!r} is not an OpenCV ArUco dictionary "
-                             "(e.g. DICT_5X5_100)")
-        if cols < 3 or rows < 3:
-            raise ValueError(f"board {spec!r}: a ChArUco board needs at least 3x3 squares")
-        return BoardSpec("charuco", squares=(cols, rows), marker=marker, dictionary=name)
-    raise ValueError(f"board {spec!r}: {_SYNTAX}")
+    kind = KINDS.get(parts[0].lower())
+    if kind is None:
+        raise ValueError(f"board {spec!r}: {_SYNTAX}")
+    fields = kind.parse(parts[1:], str(spec))
+    if fields is None:
+        raise ValueError(f"board {spec!r}: {_SYNTAX}")
+    return BoardSpec(kind.name, **fields)  # type: ignore[arg-type]
 
 
-def grid_dims(board: Board) -> tuple[int, int] | None:
-    """(columns, rows) of a board whose labels fill a whole rectangle, else None.
+def view_boards(image: np.ndarray, spec: BoardSpec) -> ViewBoards:
+    """An image's boards of ``spec``, by its kind's detector (:data:`KINDS`), and what it shows otherwise.
 
     Examples
     --------
-    >>> grid_dims(Board(np.zeros((6, 2)), [(i, j) for j in range(2) for i in range(3)]))
-    (3, 2)
+    >>> sq = np.kron((np.indices((6, 8)).sum(axis=0) % 2) * 200 + 30, np.ones((20, 20)))
+    >>> img = cv2.GaussianBlur(np.pad(sq, 30, constant_values=230).astype(np.uint8), (0, 0), 1.0)
+    >>> [len(b) for b in view_boards(img, parse_board("chessboard:7x5")).boards]
+    [35]
+    >>> view_boards(img, parse_board("chessboard:5x4")).seen  # a board that cannot be part of a 5 x 4 one
+    'a board of 7x5 inner corners'
     """
-    lab = board.labels
-    if len(lab) == 0:
-        return None
-    w, h = (int(v) for v in lab.max(axis=0) - lab.min(axis=0) + 1)
-    return (w, h) if w * h == len(lab) else None
+    return KINDS[spec.kind].view(image, spec)

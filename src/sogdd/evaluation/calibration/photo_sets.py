@@ -361,7 +361,7 @@ def _view_size(boards: Sequence) -> tuple[int, int] | None:
     Unambiguous: every other board of the view with as many corners is a complete
     grid of the same size, either way round (a second copy of the board, on a monitor).
     """
-    from sogdd.calib.targets.spec import grid_dims
+    from sogdd.calib.targets.board import grid_dims
 
     if not boards:
         return None
