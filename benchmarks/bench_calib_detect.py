@@ -15,6 +15,15 @@ with ``--compare`` also hr's points and OpenCV's two detectors. ``--photos DATA`
 runs the real photos of ``DATA/calibration/chessboard_*`` (6 x 4 inner corners):
 boards found, distance to the hand labels after one global offset per set, and
 the RMS reprojection error of ``cv2.calibrateCamera`` on the full boards.
+
+``--folder GLOB --pattern CxR`` times instead, photo by photo, ``detect_boards(img, (C, R))`` against
+OpenCV's ``findChessboardCorners`` + ``cornerSubPix`` (11 x 11 window, the usual anchor) in the same
+process on the same grey images, both warmed up on the first photo and run ``--repeat`` times in turn
+per photo (the photo's time: the median of its runs). Per image size it prints the median over the
+photos and their spread (interquartile range, min, max), the ratio of the medians, and the boards each
+found (a board of ``C x R`` corners for sogdd):
+
+    python benchmarks/bench_calib_detect.py --folder 'DATA/calibration/opencv_stereo/left*.jpg' --pattern 9x6
 """
 
 from __future__ import annotations
@@ -168,6 +177,81 @@ def accuracy(n_views: int, fractions: list[float], compare: bool = False) -> Non
             print(f"cells {cells[0]}-{cells[1]} px, blur {blur}, noise {noise}: " + "; ".join(row), flush=True)
 
 
+def _pattern(text: str) -> tuple[int, int]:
+    try:
+        c, r = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        msg = f"pattern must be COLSxROWS of inner corners, e.g. 9x6, got {text!r}"
+        raise argparse.ArgumentTypeError(msg) from None
+    if min(c, r) < 2:
+        raise argparse.ArgumentTypeError(f"pattern must be at least 2x2 inner corners, got {text!r}")
+    return c, r
+
+
+def _spread(ms: list[float]) -> str:
+    q1, q2, q3 = np.percentile(ms, [25, 50, 75])
+    return f"median {q2:7.1f} ms (IQR {q1:.1f}-{q3:.1f}, min {min(ms):.1f}, max {max(ms):.1f})"
+
+
+def folder(pattern_glob: str, pattern: tuple[int, int], repeat: int) -> None:
+    """Per-photo time of detect_boards against findChessboardCorners + cornerSubPix 11 x 11 (module doc)."""
+    import glob
+    import os
+
+    from sogdd.calib import detect_boards
+
+    files = sorted(glob.glob(os.path.expanduser(pattern_glob)))
+    images = [(f, cv2.imread(f, cv2.IMREAD_GRAYSCALE)) for f in files]
+    images = [(f, g) for f, g in images if g is not None]
+    if not images:
+        raise SystemExit(f"no readable image matches {pattern_glob!r}")
+    crit = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 0.001)
+    n_corners = pattern[0] * pattern[1]
+
+    def ours(img: np.ndarray) -> bool:
+        return any(len(b) == n_corners for b in detect_boards(img, pattern))
+
+    def opencv(img: np.ndarray) -> bool:
+        ok, c = cv2.findChessboardCorners(img, pattern)
+        if ok:
+            cv2.cornerSubPix(img, c, (5, 5), (-1, -1), crit)
+        return bool(ok)
+
+    methods = {"sogdd detect_boards": ours, "OpenCV findChessboardCorners+cornerSubPix 11x11": opencv}
+    for fn in methods.values():  # compile, load, warm the caches
+        fn(images[0][1])
+    by_size = _time_photos([g for _, g in images], methods, max(1, repeat))
+    print(f"{pattern_glob}, pattern {pattern[0]}x{pattern[1]}: {len(images)} photos, median of {repeat} runs "
+          "per photo")
+    for (w, h), row in by_size.items():
+        print(f"  {w}x{h}, {len(next(iter(row.values())))} photos:")
+        med = {}
+        for m, got in row.items():
+            ms = [t for t, _ in got]
+            med[m] = float(np.median(ms))
+            print(f"    {m:48s} {_spread(ms)}, boards {sum(f for _, f in got)}/{len(got)}")
+        a, b = med.values()
+        print(f"    ratio of the medians (sogdd / OpenCV): {a / max(b, 1e-9):.2f}")
+
+
+def _time_photos(images: list[np.ndarray], methods: dict, repeat: int) -> dict:
+    """``{(width, height): {method: [(median ms of the photo's runs, found), ...]}}``; the methods in turn
+    on each photo, so that a load that comes and goes meets both."""
+    by_size: dict[tuple[int, int], dict[str, list]] = {}
+    for img in images:
+        row = by_size.setdefault(img.shape[::-1], {m: [] for m in methods})
+        times: dict[str, list[float]] = {m: [] for m in methods}
+        found = {}
+        for _ in range(repeat):
+            for m, fn in methods.items():
+                t0 = time.perf_counter()
+                found[m] = fn(img)
+                times[m].append(1e3 * (time.perf_counter() - t0))
+        for m in methods:
+            row[m].append((float(np.median(times[m])), found[m]))
+    return by_size
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--width", type=int, default=4000)
@@ -180,7 +264,15 @@ def main() -> None:
     ap.add_argument("--photos", metavar="DATA", help="instead: the photos of DATA/calibration/chessboard_*")
     ap.add_argument("--fractions", type=float, nargs="+", default=None,
                     help="window fractions (of the cell) to compare in --accuracy; default: the library's")
+    ap.add_argument("--folder", metavar="GLOB",
+                    help="instead: per-photo time of detect_boards and OpenCV's detector on these photos")
+    ap.add_argument("--pattern", type=_pattern, metavar="CxR", help="--folder: inner corners, e.g. 9x6")
     a = ap.parse_args()
+    if a.folder:
+        if a.pattern is None:
+            ap.error("--folder needs --pattern CxR")
+        folder(a.folder, a.pattern, a.repeat)
+        return
     if a.accuracy:
         import sogdd.calib.targets.refine as refine
 

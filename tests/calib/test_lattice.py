@@ -1,6 +1,7 @@
 """The lattice's pieces: homographies, the leave-one-out check, ray neighbours."""
 
 import numpy as np
+import pytest
 
 from sogdd.calib.targets.lattice import _curved_errors, _edges_follow, apply, check, homography, ray_neighbours
 from sogdd.calib.targets.xcorners import XCorners
@@ -83,3 +84,87 @@ def test_edges_follow_a_sheared_cell_by_the_light_axis():
     assert _edges_follow(light, np.radians(60.0), axes)  # a spread 25 degrees too wide (a biased estimate)
     assert not _edges_follow(light + np.radians(15.0), np.radians(50.0), axes)  # the light axis turned
     assert not _edges_follow(light, np.radians(85.0), axes)  # edge lines 50 degrees off
+
+
+def test_the_compiled_mod_is_numpys_to_the_bit():
+    """The growth's angle wraps (compiled, mostly without fmod) give numpy's mod, signs of zeros too."""
+    from sogdd.calib.targets.lattice import _mod
+
+    rng = np.random.default_rng(3)
+    for b in (np.pi, 2 * np.pi):
+        edge = [0.0, -0.0, b, -b, 2 * b, -2 * b, np.nextafter(b, 0), -np.nextafter(b, 0), 1e-300, -1e-300,
+                -1e-17, np.nextafter(2 * b, 0), -np.nextafter(2 * b, 0), 7 * b, -7.5 * b]
+        a = np.r_[rng.uniform(-3 * b, 3 * b, 20000), b / 2 + rng.normal(size=2000) * 1e-13, edge]
+        got = np.array([_mod(v, b) for v in a])
+        want = np.mod(a, b)
+        assert np.array_equal(got, want) and np.array_equal(np.signbit(got), np.signbit(want))
+
+
+def _einsum_normal_equations(w, b, offs, m0):
+    """The normal equations of ``_fit_batch`` as numpy's einsums write them (the reference)."""
+    m = np.broadcast_to(m0, b.shape[:2] + m0.shape[-1:])
+    z = np.zeros_like(m)
+    a = np.broadcast_to(offs, b.shape)
+    r1 = np.concatenate([m, z, -b[..., :1] * a], axis=-1)
+    r2 = np.concatenate([z, m, -b[..., 1:] * a], axis=-1)
+    A = np.einsum("nk,nki,nkj->nij", w, r1, r1) + np.einsum("nk,nki,nkj->nij", w, r2, r2)
+    rhs = np.einsum("nk,nki,nk->ni", w, r1, b[..., 0]) + np.einsum("nk,nki,nk->ni", w, r2, b[..., 1])
+    return A + 1e-12 * np.eye(A.shape[-1]), rhs
+
+
+@pytest.mark.parametrize("order", [1, 2, 3])
+def test_the_compiled_normal_equations_are_the_einsums_to_the_bit(order):
+    from sogdd.calib.targets.lattice import _CURVE_OFFS, _SUPPORT, _monomials, _normal_equations
+
+    rng = np.random.default_rng(order)
+    offs = (_SUPPORT if order == 1 else _CURVE_OFFS).astype(float)
+    m0 = _monomials(offs, order)
+    for n in (1, 7, 30):
+        w = (rng.random((n, len(offs))) < 0.6).astype(float)
+        b = rng.normal(size=(n, len(offs), 2)) * 10.0 ** rng.uniform(-3, 3, size=(n, len(offs), 1))
+        got = _normal_equations(w, b, offs, np.ascontiguousarray(m0))
+        for g, e in zip(got, _einsum_normal_equations(w, b, offs, m0)):
+            assert np.array_equal(g, e) and np.array_equal(np.signbit(g), np.signbit(e))
+
+
+def x_corner_grid(cols, rows, cell=14.0, seed=0):
+    """X-corners of a ``cols x rows`` chessboard seen through a mild perspective, with their labels."""
+    lab = np.array([(i, j) for j in range(rows) for i in range(cols)])
+    H = np.array([[cell, 0.08 * cell, 40.0], [-0.05 * cell, 0.95 * cell, 30.0], [2e-4, 1e-4, 1.0]])
+    xy = apply(H, lab.astype(float)) + np.random.default_rng(seed).normal(0, 0.05, (len(lab), 2))
+    parity = lab.sum(axis=1) % 2
+    light = np.where(parity == 0, np.pi / 4, 3 * np.pi / 4)
+    return XCorners(xy, np.full(len(xy), 100.0), light, np.full(len(xy), np.pi / 4)), lab
+
+
+@pytest.mark.parametrize("size", [(6, 4), (45, 40)])  # the second outgrows the label grid several times
+def test_grow_labels_every_corner_of_a_board_from_its_seed(size):
+    from scipy.spatial import cKDTree
+
+    from sogdd.calib.targets.lattice import grow, seeds
+
+    xc, lab = x_corner_grid(*size)
+    nb, dist = ray_neighbours(xc)
+    s = int(seeds(xc, nb, dist)[0])
+    free = np.ones(len(xc), bool)
+    lat = grow(xc, s, nb, free, cKDTree(xc.xy))
+    assert len(lat) == len(xc) and not free.any()
+    assert lat.index[0] == s and lat.labels[0].tolist() == [0, 0]
+    assert len(np.unique(lat.index)) == len(lat)
+    # the labels are the board's, up to one of the lattice's eight symmetries and a shift
+    true = lab[lat.index] - lab[s]
+    A = np.linalg.lstsq(lat.labels.astype(float), true.astype(float), rcond=None)[0]
+    assert np.allclose(np.abs(A), np.round(np.abs(A))) and np.array_equal(lat.labels @ np.round(A), true)
+
+
+def test_grow_keeps_within_a_limit():
+    from scipy.spatial import cKDTree
+
+    from sogdd.calib.targets.lattice import grow, seeds
+
+    xc, _ = x_corner_grid(9, 7)
+    nb, dist = ray_neighbours(xc)
+    s = int(seeds(xc, nb, dist)[0])
+    lat = grow(xc, s, nb, np.ones(len(xc), bool), cKDTree(xc.xy), limit=4)
+    ext = lat.labels.max(axis=0) - lat.labels.min(axis=0) + 1
+    assert ext.max() <= 4 and len(lat) == 16

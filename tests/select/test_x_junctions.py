@@ -72,3 +72,35 @@ def test_one_per_point_keeps_the_strongest_greedily():
     s2 = np.array([3.0, 2.0, 1.0, 5.0, 4.0])
     # 0 drops 1; 2 is 0.12 px from 0, so it stays (1, dropped, suppresses nothing)
     assert one_per_point(xy, s2, 0.1).tolist() == [0, 2, 3]
+
+
+def test_newton_steps_reusing_a_cell_are_the_steps_taken_one_call_at_a_time():
+    """An iterate that stays in its pixel's cell reads the derivatives computed there again: the same bits
+    as steps taken one call at a time (each call starts with no cell), from the image or a crop of it."""
+    from sogdd.measure.filters import kernel_radius, steerable_basis
+    from sogdd.select.x_junctions import newton_steps
+
+    t = np.arange(64) - 30.4
+    board = np.where((t[:, None] > 0) == (t[None, :] + 0.7 > 0), 200.0, 40.0)  # an X-junction
+    rng = np.random.default_rng(0)
+    img = np.clip(np.pad(board, ((3, 9), (20, 5)), mode="reflect") + rng.normal(0, 3.0, (76, 89)), 0, 255)
+    H, W = img.shape
+    b = steerable_basis(1.5, kernel_radius(1.5))
+    xy, st = find_saddles(img, 1.5)
+    sx, sy = xy[np.argmax(st)]
+    near = np.array([(sx + a, sy + c) for a in (-0.7, 0, 0.7) for c in (-0.7, 0, 0.7)])  # these converge
+    x0 = np.r_[near[:, 0], rng.uniform(-1, W, 200), [0.0, W - 1.0, 3.0]]
+    y0 = np.r_[near[:, 1], rng.uniform(-1, H, 200), [0.0, H - 1.0, H - 2.0]]
+    runs = []
+    for off, crop in ((0, img), (20, img[20:60])):  # the image; a crop of rows, where iterates stop at its edge
+        at_once = [x0.copy(), y0.copy(), np.zeros(len(x0), np.int64)]
+        newton_steps(crop, off, H, W, *at_once, 6, b.gauss, b.d1, b.d2)
+        one_by_one = [x0.copy(), y0.copy(), np.zeros(len(x0), np.int64)]
+        for k in range(1, 7):
+            newton_steps(crop, off, H, W, *one_by_one, k, b.gauss, b.d1, b.d2)
+        for g, w in zip(at_once, one_by_one):
+            assert np.array_equal(g, w)
+        runs.append(at_once)
+    assert (runs[0][2] == 6).all() and (runs[1][2] < 6).any()  # the crop stopped some
+    conv = np.hypot(runs[0][0][:9] - sx, runs[0][1][:9] - sy)
+    assert conv.max() < 1e-3  # ... and these found the junction: iterates that stayed in one cell

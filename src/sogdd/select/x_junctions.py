@@ -60,6 +60,10 @@ millions of pixels. Here:
   ``_derivatives`` evaluates it at given points, for the tests): only the candidates need them, so the
   derivative maps are needed for the candidates only, and detection takes
   those from the measure's own filter responses (:class:`SaddleCandidates`).
+  The derivatives at the four pixels are those of the cell the iterate is in,
+  so an iterate that stays in its cell (most steps after the first) reads them
+  again; the sums of both columns, and of the four pixels, run side by side
+  (each in its own fixed order: the same bits, without waiting on one another).
 
 Every value is a function of the image and the pixel only (fixed summation
 order), so bands, crops and the whole image give the same bits.
@@ -151,73 +155,171 @@ def strength_maxima(gxx: np.ndarray, gxy: np.ndarray, gyy: np.ndarray, *, top: i
 
 
 @numba.njit(**JIT)
-def _row_sums(img, off, height, width, y0, x, gauss, d1, d2, sums):  # pragma: no cover - jit
-    """Row sums at column ``x`` of the ``2 r + 2`` image rows from ``y0 - r`` (reflected): gauss, d1, d2."""
+def _row_sums(img, off, height, width, y0, x0, x1, gauss, d1, d2, s0, s1):  # pragma: no cover - jit
+    """Row sums at columns ``x0`` and ``x1`` of the ``2 r + 2`` image rows from ``y0 - r`` (reflected):
+    gauss, d1, d2, into ``s0`` and ``s1``.
+
+    Each sum runs over the taps in order, ``s[., a] = sum_b k[b] I(y0 + a - r, x + b - r)``; two rows of
+    both columns at a time, twelve sums that do not wait on each other.
+    """
     r = (gauss.shape[0] - 1) // 2
-    inside = x - r >= 0 and x + r < width  # no column reflection: plain indices (the same sums)
-    for a in range(2 * r + 2):
-        line = img[reflect1(y0 + a - r, height) - off]
-        vg = 0.0
-        v1 = 0.0
-        v2 = 0.0
+    inside = x0 - r >= 0 and x1 + r < width  # no column reflection: plain indices (the same sums)
+    rows_inside = y0 - r >= 0 and y0 + r + 1 < height
+    for a in range(0, 2 * r + 2, 2):  # an even number of rows
+        ra = y0 + a - r - off if rows_inside else reflect1(y0 + a - r, height) - off
+        rb = y0 + a + 1 - r - off if rows_inside else reflect1(y0 + a + 1 - r, height) - off
+        # sums of (kernel: g gauss, p d1, q d2) (column 0, 1) (row a, a + 1)
+        g0a = g0b = g1a = g1b = 0.0
+        p0a = p0b = p1a = p1b = 0.0
+        q0a = q0b = q1a = q1b = 0.0
         for b in range(2 * r + 1):
-            v = line[x - r + b] if inside else line[reflect1(x + b - r, width)]
-            vg += gauss[b] * v
-            v1 += d1[b] * v
-            v2 += d2[b] * v
-        sums[0, a] = vg
-        sums[1, a] = v1
-        sums[2, a] = v2
+            c0 = x0 - r + b if inside else reflect1(x0 + b - r, width)
+            c1 = x1 - r + b if inside else reflect1(x1 + b - r, width)
+            kg = gauss[b]
+            k1 = d1[b]
+            k2 = d2[b]
+            v0a = img[ra, c0]
+            v0b = img[rb, c0]
+            v1a = img[ra, c1]
+            v1b = img[rb, c1]
+            g0a += kg * v0a
+            g0b += kg * v0b
+            g1a += kg * v1a
+            g1b += kg * v1b
+            p0a += k1 * v0a
+            p0b += k1 * v0b
+            p1a += k1 * v1a
+            p1b += k1 * v1b
+            q0a += k2 * v0a
+            q0b += k2 * v0b
+            q1a += k2 * v1a
+            q1b += k2 * v1b
+        s0[0, a] = g0a
+        s0[1, a] = p0a
+        s0[2, a] = q0a
+        s0[0, a + 1] = g0b
+        s0[1, a + 1] = p0b
+        s0[2, a + 1] = q0b
+        s1[0, a] = g1a
+        s1[1, a] = p1a
+        s1[2, a] = q1a
+        s1[0, a + 1] = g1b
+        s1[1, a + 1] = p1b
+        s1[2, a + 1] = q1b
 
 
 @numba.njit(**JIT)
-def _column(sums, shift, gauss, d1, d2, out, i):  # pragma: no cover - jit
-    """The five derivatives at row ``shift`` (below the first), from one column's row sums, into ``out[:, i]``.
+def _columns(s0, s1, dy, gauss, d1, d2, out):  # pragma: no cover - jit
+    """The five derivatives at the four pixels, from the row sums of their two columns, into ``out`` (5, 4).
 
-    ``g_xx`` (d2 along x, gauss along y), ``g_xy`` (d1, d1), ``g_yy`` (gauss, d2),
-    ``g_x`` (d1, gauss), ``g_y`` (gauss, d1): correlations, as ``cv2.sepFilter2D``'s.
+    Pixel ``0`` reads ``s0`` from its first row, ``1`` ``s1``, ``2`` and ``3`` the same ``dy`` rows
+    below. ``g_xx`` (d2 along x, gauss along y), ``g_xy`` (d1, d1), ``g_yy`` (gauss, d2), ``g_x`` (d1,
+    gauss), ``g_y`` (gauss, d1): correlations, as ``cv2.sepFilter2D``'s. Each of the twenty sums runs over
+    the rows in order; the four pixels' sums are independent, so they are computed side by side.
     """
-    gxx = 0.0
-    gxy = 0.0
-    gyy = 0.0
-    gx = 0.0
-    gy = 0.0
+    xx0 = 0.0
+    xy0 = 0.0
+    yy0 = 0.0
+    x0 = 0.0
+    y0 = 0.0
+    xx1 = 0.0
+    xy1 = 0.0
+    yy1 = 0.0
+    x1 = 0.0
+    y1 = 0.0
+    xx2 = 0.0
+    xy2 = 0.0
+    yy2 = 0.0
+    x2 = 0.0
+    y2 = 0.0
+    xx3 = 0.0
+    xy3 = 0.0
+    yy3 = 0.0
+    x3 = 0.0
+    y3 = 0.0
     for a in range(gauss.shape[0]):
-        sg = sums[0, a + shift]
-        s1 = sums[1, a + shift]
-        gxx += gauss[a] * sums[2, a + shift]
-        gxy += d1[a] * s1
-        gyy += d2[a] * sg
-        gx += gauss[a] * s1
-        gy += d1[a] * sg
-    out[0, i] = gxx
-    out[1, i] = gxy
-    out[2, i] = gyy
-    out[3, i] = gx
-    out[4, i] = gy
+        g = gauss[a]
+        e1 = d1[a]
+        e2 = d2[a]
+        b = a + dy
+        xx0 += g * s0[2, a]
+        xy0 += e1 * s0[1, a]
+        yy0 += e2 * s0[0, a]
+        x0 += g * s0[1, a]
+        y0 += e1 * s0[0, a]
+        xx1 += g * s1[2, a]
+        xy1 += e1 * s1[1, a]
+        yy1 += e2 * s1[0, a]
+        x1 += g * s1[1, a]
+        y1 += e1 * s1[0, a]
+        xx2 += g * s0[2, b]
+        xy2 += e1 * s0[1, b]
+        yy2 += e2 * s0[0, b]
+        x2 += g * s0[1, b]
+        y2 += e1 * s0[0, b]
+        xx3 += g * s1[2, b]
+        xy3 += e1 * s1[1, b]
+        yy3 += e2 * s1[0, b]
+        x3 += g * s1[1, b]
+        y3 += e1 * s1[0, b]
+    out[0, 0] = xx0
+    out[1, 0] = xy0
+    out[2, 0] = yy0
+    out[3, 0] = x0
+    out[4, 0] = y0
+    out[0, 1] = xx1
+    out[1, 1] = xy1
+    out[2, 1] = yy1
+    out[3, 1] = x1
+    out[4, 1] = y1
+    out[0, 2] = xx2
+    out[1, 2] = xy2
+    out[2, 2] = yy2
+    out[3, 2] = x2
+    out[4, 2] = y2
+    out[0, 3] = xx3
+    out[1, 3] = xy3
+    out[2, 3] = yy3
+    out[3, 3] = x3
+    out[4, 3] = y3
+
+
+@numba.njit(**JIT)
+def _cell(x, y, height, width):  # pragma: no cover - jit
+    """``(x, y)`` edge-clamped and the pixel ``(x0, y0)`` whose cell of four the interpolation reads."""
+    x = min(max(x, 0.0), width - 1.0)
+    y = min(max(y, 0.0), height - 1.0)
+    x0 = min(int(math.floor(x)), width - 2 if width > 1 else 0)
+    y0 = min(int(math.floor(y)), height - 2 if height > 1 else 0)
+    return x, y, x0, y0
+
+
+@numba.njit(**JIT)
+def _corners(img, off, height, width, x0, y0, gauss, d1, d2, s0, s1, corners):  # pragma: no cover - jit
+    """The five derivatives at the four pixels from ``(x0, y0)`` into ``corners`` (5, 4)."""
+    x1 = min(x0 + 1, width - 1)
+    dy = min(y0 + 1, height - 1) - y0  # 0 on a one-row image
+    # the four pixels share their rows: row sums once per column
+    _row_sums(img, off, height, width, y0, x0, x1, gauss, d1, d2, s0, s1)
+    _columns(s0, s1, dy, gauss, d1, d2, corners)
+
+
+@numba.njit(**JIT)
+def _interpolate(corners, x, y, x0, y0, val):  # pragma: no cover - jit
+    """The derivatives at the four pixels of ``corners`` bilinearly interpolated at ``(x, y)`` into ``val``."""
+    fx = x - x0
+    fy = y - y0
+    for k in range(5):
+        val[k] = (corners[k, 0] * (1 - fx) + corners[k, 1] * fx) * (1 - fy) + (
+            corners[k, 2] * (1 - fx) + corners[k, 3] * fx) * fy
 
 
 @numba.njit(**JIT)
 def _at(img, off, height, width, x, y, gauss, d1, d2, s0, s1, corners, val):  # pragma: no cover - jit
     """The five derivatives bilinearly interpolated at ``(x, y)`` (edge-clamped) into ``val``."""
-    x = min(max(x, 0.0), width - 1.0)
-    y = min(max(y, 0.0), height - 1.0)
-    x0 = min(int(math.floor(x)), width - 2 if width > 1 else 0)
-    y0 = min(int(math.floor(y)), height - 2 if height > 1 else 0)
-    x1 = min(x0 + 1, width - 1)
-    dy = min(y0 + 1, height - 1) - y0  # 0 on a one-row image
-    fx = x - x0
-    fy = y - y0
-    # the four pixels share their rows: row sums once per column
-    _row_sums(img, off, height, width, y0, x0, gauss, d1, d2, s0)
-    _row_sums(img, off, height, width, y0, x1, gauss, d1, d2, s1)
-    _column(s0, 0, gauss, d1, d2, corners, 0)
-    _column(s1, 0, gauss, d1, d2, corners, 1)
-    _column(s0, dy, gauss, d1, d2, corners, 2)
-    _column(s1, dy, gauss, d1, d2, corners, 3)
-    for k in range(5):
-        val[k] = (corners[k, 0] * (1 - fx) + corners[k, 1] * fx) * (1 - fy) + (
-            corners[k, 2] * (1 - fx) + corners[k, 3] * fx) * fy
+    x, y, x0, y0 = _cell(x, y, height, width)
+    _corners(img, off, height, width, x0, y0, gauss, d1, d2, s0, s1, corners)
+    _interpolate(corners, x, y, x0, y0, val)
 
 
 @numba.njit(**JIT)
@@ -249,8 +351,19 @@ def _newton(img, off, height, width, xs, ys, steps, iterations, gauss, d1, d2): 
     s0, s1, corners, v = np.empty((3, n)), np.empty((3, n)), np.empty((5, 4)), np.empty(5)
     rows = img.shape[0]
     for t in range(xs.shape[0]):
-        while steps[t] < iterations and _readable(off, rows, height, ys[t], r):
-            _at(img, off, height, width, xs[t], ys[t], gauss, d1, d2, s0, s1, corners, v)
+        # the pixel whose cell's derivatives ``corners`` holds: an iterate that stays in the cell (most
+        # steps after the first) reads them again, the same values
+        cx = -1
+        cy = -1
+        while steps[t] < iterations:
+            x, y, x0, y0 = _cell(xs[t], ys[t], height, width)
+            if y0 != cy and not _readable(off, rows, height, ys[t], r):  # the rows of row y0 (read before)
+                break
+            if x0 != cx or y0 != cy:
+                _corners(img, off, height, width, x0, y0, gauss, d1, d2, s0, s1, corners)
+                cx = x0
+                cy = y0
+            _interpolate(corners, x, y, x0, y0, v)
             a, b, c, px, py = v[0], v[1], v[2], v[3], v[4]
             det = a * c - b * b
             dx = -(c * px - b * py) / det

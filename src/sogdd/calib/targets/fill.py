@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .lattice import check, predict_labels
+from .lattice import _label_grid, check, predict_labels
 from .refine import MIN_HALF, WINDOW_FRACTION, half_widths, refine_grey
 from .windows import ASYMMETRY, MIN_ASYMMETRY, _bilinear, _deshaded, _edge_halves, _inner, _local_cells, _recut
 from .xcorners import XCorners
@@ -37,21 +37,30 @@ FILL_CONTRAST = 0.5
 def _fill_labels(labels: np.ndarray, pattern: tuple[int, int] | None) -> np.ndarray:
     """The free labels next to the board (4-neighbours) that keep it within ``pattern``, (M, 2).
 
-    Without a pattern, only those inside the board's bounding box (holes and notches).
+    Without a pattern, only those inside the board's bounding box (holes and notches). Sorted (row by row).
     """
-    have = {tuple(q) for q in labels.tolist()}
+    labels = np.asarray(labels, dtype=np.int64).reshape(-1, 2)
     lo, hi = labels.min(axis=0), labels.max(axis=0)
-    out = []
-    for q in sorted({(i + a, j + b) for i, j in have for a, b in ((1, 0), (-1, 0), (0, 1), (0, -1))} - have):
-        ext = np.sort(np.maximum(hi, q) - np.minimum(lo, q) + 1)
-        if (np.all(ext <= sorted(pattern)) if pattern is not None
-                else bool(np.all((np.array(q) >= lo) & (np.array(q) <= hi)))):
-            out.append(q)
-    return np.array(out, dtype=np.int64).reshape(-1, 2)
+    occ = np.zeros(tuple(hi - lo + 3), dtype=bool)  # the bounding box and one label around it
+    occ[labels[:, 0] - lo[0] + 1, labels[:, 1] - lo[1] + 1] = True
+    near = np.zeros_like(occ)
+    near[1:] |= occ[:-1]
+    near[:-1] |= occ[1:]
+    near[:, 1:] |= occ[:, :-1]
+    near[:, :-1] |= occ[:, 1:]
+    q = np.argwhere(near & ~occ) + lo - 1  # sorted as tuples
+    if pattern is not None:
+        ext = np.sort(np.maximum(hi, q) - np.minimum(lo, q) + 1, axis=1)
+        keep = np.all(ext <= sorted(pattern), axis=1)
+    else:
+        keep = np.all((q >= lo) & (q <= hi), axis=1)
+    return q[keep].reshape(-1, 2)
 
 
 #: the four squares around a corner: their sides along ``(i, j)`` (``+1`` forward, ``-1`` back)
 _QUADS = ((1, 1), (-1, -1), (1, -1), (-1, 1))
+#: the labels :func:`_frame` reads around a corner: per axis forward, back, two forward, two back
+_STEPS = np.array([(1, 0), (-1, 0), (2, 0), (-2, 0), (0, 1), (0, -1), (0, 2), (0, -2)])
 
 
 def _frame(p: np.ndarray, at: np.ndarray, xy: np.ndarray, labels: np.ndarray,
@@ -68,29 +77,27 @@ def _frame(p: np.ndarray, at: np.ndarray, xy: np.ndarray, labels: np.ndarray,
     from the corner, ``f`` the steps on those sides. Returns ``(d (n, 4, 2), cell
     (n,))``, the cell the shortest of the four steps.
     """
-    pos = {tuple(q): k for k, q in enumerate(labels.tolist())}
     n = len(p)
     steps = np.zeros((n, 2, 2, 2))  # corner, axis, side (0 forward, 1 back), xy
-    for k, (i, j) in enumerate(at.tolist()):
-        for ax, e in enumerate((np.array([1, 0]), np.array([0, 1]))):
-            got = {}
-            for side, sg in ((0, 1), (1, -1)):
-                m = pos.get((i + sg * e[0], j + sg * e[1]))
-                if m is not None:
-                    got[side] = sg * (xy[m] - p[k])
-            for side, sg in ((0, 1), (1, -1)):
-                if side in got:
-                    steps[k, ax, side] = got[side]
-                elif 1 - side in got:
-                    o = got[1 - side]
-                    m2 = pos.get((i - 2 * sg * e[0], j - 2 * sg * e[1]))
-                    m1 = pos.get((i - sg * e[0], j - sg * e[1]))
-                    ratio = 1.0
-                    if m2 is not None and m1 is not None:
-                        ratio = float(np.clip(np.hypot(*o) / max(np.hypot(*(xy[m1] - xy[m2])), 1e-9), 0.3, 1.5))
-                    steps[k, ax, side] = o * ratio
-                else:
-                    steps[k, ax, side] = P[k, 1 + 2 * ax] - P[k, 2 + 2 * ax]
+    if n == 0:
+        return np.zeros((0, 4, 2)), np.zeros(0)
+    nbr = _label_grid(labels, np.zeros(0, np.int64), _STEPS, at_labels=at)  # (n, 8): _STEPS' corners
+    for ax in range(2):
+        fwd, back, fwd2, back2 = (nbr[:, 4 * ax + t] for t in range(4))
+        got = (xy[np.maximum(fwd, 0)] - p, -(xy[np.maximum(back, 0)] - p))  # the steps to the neighbours
+        has = (fwd >= 0, back >= 0)
+        # the step beyond a neighbour on the other side, shrunk by the ratio of the two steps there
+        beyond = (np.where((back2 >= 0)[:, None], xy[np.maximum(back, 0)] - xy[np.maximum(back2, 0)], np.nan),
+                  np.where((fwd2 >= 0)[:, None], xy[np.maximum(fwd, 0)] - xy[np.maximum(fwd2, 0)], np.nan))
+        for side in (0, 1):
+            o = got[1 - side]
+            with np.errstate(invalid="ignore"):
+                ratio = np.clip(np.hypot(o[:, 0], o[:, 1])
+                                / np.maximum(np.hypot(beyond[side][:, 0], beyond[side][:, 1]), 1e-9), 0.3, 1.5)
+            ratio = np.where(np.isnan(beyond[side][:, 0]), 1.0, ratio)
+            steps[:, ax, side] = np.where(has[side][:, None], got[side],
+                                          np.where(has[1 - side][:, None], o * ratio[:, None],
+                                                   P[:, 1 + 2 * ax] - P[:, 2 + 2 * ax]))
     d = np.stack([(si * steps[:, 0, (1 - si) // 2] + sj * steps[:, 1, (1 - sj) // 2]) / 2 for si, sj in _QUADS],
                  axis=1)
     return d, np.min(np.hypot(steps[..., 0], steps[..., 1]), axis=(1, 2))
@@ -152,10 +159,12 @@ def _measured(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, cand: np.nda
     at = np.where(q[:, None] > 0, r, p)
     _recut(grey, at, r, q, half, _edge_halves(grey, at, cand, half, cell, also=np.ones(len(cand), bool)))
     shaded = 1.0 - q > thr
+    if not shaded.any():  # the board's own windows are needed for the unshaded measure only
+        return r, q
     cells = _local_cells(xy, labels)
     inner = _inner(labels) & np.isfinite(cells)
     ref = np.flatnonzero(inner if np.count_nonzero(inner) >= 5 else np.isfinite(cells))
-    if shaded.any() and len(ref):
+    if len(ref):
         rd, qd = _deshaded(grey, p[shaded], half[shaded], xy[ref], half_widths(xy[ref], None, cells[ref]),
                            float(np.median(cells[ref])))
         better = qd > q[shaded]

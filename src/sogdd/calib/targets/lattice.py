@@ -24,18 +24,33 @@ predicted by a homography of its neighbours (leaving it out) within a fraction o
 cell, or, where rows and columns are curves (a fisheye), by a second- or else a
 third-order map of its neighbours within three labels (:func:`_fit_batch`:
 polynomial numerators over the homography's linear denominator).
+
+The loops of the ray test (:func:`_rays`), of the growth (:func:`_untried`,
+:func:`_claims`) and the normal equations of the maps (:func:`_normal_equations`)
+are compiled without ``fastmath``: they compute the same floating-point
+operations, in the same order, as the numpy they replace, so the boards are the
+same to the bit; ``arctan2``, the batched solves and the homography of
+:func:`check`'s second fit stay numpy's (its ``arctan2`` is a SIMD one where the
+CPU has it, whose last bits differ from libm's).
 """
 
 from __future__ import annotations
 
+import itertools
+import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 from scipy.spatial import cKDTree
 
 from .xcorners import XCorners
 
 __all__ = ["check", "homography", "predict_labels"]
+
+#: numba's options for this module's compiled loops: no ``fastmath`` (not even contraction), so that each
+#: computes the same floating-point operations, in the same order, as the numpy it replaces (bit for bit)
+_JIT = dict(cache=True, nogil=True, error_model="numpy")
 
 #: a neighbour lies within this angle (rad) of the ray along an edge line
 CONE = np.radians(20.0)
@@ -63,6 +78,7 @@ CUBIC_MIN = 13
 _OFFS = np.array([(1, 0), (0, 1), (-1, 0), (0, -1)])
 #: the label offsets whose corners predict a label (a 5 x 5 block without its centre)
 _SUPPORT = np.array([(a, b) for a in range(-2, 3) for b in range(-2, 3) if (a, b) != (0, 0)])
+_SUPPORT_F = _SUPPORT.astype(np.float64)
 _CURVE_OFFS = np.array([(a, b) for a in range(-CURVE_REACH, CURVE_REACH + 1)
                         for b in range(-CURVE_REACH, CURVE_REACH + 1) if (a, b) != (0, 0)])
 
@@ -76,16 +92,6 @@ class Lattice:
 
     def __len__(self) -> int:
         return len(self.index)
-
-
-def _wrap_pi(a: np.ndarray) -> np.ndarray:
-    """Angle differences of lines (mod pi) to ``[-pi/2, pi/2)``."""
-    return np.mod(a + np.pi / 2, np.pi) - np.pi / 2
-
-
-def _wrap(a: np.ndarray) -> np.ndarray:
-    """Angle differences of rays (mod 2 pi) to ``[-pi, pi)``."""
-    return np.mod(a + np.pi, 2 * np.pi) - np.pi
 
 
 def ray_neighbours(xc: XCorners, tree: cKDTree | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -102,23 +108,79 @@ def ray_neighbours(xc: XCorners, tree: cKDTree | None = None) -> tuple[np.ndarra
     tree = cKDTree(xc.xy) if tree is None else tree
     k = min(KNN, n)
     d, idx = tree.query(xc.xy, k=k)
-    d, idx = d[:, 1:], idx[:, 1:]  # the first is the corner itself
+    d, idx = np.ascontiguousarray(d[:, 1:]), np.ascontiguousarray(idx[:, 1:], dtype=np.int64)  # not itself
     v = xc.xy[idx] - xc.xy[:, None, :]
-    ang = np.arctan2(v[..., 1], v[..., 0])
-    e = np.stack([xc.light - xc.spread, xc.light + xc.spread], axis=1)  # rays: unwrapped, right-handed
-    other = xc.edges[idx]  # (N, k-1, 2)
-    flip = np.abs(np.abs(_wrap_pi(xc.light[idx] - xc.light[:, None])) - np.pi / 2) < POLARITY_TOL
-    for r in range(4):
-        ray = e[:, r % 2] + (np.pi if r >= 2 else 0.0)
-        ok = np.abs(_wrap(ang - ray[:, None])) < CONE
-        ok &= np.min(np.abs(_wrap_pi(other - ray[:, None, None])), axis=2) < EDGE_TOL
-        ok &= flip & (d > 0)
-        dd = np.where(ok, d, np.inf)
-        best = np.argmin(dd, axis=1)
-        has = np.isfinite(dd[np.arange(n), best])
-        nb[has, r] = idx[has, best[has]]
-        dist[has, r] = dd[has, best[has]]
+    ang = np.arctan2(v[..., 1], v[..., 0])  # numpy's arctan2 (its SIMD one where it has it), as before
+    light = np.ascontiguousarray(xc.light, dtype=np.float64)
+    spread = np.ascontiguousarray(xc.spread, dtype=np.float64)
+    _rays(d, idx, ang, light, spread, np.ascontiguousarray(xc.edges, dtype=np.float64), nb, dist)
     return nb, dist
+
+
+@numba.njit(**_JIT)
+def _mod(a, b):  # pragma: no cover - jit
+    """numpy's ``mod(a, b)`` for ``b > 0``, the same bits: ``fmod``, then ``+ b`` where the signs differ,
+    ``+0`` for a zero. Within ``(-2 b, 2 b)``, where the angles here lie, ``fmod`` is ``a``, ``a - b`` or
+    ``a + b``, all exact (Sterbenz), so no ``fmod`` is called there."""
+    if a == 0.0:
+        return 0.0
+    if a > 0.0:
+        if a < b:
+            return a
+        if a < 2.0 * b:
+            return a - b  # +0 when a == b
+    elif a > -b:
+        return a + b
+    elif a > -2.0 * b:
+        r = a + b
+        return r + b if r != 0.0 else 0.0
+    return a % b  # numba's float %: Python's, which is numpy's mod
+
+
+@numba.njit(**_JIT)
+def _wrap_pi(a):  # pragma: no cover - jit
+    """An angle difference of lines (mod pi) to ``[-pi/2, pi/2)``: ``mod(a + pi/2, pi) - pi/2``."""
+    return _mod(a + np.pi / 2, np.pi) - np.pi / 2
+
+
+@numba.njit(**_JIT)
+def _wrap(a):  # pragma: no cover - jit
+    """An angle difference of rays (mod 2 pi) to ``[-pi, pi)``: ``mod(a + pi, 2 pi) - pi``."""
+    return _mod(a + np.pi, 2 * np.pi) - np.pi
+
+
+@numba.njit(**_JIT)
+def _rays(d, idx, ang, light, spread, edges, nb, dist):  # pragma: no cover - jit
+    """:func:`ray_neighbours`' tests for every corner and ray: the nearest neighbour that passes them all.
+
+    ``d, idx`` (N, k): the k nearest other corners; ``ang`` the angles to them; ``edges`` (N, 2) the edge
+    lines mod pi. Writes ``nb`` and ``dist`` where a neighbour passes (the first of the nearest on a tie).
+    """
+    n, m = idx.shape
+    ray = np.empty(4)
+    for c in range(n):
+        lc = light[c]
+        e0 = lc - spread[c]
+        e1 = lc + spread[c]
+        ray[0] = e0 + 0.0
+        ray[1] = e1 + 0.0
+        ray[2] = e0 + np.pi
+        ray[3] = e1 + np.pi
+        for t in range(m):
+            if not d[c, t] > 0:
+                continue
+            q = idx[c, t]
+            if not abs(abs(_wrap_pi(light[q] - lc)) - np.pi / 2) < POLARITY_TOL:  # the wedges' colours swap
+                continue
+            for r in range(4):
+                if not d[c, t] < dist[c, r]:  # the first of the nearest
+                    continue
+                if not abs(_wrap(ang[c, t] - ray[r])) < CONE:
+                    continue
+                if not min(abs(_wrap_pi(edges[q, 0] - ray[r])), abs(_wrap_pi(edges[q, 1] - ray[r]))) < EDGE_TOL:
+                    continue
+                nb[c, r] = q
+                dist[c, r] = d[c, t]
 
 
 def seeds(xc: XCorners, nb: np.ndarray, dist: np.ndarray) -> np.ndarray:
@@ -200,128 +262,263 @@ def _edges_follow(light: float, spread: float, axes: np.ndarray) -> bool:
     fisheye the edge lines of true corners come out 20-30 degrees off), while
     the light axis, an eigenvector, stays within a few degrees.
     """
-    ang = np.arctan2(axes[:, 1], axes[:, 0])
-    e = np.array([light - spread, light + spread])
-    d = np.abs(_wrap_pi(e[:, None] - ang[None, :]))  # (edge, axis)
-    straight = min(max(d[0, 0], d[1, 1]), max(d[0, 1], d[1, 0]))
+    axes = np.asarray(axes, dtype=np.float64)
+    ang = np.arctan2(axes[:, 1], axes[:, 0])  # numpy's arctan2, as the growth's (:meth:`_Grower.round`)
+    return bool(_edges_follow1(float(light), float(spread), float(ang[0]), float(ang[1])))
+
+
+@numba.njit(**_JIT)
+def _edges_follow1(light, spread, ang0, ang1):  # pragma: no cover - jit
+    """:func:`_edges_follow` with the axes' angles ``ang0, ang1`` given (compiled)."""
+    e0 = light - spread
+    e1 = light + spread
+    d00 = abs(_wrap_pi(e0 - ang0))
+    d01 = abs(_wrap_pi(e0 - ang1))
+    d10 = abs(_wrap_pi(e1 - ang0))
+    d11 = abs(_wrap_pi(e1 - ang1))
+    straight = min(max(d00, d11), max(d01, d10))
     if straight < EDGE_TOL:
         return True
-    mid = ang[0] + 0.5 * _wrap_pi(ang[1] - ang[0])  # a bisector of the two axis lines
-    bis = float(np.min(np.abs(_wrap_pi(light - mid - np.array([0.0, np.pi / 2])))))
+    mid = ang0 + 0.5 * _wrap_pi(ang1 - ang0)  # a bisector of the two axis lines
+    t = light - mid
+    bis = min(abs(_wrap_pi(t - 0.0)), abs(_wrap_pi(t - np.pi / 2)))
     return bis < EDGE_TOL / 2 and straight < 2 * EDGE_TOL
 
 
+@numba.njit(**_JIT)
+def _accept(k, near, ang0, ang1, light, spread, strength):  # pragma: no cover - jit
+    """Whether candidate ``k`` may take a label (module doc): its edge lines follow the axes at angles
+    ``ang0, ang1`` (:func:`_edges_follow1`), its strength is within :data:`CONTRAST_RATIO` of the median
+    of its labelled 3 x 3 neighbours', and its light axis has the label's parity against each of them.
+
+    ``near`` (9,): the corners at the label's 3 x 3 block, row by row (-1 for none; the centre, a free
+    label, is -1). The median is numpy's: the middle value, or the mean of the middle two.
+    """
+    if not _edges_follow1(light[k], spread[k], ang0, ang1):
+        return False
+    buf = np.empty(9)
+    m = 0
+    for t in range(9):
+        if near[t] >= 0:
+            v = strength[near[t]]
+            u = m
+            while u > 0 and buf[u - 1] > v:  # insertion sort: the median of at most 8
+                buf[u] = buf[u - 1]
+                u -= 1
+            buf[u] = v
+            m += 1
+    if m == 0:
+        return False
+    s = buf[m // 2] if m % 2 == 1 else (buf[m // 2 - 1] + buf[m // 2]) / 2.0  # np.median's
+    if not (s / CONTRAST_RATIO <= strength[k] <= s * CONTRAST_RATIO):
+        return False
+    # parity: the light axis of a neighbour across an edge is perpendicular, of a diagonal one parallel
+    for t in range(9):
+        q = near[t]
+        if q < 0 or t == 4:
+            continue
+        dl = abs(_wrap_pi(light[k] - light[q]))
+        if (abs(dl - np.pi / 2) if (t // 3 + t % 3) % 2 == 1 else dl) >= POLARITY_TOL:
+            return False
+    return True
+
+
+@numba.njit(**_JIT)
+def _claims(ptr, near, xy, p, free, blk, ang, light, spread, strength):  # pragma: no cover - jit
+    """The corner each label claims, and which claims stand.
+
+    For label ``l``, the free corners among ``near[ptr[l]:ptr[l + 1]]`` (within its search radius) in
+    order of distance to its prediction ``p[l]`` (ties: the lower index), the first that :func:`_accept`
+    takes (``blk[l]``: its 3 x 3 block, ``ang[l]``: its axes' angles). Returns ``(got (L,) int, -1 for
+    none; take (L,) bool)``: a claim stands when no other label claims the same corner.
+    """
+    L = ptr.shape[0] - 1
+    got = np.full(L, -1, dtype=np.int64)
+    buf_k = np.empty(max(near.shape[0], 1), dtype=np.int64)
+    buf_d = np.empty(max(near.shape[0], 1))
+    for lab in range(L):
+        m = _nearest_first(near[ptr[lab]:ptr[lab + 1]], xy, p[lab, 0], p[lab, 1], free, buf_k, buf_d)
+        for u in range(m):
+            if _accept(buf_k[u], blk[lab], ang[lab, 0], ang[lab, 1], light, spread, strength):
+                got[lab] = buf_k[u]
+                break
+    take = np.zeros(L, dtype=np.bool_)
+    for lab in range(L):
+        if got[lab] < 0:
+            continue
+        take[lab] = True
+        for other in range(L):
+            if other != lab and got[other] == got[lab]:
+                take[lab] = False
+                break
+    return got, take
+
+
+@numba.njit(**_JIT)
+def _nearest_first(near, xy, px, py, free, buf_k, buf_d):  # pragma: no cover - jit
+    """The free corners among ``near`` by distance to ``(px, py)`` (ties: the lower index) into ``buf_k``,
+    their distances (libm's ``hypot``, as numpy's) into ``buf_d``; returns how many."""
+    m = 0
+    for k in near:
+        if not free[k]:
+            continue
+        d = math.hypot(xy[k, 0] - px, xy[k, 1] - py)
+        u = m
+        while u > 0 and (buf_d[u - 1] > d or (buf_d[u - 1] == d and buf_k[u - 1] > k)):
+            buf_k[u] = buf_k[u - 1]
+            buf_d[u] = buf_d[u - 1]
+            u -= 1
+        buf_k[u] = k
+        buf_d[u] = d
+        m += 1
+    return m
+
+
+@numba.njit(**_JIT)
+def _untried(grid, tried, sup, box, limit):  # pragma: no cover - jit
+    """The free grid cells next to the board (4-neighbours, row by row: the labels sorted) with more
+    support (labelled corners at the offsets ``sup``) than when last tried, and their support.
+
+    ``box = (i0, j0, i1, j1)``: the board's grid cells; with ``limit >= 0``, only cells that keep the board
+    within ``limit`` labels each way. ``tried`` is updated. Returns ``(cells (L, 2), nbr (L, K), fit (L,))``,
+    ``fit``: at least 4 corners in the support, not all on one line (the moment matrix of their offsets,
+    integers, has a determinant >= 1).
+    """
+    i0, j0, i1, j1 = box
+    n_max = (i1 - i0 + 3) * (j1 - j0 + 3)
+    K = sup.shape[0]
+    cells = np.empty((n_max, 2), dtype=np.int64)
+    nbr = np.empty((n_max, K), dtype=np.int64)
+    fit = np.empty(n_max, dtype=np.bool_)
+    L = 0
+    for gi in range(i0 - 1, i1 + 2):
+        for gj in range(j0 - 1, j1 + 2):
+            if grid[gi, gj] >= 0:
+                continue
+            if grid[gi - 1, gj] < 0 and grid[gi + 1, gj] < 0 and grid[gi, gj - 1] < 0 and grid[gi, gj + 1] < 0:
+                continue
+            n = 0
+            c00 = 0
+            c01 = 0
+            c11 = 0
+            for t in range(K):
+                v = grid[gi + sup[t, 0], gj + sup[t, 1]]
+                nbr[L, t] = v
+                if v >= 0:
+                    n += 1
+                    c00 += sup[t, 0] * sup[t, 0]
+                    c01 += sup[t, 0] * sup[t, 1]
+                    c11 += sup[t, 1] * sup[t, 1]
+            if tried[gi, gj] >= n:
+                continue
+            if limit >= 0 and max(max(i1, gi) - min(i0, gi), max(j1, gj) - min(j0, gj)) + 1 > limit:
+                continue
+            tried[gi, gj] = n
+            cells[L, 0] = gi
+            cells[L, 1] = gj
+            fit[L] = n >= 4 and c00 * c11 - c01 * c01 > 0
+            L += 1
+    return cells[:L], nbr[:L], fit[:L]
+
+
+#: the 3 x 3 label block, row by row (:func:`_accept`'s ``near``)
+_BLOCK = np.array([(a, b) for a in (-1, 0, 1) for b in (-1, 0, 1)])
+#: the grid of labels keeps this many free labels around the board (the frontier, 1 out, reads 2 further)
+_MARGIN = 4
+
+
 class _Grower:
-    """The state of one board's growth: labels, positions, the free X-corners."""
+    """The state of one board's growth: labels, positions, the free X-corners.
+
+    The labels live on a grid (``grid[i + org[0], j + org[1]]``, the corner's index or -1), with the
+    support each free label had when last tried (``tried``, -1 for never).
+    """
 
     def __init__(self, xc: XCorners, tree: cKDTree, free: np.ndarray, limit: int | None) -> None:
         self.xc, self.tree, self.free, self.limit = xc, tree, free, limit
-        self.at: dict[tuple[int, int], int] = {}
-        self.tried: dict[tuple[int, int], int] = {}
-        self.lo = np.array([0, 0])
-        self.hi = np.array([0, 0])
+        self.index: list[int] = []
+        self.labels: list[tuple[int, int]] = []
+        self.lo = (0, 0)
+        self.hi = (0, 0)
+        side = 8 * _MARGIN
+        self.org = np.array([side // 2, side // 2])
+        self.grid = np.full((side, side), -1, dtype=np.int64)
+        self.tried = np.full((side, side), -1, dtype=np.int64)
+        #: the labels ``(i0, j0, i1, j1)`` that keep ``_MARGIN`` labels of the grid around them
+        self.room = (_MARGIN - side // 2, _MARGIN - side // 2, side // 2 - 1 - _MARGIN, side // 2 - 1 - _MARGIN)
+        self.xy = np.ascontiguousarray(xc.xy, dtype=np.float64)
+        self.light = np.ascontiguousarray(xc.light, dtype=np.float64)
+        self.spread = np.ascontiguousarray(xc.spread, dtype=np.float64)
+        self.strength = np.ascontiguousarray(xc.strength, dtype=np.float64)
+
+    def _room(self, i: int, j: int) -> None:
+        """Grow the grid (to twice the span it needs) so that ``_MARGIN`` labels around the board and
+        ``(i, j)`` fit in it."""
+        lo = np.array([min(self.lo[0], i), min(self.lo[1], j)]) - _MARGIN
+        hi = np.array([max(self.hi[0], i), max(self.hi[1], j)]) + _MARGIN
+        lo = np.minimum(lo, -self.org)  # and the grid as it is
+        hi = np.maximum(hi, np.array(self.grid.shape) - 1 - self.org)
+        pad = (hi - lo + 1) // 2
+        lo, hi = lo - pad, hi + pad
+        org = -lo
+        d0, d1 = org - self.org
+        h, w = self.grid.shape
+        for name in ("grid", "tried"):
+            new = np.full(tuple(hi - lo + 1), -1, dtype=np.int64)
+            new[d0:d0 + h, d1:d1 + w] = getattr(self, name)
+            setattr(self, name, new)
+        self.org = org
+        self.room = (_MARGIN - int(org[0]), _MARGIN - int(org[1]),
+                     int(self.grid.shape[0]) - 1 - _MARGIN - int(org[0]),
+                     int(self.grid.shape[1]) - 1 - _MARGIN - int(org[1]))
 
     def add(self, lab: tuple[int, int], k: int) -> None:
-        self.at[lab] = k
+        i, j = lab
+        r = self.room
+        if not (r[0] <= i <= r[2] and r[1] <= j <= r[3]):
+            self._room(i, j)
+        self.grid[i + self.org[0], j + self.org[1]] = k
+        self.index.append(k)
+        self.labels.append((i, j))
         self.free[k] = False
-        self.lo = np.minimum(self.lo, lab)
-        self.hi = np.maximum(self.hi, lab)
-
-    def support(self, lab: tuple[int, int], reach: int = 2) -> tuple[np.ndarray, np.ndarray]:
-        i, j = lab
-        keys = [(a, b) for a in range(i - reach, i + reach + 1) for b in range(j - reach, j + reach + 1)
-                if (a, b) in self.at and (a, b) != lab]
-        idx = np.array([self.at[q] for q in keys], dtype=np.int64)
-        return np.array(keys, dtype=np.float64).reshape(-1, 2), idx
-
-    def within_limit(self, lab: tuple[int, int]) -> bool:
-        if self.limit is None:
-            return True
-        ext = np.maximum(self.hi, lab) - np.minimum(self.lo, lab) + 1
-        return bool(ext.max() <= self.limit)
-
-    def accept(self, lab: tuple[int, int], k: int, axes: np.ndarray) -> bool:
-        """The checks of a candidate ``k`` for ``lab`` (module doc)."""
-        xc = self.xc
-        if not _edges_follow(xc.light[k], xc.spread[k], axes):
-            return False
-        _, idx = self.support(lab, 1)
-        if len(idx) == 0:
-            return False
-        s = np.median(xc.strength[idx])
-        if not (s / CONTRAST_RATIO <= xc.strength[k] <= s * CONTRAST_RATIO):
-            return False
-        # parity: the light axis of a neighbour across an edge is perpendicular, of a diagonal one parallel
-        i, j = lab
-        for di in (-1, 0, 1):
-            for dj in (-1, 0, 1):
-                m = self.at.get((i + di, j + dj))
-                if m is None or (di, dj) == (0, 0):
-                    continue
-                turn = (di + dj) % 2 == 1
-                dl = abs(_wrap_pi(xc.light[k] - xc.light[m]))
-                if (abs(dl - np.pi / 2) if turn else dl) >= POLARITY_TOL:
-                    return False
-        return True
-
-    def search(self, lab: tuple[int, int], p: np.ndarray, radius: float,
-               axes: np.ndarray) -> tuple[float, int] | None:
-        """The nearest free X-corner within ``radius`` of ``p`` that :meth:`accept` takes for ``lab``:
-        ``(distance, index)``, or None."""
-        near = self.tree.query_ball_point(p, radius)
-        for dd, k in sorted((float(np.hypot(*(self.xc.xy[k] - p))), k) for k in near if self.free[k]):
-            if self.accept(lab, k, axes):
-                return dd, k
-        return None
-
-    def frontier(self) -> list[tuple[int, int]]:
-        out = set()
-        for i, j in self.at:
-            for di, dj in _OFFS:
-                q = (i + di, j + dj)
-                if q not in self.at:
-                    out.add(q)
-        return sorted(out)
-
-    def untried(self) -> list[tuple[int, int]]:
-        """The free labels next to the board with more support than when last tried."""
-        labs = []
-        for lab in self.frontier():
-            n_sup = len(self.support(lab)[1])
-            if self.tried.get(lab, -1) >= n_sup or not self.within_limit(lab):
-                continue
-            self.tried[lab] = n_sup
-            labs.append(lab)
-        return labs
+        self.lo = (min(self.lo[0], i), min(self.lo[1], j))
+        self.hi = (max(self.hi[0], i), max(self.hi[1], j))
 
     def round(self) -> int:
-        """One round over the free labels next to the board; the number of corners added."""
-        labs = self.untried()
-        if not labs:
-            return 0
-        nbr = np.array([[self.at.get((i + a, j + b), -1) for a, b in _SUPPORT.tolist()] for i, j in labs],
-                       dtype=np.int64)
-        w = (nbr >= 0).astype(np.float64)
-        cov = np.einsum("nk,ka,kb->nab", w, _SUPPORT.astype(float), _SUPPORT.astype(float))
-        fit = (w.sum(axis=1) >= 4) & (np.linalg.det(cov) > 1e-9)
+        """One round over the free labels next to the board; the number of corners added.
+
+        For each free label next to the board with more support than when last tried (:func:`_untried`)
+        and a fit (4 corners or more within two labels, not on one line), the local homography predicts
+        the position and the lattice steps; the nearest free X-corner within :data:`SEARCH` cells that
+        :func:`_accept` takes is its claim. A corner two labels claim is left for a later round.
+        """
+        o0, o1 = int(self.org[0]), int(self.org[1])
+        box = (self.lo[0] + o0, self.lo[1] + o1, self.hi[0] + o0, self.hi[1] + o1)
+        limit = -1 if self.limit is None else self.limit
+        cells, nbr, fit = _untried(self.grid, self.tried, _SUPPORT, box, limit)
         if not fit.any():
             return 0
-        P = predict_batch(self.xc.xy, nbr[fit], w[fit], _SUPPORT.astype(float))
-        claims: dict[int, list[tuple[float, tuple[int, int]]]] = {}
-        for lab, pts in zip([q for q, f in zip(labs, fit) if f], P):
-            if not np.isfinite(pts).all():
-                continue
-            p, axes = pts[0], np.array([pts[1] - pts[2], pts[3] - pts[4]])
-            cell = float(min(np.hypot(*axes[0]), np.hypot(*axes[1])))
-            k = self.search(lab, p, SEARCH * cell, axes)
-            if k is not None:
-                claims.setdefault(k[1], []).append((k[0], lab))
-        added = 0
-        for k, cl in claims.items():
-            if len(cl) == 1:  # a corner two labels claim is left for a later round
-                self.add(cl[0][1], k)
-                added += 1
-        return added
+        cells, nbr = cells[fit], nbr[fit]
+        P = predict_batch(self.xc.xy, nbr, (nbr >= 0).astype(np.float64), _SUPPORT_F)
+        ok = np.isfinite(P).all(axis=(1, 2))
+        if not ok.all():
+            if not ok.any():
+                return 0
+            cells, P = cells[ok], P[ok]
+        axes = np.stack([P[:, 1] - P[:, 2], P[:, 3] - P[:, 4]], axis=1)  # (L, 2 axes, xy)
+        cell = np.minimum(np.hypot(axes[:, 0, 0], axes[:, 0, 1]), np.hypot(axes[:, 1, 0], axes[:, 1, 1]))
+        p = np.ascontiguousarray(P[:, 0])
+        near = self.tree.query_ball_point(p, SEARCH * cell)
+        ptr = np.zeros(len(near) + 1, dtype=np.int64)
+        np.cumsum([len(q) for q in near], out=ptr[1:])
+        flat = np.fromiter(itertools.chain.from_iterable(near), dtype=np.int64, count=int(ptr[-1]))
+        blk = self.grid[cells[:, :1] + _BLOCK[:, 0], cells[:, 1:] + _BLOCK[:, 1]]
+        ang = np.arctan2(axes[..., 1], axes[..., 0])  # numpy's arctan2, as _edges_follow's
+        got, take = _claims(ptr, flat, self.xy, p, self.free, blk, ang, self.light, self.spread, self.strength)
+        labs = (cells[take] - self.org).tolist()  # labels first: the grid, and its origin, may grow
+        for (i, j), k in zip(labs, got[take].tolist()):
+            self.add((i, j), k)
+        return len(labs)
 
 
 def grow(xc: XCorners, seed: int, nb: np.ndarray, free: np.ndarray, tree: cKDTree, *,
@@ -335,9 +532,8 @@ def grow(xc: XCorners, seed: int, nb: np.ndarray, free: np.ndarray, tree: cKDTre
             g.add((int(di), int(dj)), k)
     while g.round():
         pass
-    labs = np.array(list(g.at), dtype=np.int64).reshape(-1, 2)
-    idx = np.array([g.at[tuple(q)] for q in labs.tolist()], dtype=np.int64)
-    return Lattice(idx, labs)
+    labs = np.array(g.labels, dtype=np.int64).reshape(-1, 2)
+    return Lattice(np.array(g.index, dtype=np.int64), labs)
 
 
 def check(xy: np.ndarray, labels: np.ndarray, *, tol: float = 0.1, reach: int = 2,
@@ -547,14 +743,29 @@ _HALF = np.array([[0, 0], [0.5, 0], [-0.5, 0], [0, 0.5], [0, -0.5]], float)
 
 def _monomials(a: np.ndarray, order: int) -> np.ndarray:
     """``(i, j, 1)``, for ``order >= 2`` also ``(i^2, i j, j^2)``, for ``order=3`` also
-    ``(i^3, i^2 j, i j^2, j^3)``, of label offsets ``a`` (..., 2)."""
-    i, j = a[..., 0], a[..., 1]
-    cols = [i, j, np.ones_like(i)]
-    if order >= 2:
-        cols += [i * i, i * j, j * j]
-    if order >= 3:
-        cols += [i ** 3, i * i * j, i * j * j, j ** 3]
-    return np.stack(cols, axis=-1)
+    ``(i^3, i^2 j, i j^2, j^3)``, of label offsets ``a`` (..., 2).
+
+    The offsets are a few fixed sets (:data:`_SUPPORT`, :data:`_CURVE_OFFS`, :data:`_HALF`, parts of
+    them), so the result is kept (read-only) for each set and order.
+    """
+    a = np.asarray(a, dtype=np.float64)
+    key = (a.shape, a.tobytes(), int(order))
+    out = _MONOMIALS.get(key)
+    if out is None:
+        i, j = a[..., 0], a[..., 1]
+        cols = [i, j, np.ones_like(i)]
+        if order >= 2:
+            cols += [i * i, i * j, j * j]
+        if order >= 3:
+            cols += [i ** 3, i * i * j, i * j * j, j ** 3]
+        out = np.stack(cols, axis=-1)
+        out.flags.writeable = False
+        if len(_MONOMIALS) < 64:
+            _MONOMIALS[key] = out
+    return out
+
+
+_MONOMIALS: dict[tuple, np.ndarray] = {}
 
 
 def _fit_batch(xy: np.ndarray, nbr: np.ndarray, w: np.ndarray, offs: np.ndarray,
@@ -585,16 +796,82 @@ def _fit_batch(xy: np.ndarray, nbr: np.ndarray, w: np.ndarray, offs: np.ndarray,
     scale = np.maximum(scale, 1e-12)
     b = rel / scale[:, None, None]
     m0 = _monomials(offs, order)
-    m = np.broadcast_to(m0, b.shape[:2] + m0.shape[-1:])
-    z = np.zeros_like(m)
-    a = np.broadcast_to(offs, b.shape)
-    r1 = np.concatenate([m, z, -b[..., :1] * a], axis=-1)
-    r2 = np.concatenate([z, m, -b[..., 1:] * a], axis=-1)
-    A = np.einsum("nk,nki,nkj->nij", w, r1, r1) + np.einsum("nk,nki,nkj->nij", w, r2, r2)
-    rhs = np.einsum("nk,nki,nk->ni", w, r1, b[..., 0]) + np.einsum("nk,nki,nk->ni", w, r2, b[..., 1])
-    A = A + 1e-12 * np.eye(A.shape[-1])
+    A, rhs = _normal_equations(np.ascontiguousarray(w, dtype=np.float64), np.ascontiguousarray(b),
+                               np.ascontiguousarray(offs, dtype=np.float64), np.ascontiguousarray(m0))
     h = np.linalg.solve(A, rhs[..., None])[..., 0]
     return h, mean, scale
+
+
+@numba.njit(**_JIT)
+def _normal_equations(w, b, a, m0):  # pragma: no cover - jit
+    """The normal equations of :func:`_fit_batch`, ``(A (n, P, P), rhs (n, P))`` with ``P = 2 M + 2``.
+
+    The rows of the design are ``r1 = (m, 0, -x a)`` and ``r2 = (0, m, -y a)`` (``m`` the monomials
+    ``m0`` (K, M) of the offsets ``a`` (K, 2), ``(x, y)`` = ``b`` (n, K, 2)), weighted by ``w`` (0 or 1):
+    ``A = sum_k w r1 r1^T + sum_k w r2 r2^T + 1e-12 I`` and ``rhs = sum_k w x r1 + sum_k w y r2``, as
+    numpy's ``einsum("nk,nki,nkj->nij", ...)`` computes them, bit for bit: each sum over ``k`` in order
+    from 0, each term ``(w r_i) r_j``. With ``w`` 0 or 1 the terms are symmetric in ``i, j``, and the sums
+    over the zero blocks of ``r1`` and ``r2`` are ``+0``, so only the other blocks' sums are computed.
+    """
+    n = w.shape[0]
+    P = 2 * m0.shape[1] + 2
+    A = np.zeros((n, P, P))
+    rhs = np.empty((n, P))
+    for t in range(n):
+        _monomial_rows(w[t], b[t], a, m0, A[t], rhs[t])
+        _step_rows(w[t], b[t], a, m0.shape[1], A[t], rhs[t])
+    return A, rhs
+
+
+@numba.njit(**_JIT)
+def _monomial_rows(w, b, a, m0, A, rhs):  # pragma: no cover - jit
+    """:func:`_normal_equations`' rows of the monomials (the first ``2 M``), for one map."""
+    K, M = m0.shape
+    C = 2 * M
+    for i in range(M):
+        for j in range(i, M):
+            s = 0.0
+            for k in range(K):
+                s += w[k] * m0[k, i] * m0[k, j]
+            e = 1e-12 * (1.0 if i == j else 0.0)
+            A[i, j] = A[j, i] = (s + 0.0) + e  # r1's block, r2's zeros
+            A[M + i, M + j] = A[M + j, M + i] = (0.0 + s) + e  # r1's zeros, r2's block
+        for c in range(2):
+            s1 = 0.0
+            s2 = 0.0
+            for k in range(K):
+                s1 += w[k] * m0[k, i] * (-b[k, 0] * a[k, c])
+                s2 += w[k] * m0[k, i] * (-b[k, 1] * a[k, c])
+            A[i, C + c] = A[C + c, i] = (s1 + 0.0) + 0.0
+            A[M + i, C + c] = A[C + c, M + i] = (0.0 + s2) + 0.0
+        q1 = 0.0
+        q2 = 0.0
+        for k in range(K):
+            q1 += w[k] * m0[k, i] * b[k, 0]
+            q2 += w[k] * m0[k, i] * b[k, 1]
+        rhs[i] = q1 + 0.0
+        rhs[M + i] = 0.0 + q2
+
+
+@numba.njit(**_JIT)
+def _step_rows(w, b, a, M, A, rhs):  # pragma: no cover - jit
+    """:func:`_normal_equations`' last two rows (the denominator's ``g1, g2``), for one map."""
+    K = w.shape[0]
+    C = 2 * M
+    for c in range(2):
+        for d in range(c, 2):
+            s1 = 0.0
+            s2 = 0.0
+            for k in range(K):
+                s1 += w[k] * (-b[k, 0] * a[k, c]) * (-b[k, 0] * a[k, d])
+                s2 += w[k] * (-b[k, 1] * a[k, c]) * (-b[k, 1] * a[k, d])
+            A[C + c, C + d] = A[C + d, C + c] = (s1 + s2) + 1e-12 * (1.0 if c == d else 0.0)
+        q1 = 0.0
+        q2 = 0.0
+        for k in range(K):
+            q1 += w[k] * (-b[k, 0] * a[k, c]) * b[k, 0]
+            q2 += w[k] * (-b[k, 1] * a[k, c]) * b[k, 1]
+        rhs[C + c] = q1 + q2
 
 
 def _eval_batch(fit: tuple[np.ndarray, np.ndarray, np.ndarray], q: np.ndarray, order: int) -> np.ndarray:
