@@ -284,7 +284,7 @@ def main() -> None:
     from scipy.spatial import cKDTree
 
     from sogdd.calib.targets.chessboard import detect_boards
-    from sogdd.calib.targets.xcorners import find_xcorners
+    from sogdd.calib.targets.chessboard.xcorners import find_xcorners
 
     img, truth = frame(a.width, a.height, a.corners)
     detect_boards(frame(800, 600, 6)[0])  # compile

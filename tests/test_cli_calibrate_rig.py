@@ -14,7 +14,7 @@ import cv2
 import numpy as np
 import pytest
 
-from sogdd.calib.targets import chessboard
+from sogdd.calib.targets.chessboard import search as chessboard
 from sogdd.cli.main import main
 
 

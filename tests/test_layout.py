@@ -83,7 +83,9 @@ def test_no_import_circle():
 #: the core's stages, in the order the grey image goes through them
 STAGES = ("image", "measure", "select")
 #: the folders whose ``__init__`` says, in a table, what each of their modules is
-DOCUMENTED = ("image", "measure", "select", "gpu", "formats", "calib", "calib/targets", "calib/cameras")
+DOCUMENTED = ("image", "measure", "select", "gpu", "formats", "calib", "calib/targets",
+              "calib/targets/chessboard",
+              "calib/cameras")
 
 
 def _stage(name: str) -> int | None:

@@ -9,7 +9,7 @@ import pytest
 from scipy.spatial import cKDTree
 
 from sogdd.calib.targets.chessboard import detect_board, detect_boards
-from sogdd.calib.targets.xcorners import default_scale
+from sogdd.calib.targets.chessboard.xcorners import default_scale
 from sogdd.evaluation.calibration.render import Camera, ChessboardTarget, render_view
 
 CAM = Camera(np.array([[500.0, 0, 239.5], [0, 500.0, 179.5], [0, 0, 1]]), (0.0, 0, 0, 0), (480, 360))

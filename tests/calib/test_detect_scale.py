@@ -10,7 +10,7 @@ import pytest
 from scipy.spatial import cKDTree
 
 from sogdd.calib.targets.chessboard import detect_board
-from sogdd.calib.targets.xcorners import NOISE_FACTOR, noise_strength, search, search_levels
+from sogdd.calib.targets.chessboard.xcorners import NOISE_FACTOR, noise_strength, search, search_levels
 from sogdd.evaluation.calibration.render import Camera, ChessboardTarget, render_view
 
 CAM = Camera(np.array([[900.0, 0, 479.5], [0, 900.0, 359.5], [0, 0, 1]]), (0.0, 0, 0, 0), (960, 720))

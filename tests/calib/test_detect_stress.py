@@ -12,9 +12,9 @@ import pytest
 from scipy.spatial import cKDTree
 
 from sogdd.calib.targets.chessboard import detect_boards
+from sogdd.calib.targets.chessboard.windows import edge_halves
+from sogdd.calib.targets.grey import to_grey
 from sogdd.calib.targets.refine import half_widths
-from sogdd.calib.targets.windows import _edge_halves
-from sogdd.calib.targets.xcorners import to_grey
 from sogdd.evaluation.calibration.render import Camera, ChessboardTarget, render_view
 from sogdd.evaluation.calibration.stress import stress_scene
 
@@ -105,7 +105,7 @@ def test_border_windows_stop_at_the_outer_squares_edge():
     img, truth = warped(tex, c, (640, 480), 0.76, rng, jitter=0.0)
     cell = 0.76 * 640 / tex.shape[1] * 48
     half = half_widths(truth, None, np.full(len(truth), cell))
-    cut = _edge_halves(to_grey(img), truth, lab, half, np.full(len(truth), cell))
+    cut = edge_halves(to_grey(img), truth, lab, half, np.full(len(truth), cell))
     border = (lab[:, 0] % 8 == 0) | (lab[:, 1] % 5 == 0)
     assert np.array_equal(cut[~border], half[~border]) and half.min() > 0.5 * cell
     assert (cut[border] <= 0.3 * cell).all() and (cut[border] >= 0.15 * cell).all()

@@ -1,9 +1,9 @@
-"""The fill's label bookkeeping (sogdd.calib.targets.fill): the labels it tries and the squares it reads."""
+"""The fill's label bookkeeping (calib.targets.chessboard.fill): the labels it tries, the squares it reads."""
 
 import numpy as np
 import pytest
 
-from sogdd.calib.targets.fill import _fill_labels, _frame
+from sogdd.calib.targets.chessboard.fill import _fill_labels, _frame
 
 
 def reference_fill_labels(labels, pattern):

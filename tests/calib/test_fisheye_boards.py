@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from sogdd.calib.targets.chessboard import detect_boards
-from sogdd.calib.targets.lattice import check
+from sogdd.calib.targets.chessboard.mapping import check
 
 
 def fisheye_view(cols, rows, *, off_axis, azimuth, dist, square, tilt=(0.0, 0.0), f=190.0, size=(640, 480),
@@ -122,7 +122,7 @@ def test_small_boards_at_the_rim_are_found_complete(name):
 
 #: boards reaching the rim where the light squares bleed over the junctions (from 50 degrees off the axis
 #: on): the dark squares no longer touch there, the X-corner search finds no saddle, the lattice's
-#: fill (:mod:`sogdd.calib.targets.fill`) measures those corners where the board's curved map puts them
+#: fill (:mod:`sogdd.calib.targets.chessboard.fill`) measures those corners where the curved map puts them
 RIM_BLEED = {
     "rim-bleed": dict(cols=6, rows=4, off_axis=50, azimuth=0, dist=0.2, square=0.05, bleed=0.04, bleed_from=50),
     "rim-bleed-tilted": dict(cols=6, rows=4, off_axis=45, azimuth=200, dist=0.2, square=0.05, bleed=0.04,

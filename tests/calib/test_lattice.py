@@ -3,8 +3,9 @@
 import numpy as np
 import pytest
 
-from sogdd.calib.targets.lattice import _curved_errors, _edges_follow, apply, check, homography, ray_neighbours
-from sogdd.calib.targets.xcorners import XCorners
+from sogdd.calib.targets.chessboard.lattice import _edges_follow, ray_neighbours
+from sogdd.calib.targets.chessboard.mapping import _curved_errors, apply, check, homography
+from sogdd.calib.targets.chessboard.xcorners import XCorners
 
 
 def grid(n=5, cell=20.0):
@@ -88,7 +89,7 @@ def test_edges_follow_a_sheared_cell_by_the_light_axis():
 
 def test_the_compiled_mod_is_numpys_to_the_bit():
     """The growth's angle wraps (compiled, mostly without fmod) give numpy's mod, signs of zeros too."""
-    from sogdd.calib.targets.lattice import _mod
+    from sogdd.calib.targets.chessboard.lattice import _mod
 
     rng = np.random.default_rng(3)
     for b in (np.pi, 2 * np.pi):
@@ -114,10 +115,10 @@ def _einsum_normal_equations(w, b, offs, m0):
 
 @pytest.mark.parametrize("order", [1, 2, 3])
 def test_the_compiled_normal_equations_are_the_einsums_to_the_bit(order):
-    from sogdd.calib.targets.lattice import _CURVE_OFFS, _SUPPORT, _monomials, _normal_equations
+    from sogdd.calib.targets.chessboard.mapping import _CURVE_OFFS, SUPPORT, _monomials, _normal_equations
 
     rng = np.random.default_rng(order)
-    offs = (_SUPPORT if order == 1 else _CURVE_OFFS).astype(float)
+    offs = (SUPPORT if order == 1 else _CURVE_OFFS).astype(float)
     m0 = _monomials(offs, order)
     for n in (1, 7, 30):
         w = (rng.random((n, len(offs))) < 0.6).astype(float)
@@ -141,7 +142,7 @@ def x_corner_grid(cols, rows, cell=14.0, seed=0):
 def test_grow_labels_every_corner_of_a_board_from_its_seed(size):
     from scipy.spatial import cKDTree
 
-    from sogdd.calib.targets.lattice import grow, seeds
+    from sogdd.calib.targets.chessboard.lattice import grow, seeds
 
     xc, lab = x_corner_grid(*size)
     nb, dist = ray_neighbours(xc)
@@ -160,7 +161,7 @@ def test_grow_labels_every_corner_of_a_board_from_its_seed(size):
 def test_grow_keeps_within_a_limit():
     from scipy.spatial import cKDTree
 
-    from sogdd.calib.targets.lattice import grow, seeds
+    from sogdd.calib.targets.chessboard.lattice import grow, seeds
 
     xc, _ = x_corner_grid(9, 7)
     nb, dist = ray_neighbours(xc)

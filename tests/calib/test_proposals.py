@@ -7,7 +7,7 @@ from scipy.spatial import cKDTree
 
 from sogdd.calib.targets.board import grid_dims
 from sogdd.calib.targets.chessboard import detect_board, find_boards
-from sogdd.calib.targets.proposals import propose
+from sogdd.calib.targets.chessboard.proposals import propose
 from sogdd.evaluation.calibration.render import Camera, ChessboardTarget, render_view
 
 CAM = Camera(np.array([[700.0, 0, 319.5], [0, 700.0, 239.5], [0, 0, 1]]), (-0.05, 0.0, 0, 0), (640, 480))

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from sogdd.calib.targets import xcorners
-from sogdd.calib.targets.xcorners import default_scale, find_xcorners
+from sogdd.calib.targets.chessboard import xcorners
+from sogdd.calib.targets.chessboard.xcorners import default_scale, find_xcorners
 from sogdd.evaluation.calibration.render import Camera, ChessboardTarget, render_view
 from sogdd.params import Params
 

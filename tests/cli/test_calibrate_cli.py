@@ -20,8 +20,8 @@ import pytest
 
 from sogdd.calib import report
 from sogdd.calib.files import read_camera
-from sogdd.calib.targets import chessboard
 from sogdd.calib.targets.board import Board
+from sogdd.calib.targets.chessboard import search as chessboard
 from sogdd.cli.main import main
 
 K_TRUE = np.array([[560.0, 0, 322.0], [0, 560.0, 236.0], [0, 0, 1]])

@@ -47,7 +47,7 @@ class Board:
     source : str
         Which detector proposed the board: ``"sogdd"`` (its own search),
         ``"opencv"`` or ``"opencv-sb"`` (OpenCV's detectors as a second source,
-        :mod:`sogdd.calib.targets.proposals`), ``"charuco"``. Its corners are
+        :mod:`sogdd.calib.targets.chessboard.proposals`), ``"charuco"``. Its corners are
         measured and checked by sogdd whatever the source.
     precision : (N,) float64 or None
         Each corner's measured 1-sigma position uncertainty in px: the square

@@ -20,8 +20,8 @@ import cv2
 import numpy as np
 
 from .board import Board, ViewBoards, parse_grid
+from .grey import to_grey
 from .refine import cell_sizes, refine_grey
-from .xcorners import to_grey
 
 __all__ = ["charuco_board", "detect_charuco", "parse_spec", "spec_text", "view_boards"]
 

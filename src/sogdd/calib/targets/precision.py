@@ -82,7 +82,7 @@ def with_precision(grey: np.ndarray, board: Board, half: np.ndarray | int | None
     ----------
     grey : (H, W) ndarray
         The grey image the board was found in, on the 0-255 scale
-        (:func:`sogdd.calib.targets.xcorners.to_grey`, which the detectors use).
+        (:func:`sogdd.calib.targets.grey.to_grey`, which the detectors use).
     board : Board
         Its corners refined (they are where the fit's gradient vanishes).
     half : int or (N,) array or None

@@ -45,7 +45,7 @@ import numba
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .xcorners import to_grey
+from .grey import to_grey
 
 __all__ = ["cell_sizes", "corner_covariance", "half_widths", "refine_corners"]
 
@@ -530,7 +530,7 @@ def corner_covariance(grey: np.ndarray, xy: np.ndarray, half: np.ndarray | int) 
     ----------
     grey : (H, W) ndarray
         The grey image the corners were refined on, float on 0-255 (what
-        :func:`sogdd.calib.targets.xcorners.to_grey` returns; any real dtype).
+        :func:`sogdd.calib.targets.grey.to_grey` returns; any real dtype).
     xy : (N, 2) array_like
         The refined corners (x = column, y = row).
     half : int or (N,) array_like of int

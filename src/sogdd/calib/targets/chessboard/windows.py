@@ -1,13 +1,13 @@
 """A board's corners refined: windows that stop at the board's edge, shading taken out, the symmetry test.
 
-:func:`_refine_board` refines every corner of a grown lattice to its centre of
+:func:`refine_board` refines every corner of a grown lattice to its centre of
 point symmetry (:func:`sogdd.calib.targets.refine.refine_grey`) with a window of
-0.65 of its local cell (:func:`_local_cells`), cut for the corners on the
+0.65 of its local cell (:func:`local_cells`), cut for the corners on the
 border and for those far less point-symmetric than the board's others to where
-the squares around them are point-symmetric (:func:`_edge_halves`,
-:func:`_recut`), and, for those still far less symmetric, measured again on
-the image divided by its light envelope (:func:`_deshaded`: a shadow or a
-reflection over part of a square). :func:`_symmetric` then keeps the corners
+the squares around them are point-symmetric (:func:`edge_halves`,
+:func:`recut`), and, for those still far less symmetric, measured again on
+the image divided by its light envelope (:func:`deshaded`: a shadow or a
+reflection over part of a square). :func:`symmetric` then keeps the corners
 whose asymmetry ``1 - quality`` is within :data:`ASYMMETRY` times the board's
 median.
 """
@@ -17,7 +17,10 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from .refine import MAX_WINDOW, MIN_HALF, half_widths, refine_grey
+from ..refine import MAX_WINDOW, MIN_HALF, half_widths, refine_grey
+
+__all__ = ["ASYMMETRY", "MIN_ASYMMETRY", "bilinear", "deshaded", "edge_halves", "inner_corners", "local_cells",
+           "recut", "refine_board", "symmetric"]
 
 #: a refined corner is dropped when its asymmetry ``1 - quality`` exceeds this multiple of the board's median
 ASYMMETRY = 10.0
@@ -25,7 +28,7 @@ ASYMMETRY = 10.0
 MIN_ASYMMETRY = 0.1
 
 
-def _symmetric(quality: np.ndarray) -> np.ndarray:
+def symmetric(quality: np.ndarray) -> np.ndarray:
     """The corners whose asymmetry ``1 - quality`` is within :data:`ASYMMETRY` times the board's median.
 
     An occluder, a window cut by the frame or a corner that is not the board's
@@ -37,7 +40,7 @@ def _symmetric(quality: np.ndarray) -> np.ndarray:
     return (quality > 0) & (asym <= max(ASYMMETRY * float(np.median(asym)), MIN_ASYMMETRY))
 
 
-def _bilinear(grey: np.ndarray, p: np.ndarray) -> np.ndarray:
+def bilinear(grey: np.ndarray, p: np.ndarray) -> np.ndarray:
     H, W = grey.shape
     x = np.clip(p[..., 0], 0, W - 1.001)
     y = np.clip(p[..., 1], 0, H - 1.001)
@@ -47,7 +50,7 @@ def _bilinear(grey: np.ndarray, p: np.ndarray) -> np.ndarray:
             + (grey[y0 + 1, x0] * (1 - fx) + grey[y0 + 1, x0 + 1] * fx) * fy)
 
 
-def _local_cells(xy: np.ndarray, labels: np.ndarray) -> np.ndarray:
+def local_cells(xy: np.ndarray, labels: np.ndarray) -> np.ndarray:
     """Each corner's distance to its nearest 4-neighbour on the lattice (inf when it has none)."""
     pos = {tuple(q): k for k, q in enumerate(labels.tolist())}
     out = np.full(len(xy), np.inf)
@@ -64,7 +67,7 @@ _OUT_STEPS = np.arange(0.1, 0.96, 0.05)
 _OUT_DIRS = np.stack([np.cos(np.arange(16) * np.pi / 16), np.sin(np.arange(16) * np.pi / 16)], axis=1)
 
 
-def _edge_halves(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, half: np.ndarray,
+def edge_halves(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, half: np.ndarray,
                  cells: np.ndarray, also: np.ndarray | None = None) -> np.ndarray:
     """Half-widths of the refinement windows, cut for the corners on the board's border (and ``also``).
 
@@ -85,7 +88,7 @@ def _edge_halves(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, half: np.
     inner corner whose window is far less point-symmetric than the board's
     others (a code printed in its white squares, which differs between the two
     squares mirrored through it) is measured the same way. ``xy`` must be
-    refined already (:func:`_refine_board`).
+    refined already (:func:`refine_board`).
     """
     pos = {tuple(q) for q in labels.tolist()}
     border = np.array([any((i + a, j + b) not in pos for a, b in ((1, 0), (-1, 0), (0, 1), (0, -1)))
@@ -97,9 +100,9 @@ def _edge_halves(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, half: np.
         return half
     p, cell = xy[k][:, None, None, :], cells[k][:, None, None, None]
     d = _OUT_STEPS[None, :, None, None] * cell * _OUT_DIRS[None, None, :, :]  # (n, t, u, 2)
-    ring = _bilinear(grey, xy[k][:, None, :] + 0.2 * cells[k][:, None, None] * np.r_[_OUT_DIRS, -_OUT_DIRS])
+    ring = bilinear(grey, xy[k][:, None, :] + 0.2 * cells[k][:, None, None] * np.r_[_OUT_DIRS, -_OUT_DIRS])
     c = np.percentile(ring, 90, axis=1) - np.percentile(ring, 10, axis=1)
-    bad = np.abs(_bilinear(grey, p + d) - _bilinear(grey, p - d)) > 0.2 * c[:, None, None]  # (n, t, u)
+    bad = np.abs(bilinear(grey, p + d) - bilinear(grey, p - d)) > 0.2 * c[:, None, None]  # (n, t, u)
     r = np.where(bad.any(axis=1), _OUT_STEPS[np.argmax(bad, axis=1)], np.inf) * cells[k][:, None]  # (n, u)
     reach = np.abs(_OUT_DIRS[:, 0]) + np.abs(_OUT_DIRS[:, 1])
     limit = np.floor(np.minimum(0.8 * np.min(r / reach, axis=1), MAX_WINDOW)).astype(np.int64)
@@ -108,7 +111,7 @@ def _edge_halves(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, half: np.
     return out
 
 
-def _recut(grey: np.ndarray, start: np.ndarray, out: np.ndarray, quality: np.ndarray, half: np.ndarray,
+def recut(grey: np.ndarray, start: np.ndarray, out: np.ndarray, quality: np.ndarray, half: np.ndarray,
            cut: np.ndarray) -> None:
     """Refine again, from ``start``, the corners whose window ``cut`` narrows; keep the more symmetric fit.
 
@@ -123,55 +126,55 @@ def _recut(grey: np.ndarray, start: np.ndarray, out: np.ndarray, quality: np.nda
         out[redo[better]], quality[redo[better]] = xy2[better], q2[better]
 
 
-def _refine_board(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def refine_board(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The corners refined with windows of 0.65 of their local cell, cut to the plain squares where needed.
 
-    The symmetric extent of :func:`_edge_halves` is measured at the corners
+    The symmetric extent of :func:`edge_halves` is measured at the corners
     refined with the full window (at the X-corners' coarse positions the
     mirror images differ along the corner's own edge lines); the corners whose
     window it cuts are refined again, from their start, with the cut window
-    (:func:`_recut`). First the border corners; then the corners that
-    :func:`_symmetric` would drop against the board's median with the border
+    (:func:`recut`). First the border corners; then the corners that
+    :func:`symmetric` would drop against the board's median with the border
     cut (before it, the median itself may be that of windows reaching beyond
     the squares): a code in the white squares (ECoCheck's dots), which differs
     between the two squares mirrored through the corner, breaks the symmetry
     beyond its clear margin only, so a window within that margin fits the
     corner; an occluder over the corner leaves the cut fit asymmetric too.
     """
-    cells = _local_cells(xy, labels)
+    cells = local_cells(xy, labels)
     half = half_widths(xy, None, cells)
     out, quality = refine_grey(grey, xy, half, half.astype(np.float64))
     at = np.where(quality[:, None] > 0, out, xy)
-    _recut(grey, xy, out, quality, half, _edge_halves(grey, at, labels, half, cells))
-    asym = (quality > 0) & ~_symmetric(quality)
+    recut(grey, xy, out, quality, half, edge_halves(grey, at, labels, half, cells))
+    asym = (quality > 0) & ~symmetric(quality)
     if asym.any():
         # measured on their own: the border corners' windows are cut already
         cut = half.copy()
-        cut[asym] = _edge_halves(grey, at[asym], labels[asym], half[asym], cells[asym], also=asym[asym])
-        _recut(grey, xy, out, quality, half, cut)
-    bad = ~_symmetric(quality)
+        cut[asym] = edge_halves(grey, at[asym], labels[asym], half[asym], cells[asym], also=asym[asym])
+        recut(grey, xy, out, quality, half, cut)
+    bad = ~symmetric(quality)
     if bad.any() and np.isfinite(cells).any():
-        inner = _inner(labels) & ~bad
+        inner = inner_corners(labels) & ~bad
         ref = np.flatnonzero(inner if np.count_nonzero(inner) >= 5 else ~bad)
         cell = float(np.median(cells[np.isfinite(cells)]))
-        r, q = _deshaded(grey, xy[bad], half[bad], out[ref], half[ref], cell)
+        r, q = deshaded(grey, xy[bad], half[bad], out[ref], half[ref], cell)
         k = np.flatnonzero(bad)[q > quality[bad]]
         out[k], quality[k] = r[q > quality[bad]], q[q > quality[bad]]
     return out, quality
 
 
-def _inner(labels: np.ndarray) -> np.ndarray:
+def inner_corners(labels: np.ndarray) -> np.ndarray:
     """The corners with all four lattice neighbours."""
     pos = {tuple(q) for q in labels.tolist()}
     return np.array([all((i + a, j + b) in pos for a, b in ((1, 0), (-1, 0), (0, 1), (0, -1)))
                      for i, j in labels.tolist()], dtype=bool).reshape(-1)
 
 
-#: the light envelope of :func:`_deshaded`: a closing over this many cells, computed at this many px per cell
+#: the light envelope of :func:`deshaded`: a closing over this many cells, computed at this many px per cell
 SHADE_CELLS, SHADE_PX = 1.5, 16.0
 
 
-def _deshaded(grey: np.ndarray, start: np.ndarray, half: np.ndarray, ref: np.ndarray, ref_half: np.ndarray,
+def deshaded(grey: np.ndarray, start: np.ndarray, half: np.ndarray, ref: np.ndarray, ref_half: np.ndarray,
               cell: float) -> tuple[np.ndarray, np.ndarray]:
     """Corners refined on the image divided by its light envelope, their quality on the board's scale.
 
@@ -186,7 +189,7 @@ def _deshaded(grey: np.ndarray, start: np.ndarray, half: np.ndarray, ref: np.nda
     ``1 - q`` is put on the board's scale, ``a = (1 - q) m / m'`` with ``m`` the
     board's median asymmetry on the image (at its symmetric corners ``ref``,
     windows ``ref_half``) and ``m'`` the same on ``I / L``, so that
-    :func:`_symmetric` compares it with the board as the image shows it.
+    :func:`symmetric` compares it with the board as the image shows it.
     Returns ``(xy, 1 - a)``; an occluder or a code in the squares stays
     asymmetric on ``I / L`` too. The region is the bounding box of all the
     points, with a margin of the windows and the closing.

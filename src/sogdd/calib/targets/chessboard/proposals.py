@@ -80,7 +80,7 @@ def propose(grey: np.ndarray, pattern: tuple[int, int],
     Parameters
     ----------
     grey : (H, W) float
-        The grey image on 0-255 (:func:`sogdd.calib.targets.xcorners.to_grey`).
+        The grey image on 0-255 (:func:`sogdd.calib.targets.grey.to_grey`).
     pattern : (cols, rows)
         Inner corners, OpenCV's ``patternSize``.
     sources : tuple of "opencv", "opencv-sb"

@@ -7,7 +7,7 @@ growth misses one whose X-corner lies beyond its search from a flat
 prediction. :func:`_fill` predicts each free label next to the board from the
 board's own curved map, refines the point symmetry there, and keeps the point
 when its squares, its symmetry and its neighbours say it is the board's
-corner; :func:`_filled` adds the new corners to a board in the making.
+corner; :func:`fill_board` adds the new corners to a board in the making.
 """
 
 from __future__ import annotations
@@ -15,10 +15,21 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .lattice import _label_grid, check, predict_labels
-from .refine import MIN_HALF, WINDOW_FRACTION, half_widths, refine_grey
-from .windows import ASYMMETRY, MIN_ASYMMETRY, _bilinear, _deshaded, _edge_halves, _inner, _local_cells, _recut
+from ..refine import MIN_HALF, WINDOW_FRACTION, half_widths, refine_grey
+from .mapping import check, label_grid, predict_labels
+from .windows import (
+    ASYMMETRY,
+    MIN_ASYMMETRY,
+    bilinear,
+    deshaded,
+    edge_halves,
+    inner_corners,
+    local_cells,
+    recut,
+)
 from .xcorners import XCorners
+
+__all__ = ["fill_board"]
 
 #: rounds of :func:`_fill` (each may add a row of corners the last one made predictable)
 FILL_ROUNDS = 4
@@ -72,7 +83,7 @@ def _frame(p: np.ndarray, at: np.ndarray, xy: np.ndarray, labels: np.ndarray,
     the other side's step, shrunk by the ratio of that step to the one before it
     (clipped to [0.3, 1.5]; cells shrink towards a fisheye's rim, where a map
     extrapolated from the board overshoots them), else the map's step from ``P``
-    (n, 5, 2; :func:`sogdd.calib.targets.lattice.predict_labels`). The square
+    (n, 5, 2; :func:`sogdd.calib.targets.chessboard.mapping.predict_labels`). The square
     in quadrant ``(s_i, s_j)`` (:data:`_QUADS`) is centred ``(s_i f_i + s_j f_j) / 2``
     from the corner, ``f`` the steps on those sides. Returns ``(d (n, 4, 2), cell
     (n,))``, the cell the shortest of the four steps.
@@ -81,7 +92,7 @@ def _frame(p: np.ndarray, at: np.ndarray, xy: np.ndarray, labels: np.ndarray,
     steps = np.zeros((n, 2, 2, 2))  # corner, axis, side (0 forward, 1 back), xy
     if n == 0:
         return np.zeros((0, 4, 2)), np.zeros(0)
-    nbr = _label_grid(labels, np.zeros(0, np.int64), _STEPS, at_labels=at)  # (n, 8): _STEPS' corners
+    nbr = label_grid(labels, np.zeros(0, np.int64), _STEPS, at_labels=at)  # (n, 8): _STEPS' corners
     for ax in range(2):
         fwd, back, fwd2, back2 = (nbr[:, 4 * ax + t] for t in range(4))
         got = (xy[np.maximum(fwd, 0)] - p, -(xy[np.maximum(back, 0)] - p))  # the steps to the neighbours
@@ -117,7 +128,7 @@ def _wedges(grey: np.ndarray, p: np.ndarray, d: np.ndarray,
     touch, inside the squares however sheared and small they are); the angle of
     the light diagonal in ``[0, pi)``.
     """
-    v = {t: _bilinear(grey, p[:, None, :] + t * d) for t in (0.45, 0.7)}  # (n, 4)
+    v = {t: bilinear(grey, p[:, None, :] + t * d) for t in (0.45, 0.7)}  # (n, 4)
     pp = v[0.7][:, :2].mean(axis=1) > v[0.7][:, 2:].mean(axis=1)
     con = np.full(len(p), np.inf)
     for vt in v.values():
@@ -150,22 +161,22 @@ def _measured(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, cand: np.nda
               cell: np.ndarray, thr: float) -> tuple[np.ndarray, np.ndarray]:
     """The point symmetry refined from the predictions ``p``: positions and qualities.
 
-    The window of a border corner (:func:`sogdd.calib.targets.windows._edge_halves`); where the
+    The window of a border corner (:func:`sogdd.calib.targets.chessboard.windows.edge_halves`); where the
     asymmetry exceeds ``thr`` (a shadow or a reflection over the squares), also measured unshaded
-    (:func:`sogdd.calib.targets.windows._deshaded`), the better fit kept.
+    (:func:`sogdd.calib.targets.chessboard.windows.deshaded`), the better fit kept.
     """
     half = half_widths(p, None, cell)
     r, q = refine_grey(grey, p, half, half.astype(np.float64), iterations=FILL_ITERATIONS)
     at = np.where(q[:, None] > 0, r, p)
-    _recut(grey, at, r, q, half, _edge_halves(grey, at, cand, half, cell, also=np.ones(len(cand), bool)))
+    recut(grey, at, r, q, half, edge_halves(grey, at, cand, half, cell, also=np.ones(len(cand), bool)))
     shaded = 1.0 - q > thr
     if not shaded.any():  # the board's own windows are needed for the unshaded measure only
         return r, q
-    cells = _local_cells(xy, labels)
-    inner = _inner(labels) & np.isfinite(cells)
+    cells = local_cells(xy, labels)
+    inner = inner_corners(labels) & np.isfinite(cells)
     ref = np.flatnonzero(inner if np.count_nonzero(inner) >= 5 else np.isfinite(cells))
     if len(ref):
-        rd, qd = _deshaded(grey, p[shaded], half[shaded], xy[ref], half_widths(xy[ref], None, cells[ref]),
+        rd, qd = deshaded(grey, p[shaded], half[shaded], xy[ref], half_widths(xy[ref], None, cells[ref]),
                            float(np.median(cells[ref])))
         better = qd > q[shaded]
         k = np.flatnonzero(shaded)[better]
@@ -191,19 +202,19 @@ def _fill(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, quality: np.ndar
 
     For each free label next to the board (:func:`_fill_labels`: within the
     pattern, or inside the board without one) the board's second-order map
-    predicts the position (:func:`sogdd.calib.targets.lattice.predict_labels`),
+    predicts the position (:func:`sogdd.calib.targets.chessboard.mapping.predict_labels`),
     the point symmetry is refined from there (:func:`_measured`: the window of a
     border corner, and the image unshaded where a shadow breaks the symmetry),
     and the point is kept when it is a board corner as the others are: its
     window lies inside the frame (:func:`_predicted`), its asymmetry within
-    :data:`sogdd.calib.targets.windows.ASYMMETRY` times the board's median, its
+    :data:`sogdd.calib.targets.chessboard.windows.ASYMMETRY` times the board's median, its
     light squares where the label's parity puts them and the contrast of its
     four wedges at least :data:`FILL_CONTRAST` of the board's median (both
     measured along the lattice's local steps, :func:`_frame` and
     :func:`_wedges`: at a fisheye's rim the cells are too sheared and small for
     an X-corner's own light axis), at least half a cell from every other
     corner, and the check of its neighbours within :data:`FILL_TOL`
-    (:func:`sogdd.calib.targets.lattice.check`). Up to :data:`FILL_ROUNDS`
+    (:func:`sogdd.calib.targets.chessboard.mapping.check`). Up to :data:`FILL_ROUNDS`
     rounds; returns ``xy, labels, quality, light`` with the new corners
     appended (``light``: the angle of the light diagonal).
     """
@@ -235,7 +246,7 @@ def _fill(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, quality: np.ndar
     return xy, labels, quality, light
 
 
-def _filled(grey: np.ndarray, xc: XCorners, idx: np.ndarray, xy: np.ndarray, labels: np.ndarray,
+def fill_board(grey: np.ndarray, xc: XCorners, idx: np.ndarray, xy: np.ndarray, labels: np.ndarray,
             quality: np.ndarray, pattern: tuple[int, int] | None,
             ) -> tuple[XCorners, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The board with :func:`_fill`'s corners, which join ``xc`` as X-corners of their own (``idx``)."""

@@ -1,0 +1,159 @@
+"""Whether a grown, refined lattice is a board: the acceptance tests of the chessboard search.
+
+A board's links run along edges between dark and light squares (:func:`edge_links`),
+it leaves few strong X-corners inside its outline unused (:func:`orphans`: a
+lattice of wrong steps leaves most of them out), it holds a complete 3 x 3 block
+(:func:`has_block`), and a board proposed by OpenCV for a pattern does not go on
+beyond its sides (:func:`extends`: a part of a larger grid).
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+from scipy.spatial import cKDTree
+
+from ..board import Board
+from ..refine import half_widths, refine_grey
+from .mapping import predict_labels
+from .windows import ASYMMETRY, MIN_ASYMMETRY, bilinear, local_cells
+from .xcorners import SIGMA2, XCorners, hessian_at, junction_strength
+
+__all__ = ["EDGE_CONTRAST", "EDGE_SHARE", "MAX_ORPHANS", "edge_links", "extends", "has_block", "orphans",
+           "ring_contrast"]
+
+
+#: a link's contrast across it, relative to the board's median (:func:`edge_links`)
+EDGE_CONTRAST = 0.3
+
+
+#: the share of a board's links that must run along edges
+EDGE_SHARE = 0.8
+
+
+#: strong X-corners inside a board's outline that are not its corners, per board corner (:func:`orphans`)
+MAX_ORPHANS = 0.25
+
+
+def edge_links(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray) -> tuple[float, np.ndarray]:
+    """The share of lattice links that run along an edge, and the corners with at least one such link.
+
+    A link between label neighbours ``p, q`` of a true board runs along an edge
+    between a dark and a light square: at ``t = 1/4, 1/2, 3/4`` of the way the
+    image differs across the link, ``I(m + d n) - I(m - d n)`` (``n`` the link's
+    normal, ``d = max(0.1 |q - p|, 1)`` px), with one sign and at least
+    :data:`EDGE_CONTRAST` of the board's median difference. A grid that links
+    corners across squares (a lattice of wrong steps, e.g. a knight's move of a
+    board blurred beyond recognition) fails it at ``t = 1/4`` or ``3/4``.
+    """
+    pos = {tuple(q): k for k, q in enumerate(labels.tolist())}
+    pairs = np.array([(k, pos[(i + di, j + dj)]) for k, (i, j) in enumerate(labels.tolist())
+                      for di, dj in ((1, 0), (0, 1)) if (i + di, j + dj) in pos], dtype=np.int64).reshape(-1, 2)
+    if len(pairs) == 0:
+        return 0.0, np.zeros(len(xy), dtype=bool)
+    p, q = xy[pairs[:, 0]], xy[pairs[:, 1]]
+    v = q - p
+    length = np.hypot(v[:, 0], v[:, 1])
+    n = np.stack([-v[:, 1], v[:, 0]], axis=1) / np.maximum(length, 1e-9)[:, None]
+    d = np.maximum(0.1 * length, 1.0)[:, None] * n
+    diff = np.stack([bilinear(grey, p + t * v + d) - bilinear(grey, p + t * v - d)
+                     for t in (0.25, 0.5, 0.75)])
+    scale = float(np.median(np.abs(diff[1])))
+    ok = (np.abs(diff) >= EDGE_CONTRAST * scale).all(axis=0) & (np.sign(diff) == np.sign(diff[1])).all(axis=0)
+    ok &= scale > 0
+    has = np.zeros(len(xy), dtype=bool)
+    has[pairs[ok].ravel()] = True
+    return float(np.mean(ok)), has
+
+
+def ring_contrast(grey: np.ndarray, xy: np.ndarray, light: np.ndarray, cell: float) -> np.ndarray:
+    """How much the light wedges of X-corners stay lighter than the dark ones out to a third of a cell.
+
+    With ``u`` the light axis and ``v`` perpendicular to it (the dark wedges'
+    bisector), at radii ``r = (0.15, 0.3) cell``:
+    ``c = min_r [min(I(p +- r u)) - max(I(p +- r v))]``. A board's corner keeps
+    its full contrast at both radii (its wedges are squares a cell wide); a
+    saddle between the dots or bits of a code inside a white square is light all
+    round a few pixels out, so its ``c`` is small or negative.
+    """
+    u = np.stack([np.cos(light), np.sin(light)], axis=1)
+    v = np.stack([-u[:, 1], u[:, 0]], axis=1)
+    out = np.full(len(xy), np.inf)
+    for r in (0.15 * cell, 0.3 * cell):
+        lo = np.minimum(bilinear(grey, xy + r * u), bilinear(grey, xy - r * u))
+        hi = np.maximum(bilinear(grey, xy + r * v), bilinear(grey, xy - r * v))
+        out = np.minimum(out, lo - hi)
+    return out
+
+
+def orphans(grey: np.ndarray, xc: XCorners, idx: np.ndarray, xy: np.ndarray, cells: np.ndarray,
+             grown: np.ndarray | None = None) -> float:
+    """Strong X-corners inside the board's outline that are none of its corners, per board corner.
+
+    A true board uses every inner corner in its outline; a lattice of wrong steps
+    (a knight's move, a diagonal) leaves most of them out. Only X-corners with
+    the wedges of a board corner count (:func:`ring_contrast` at least half the
+    board's median): the saddles between the dots of a code inside a white
+    square (ECoCheck, ChArUco's markers) are strong but light all round. The
+    X-corners ``grown`` (indices into ``xc``: the lattice as grown, before the
+    refinement and the check dropped some of it) are not left out by the
+    lattice and do not count: a corner dropped for its asymmetry (an occluder,
+    a code in its squares) says nothing about the lattice's steps.
+    """
+    hull = cv2.convexHull(xy.astype(np.float32)).reshape(-1, 2)
+    strong = xc.strength >= 0.5 * float(np.median(xc.strength[idx]))
+    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    cand = np.flatnonzero(strong & np.all((xc.xy >= lo) & (xc.xy <= hi), axis=1))
+    if grown is not None:
+        cand = np.setdiff1d(cand, grown)
+    cell = float(np.median(cells[np.isfinite(cells)])) if np.isfinite(cells).any() else 1.0
+    d, _ = cKDTree(xy).query(xc.xy[cand])
+    cand = cand[d > 0.3 * cell]
+    if len(cand):
+        own = float(np.median(ring_contrast(grey, xy, xc.light[idx], cell)))
+        cand = cand[ring_contrast(grey, xc.xy[cand], xc.light[cand], cell) >= 0.5 * max(own, 1e-9)]
+    inside = [cv2.pointPolygonTest(hull, (float(x), float(y)), True) > 0.3 * cell for x, y in xc.xy[cand]]
+    return float(np.count_nonzero(inside)) / max(len(xy), 1)
+
+
+def has_block(labels: np.ndarray) -> bool:
+    s = {tuple(q) for q in labels.tolist()}
+    return any(all((i + a, j + b) in s for a in (-1, 0, 1) for b in (-1, 0, 1)) for i, j in s)
+
+
+def extends(grey: np.ndarray, board: Board) -> bool:
+    """Whether the grid goes on beyond a side of the board: a part of a larger board.
+
+    The labels one step beyond each side are put where the board's map puts
+    them (:func:`sogdd.calib.targets.chessboard.mapping.predict_labels`) and refined there; a side
+    continues when at least half of them are X-junctions like the board's own:
+    saddle strength (:func:`sogdd.calib.targets.chessboard.xcorners.junction_strength`) at least
+    half the board's median, and point-symmetric within the board's limit
+    (:func:`sogdd.calib.targets.chessboard.windows.symmetric`'s rule). Beyond a board's last corners
+    lie the edges of its outer squares and the paper: no X-junction.
+    """
+    xy, labels = board.image_points, board.labels
+    lo, hi = labels.min(axis=0), labels.max(axis=0)
+    cols, rows = range(lo[0], hi[0] + 1), range(lo[1], hi[1] + 1)
+    sides = [[(lo[0] - 1, j) for j in rows], [(hi[0] + 1, j) for j in rows],
+             [(i, lo[1] - 1) for i in cols], [(i, hi[1] + 1) for i in cols]]
+    cells = local_cells(xy, labels)
+    cell = float(np.median(cells[np.isfinite(cells)])) if np.isfinite(cells).any() else 0.0
+    own_half = half_widths(xy, None, np.where(np.isfinite(cells), cells, cell))
+    _, q_own = refine_grey(grey, xy, own_half, own_half.astype(np.float64), iterations=1)
+    limit = max(ASYMMETRY * float(np.median(1.0 - q_own)), MIN_ASYMMETRY)
+    strong = 0.5 * float(np.median(junction_strength(hessian_at(grey, xy, np.sqrt(SIGMA2)))))
+    H, W = grey.shape
+    for side in sides:
+        P = predict_labels(xy, labels, np.array(side))[:, 0]
+        room = np.min(np.c_[P, W - 1 - P[:, 0], H - 1 - P[:, 1]], axis=1)
+        P = P[np.isfinite(room) & (room > 0.5 * cell)]
+        if len(P) < max(2, len(side) // 2):
+            continue
+        half = half_widths(P, None, np.full(len(P), cell))
+        r, q = refine_grey(grey, P, half, 0.5 * half.astype(np.float64))
+        s_side = junction_strength(hessian_at(grey, r, np.sqrt(SIGMA2)))
+        like = (q > 0) & (1.0 - q <= limit) & (s_side >= strong)
+        if np.count_nonzero(like) >= max(2, len(side) / 2):
+            return True
+    return False

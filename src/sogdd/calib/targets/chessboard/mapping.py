@@ -1,0 +1,461 @@
+"""The lattice's map: where a board's labels lie in the image, and the check that each corner is there.
+
+A board's labels ``(i, j)`` map to the image by a homography locally (perspective
+and mild lens distortion: :func:`homography`, :func:`predict_batch` over the
+corners within two labels) or, where rows and columns are curves (a fisheye), by
+a second- or else a third-order map of the corners within three labels
+(:func:`_fit_batch`: polynomial numerators over the homography's linear
+denominator; :func:`predict_labels`). :func:`check` is the lattice's last guard:
+each corner must be predicted by a homography of its neighbours (leaving it out)
+within a fraction of a cell, or by the curved map where the homography cannot
+follow the rows.
+
+The normal equations of the maps (:func:`_normal_equations`) are compiled
+without ``fastmath``: the same floating-point operations, in the same order, as
+the numpy they replace (the boards are the same to the bit); the batched solves
+and the homography of :func:`check`'s second fit stay numpy's.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+__all__ = ["SUPPORT", "apply", "check", "homography", "label_grid", "predict_batch", "predict_labels"]
+
+#: numba's options for this module's compiled loops: no ``fastmath`` (not even contraction), so that each
+#: computes the same floating-point operations, in the same order, as the numpy it replaces (bit for bit)
+_JIT = dict(cache=True, nogil=True, error_model="numpy")
+#: the label offsets of the corners a local homography is fitted to: those within two labels
+SUPPORT = np.array([(a, b) for a in range(-2, 3) for b in range(-2, 3) if (a, b) != (0, 0)])
+
+
+_MONOMIALS: dict[tuple, np.ndarray] = {}
+
+
+#: the second-order check (:func:`check`) fits the corners within this many labels ...
+CURVE_REACH = 3
+
+
+#: ... at least this many of them (14 unknowns: 24 equations or more)
+CURVE_MIN = 12
+
+
+#: the third-order check (:func:`check`) fits at least this many corners within :data:`CURVE_REACH` labels
+#: (22 unknowns: 26 equations or more; a corner of a board of four rows has 15 such neighbours)
+CUBIC_MIN = 13
+
+
+_CURVE_OFFS = np.array([(a, b) for a in range(-CURVE_REACH, CURVE_REACH + 1)
+                        for b in range(-CURVE_REACH, CURVE_REACH + 1) if (a, b) != (0, 0)])
+
+
+def homography(src: np.ndarray, dst: np.ndarray) -> np.ndarray | None:
+    """The least-squares homography mapping ``src`` (N, 2) to ``dst`` (``h33 = 1``); None if degenerate.
+
+    Examples
+    --------
+    >>> src = np.array([[0, 0], [1, 0], [0, 1], [1, 1], [2, 1]], float)
+    >>> H = homography(src, 3 * src + 5)
+    >>> (np.round(H / H[2, 2], 6) + 0.0).tolist()
+    [[3.0, 0.0, 5.0], [0.0, 3.0, 5.0], [0.0, 0.0, 1.0]]
+    """
+    if len(src) < 4:
+        return None
+    src = np.asarray(src, np.float64)
+    dst = np.asarray(dst, np.float64)
+    cs, cd = src.mean(axis=0), dst.mean(axis=0)
+    ss = np.sqrt(2) / max(float(np.sqrt(((src - cs) ** 2).sum(axis=1)).mean()), 1e-12)
+    sd = np.sqrt(2) / max(float(np.sqrt(((dst - cd) ** 2).sum(axis=1)).mean()), 1e-12)
+    a, b = (src - cs) * ss, (dst - cd) * sd
+    n = len(a)
+    M = np.zeros((2 * n, 8))
+    M[:n, 0:2], M[:n, 2] = a, 1.0
+    M[:n, 6:8] = -b[:, :1] * a
+    M[n:, 3:5], M[n:, 5] = a, 1.0
+    M[n:, 6:8] = -b[:, 1:] * a
+    A = M.T @ M
+    rhs = M.T @ np.concatenate([b[:, 0], b[:, 1]])
+    try:
+        h = np.linalg.solve(A, rhs)
+    except np.linalg.LinAlgError:
+        return None
+    if not np.isfinite(h).all() or abs(np.linalg.det(A)) < 1e-12 * np.trace(A) ** 8:
+        return None
+    Hn = np.append(h, 1.0).reshape(3, 3)
+    ts = np.array([[ss, 0, -ss * cs[0]], [0, ss, -ss * cs[1]], [0, 0, 1]])
+    td_inv = np.array([[1 / sd, 0, cd[0]], [0, 1 / sd, cd[1]], [0, 0, 1]])
+    return td_inv @ Hn @ ts
+
+
+def apply(H: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """``H`` applied to points (N, 2)."""
+    q = p @ H[:, :2].T + H[:, 2]
+    return q[:, :2] / q[:, 2:]
+
+
+def check(xy: np.ndarray, labels: np.ndarray, *, tol: float = 0.1, reach: int = 2,
+          curved: bool = True, only: np.ndarray | None = None) -> np.ndarray:
+    """Mask of the corners that their neighbours predict: leave-one-out error <= ``tol`` cells.
+
+    For each corner, the homography fitted to the other corners within ``reach``
+    labels predicts it; the error is divided by the local cell (the distance the
+    same homography puts between labels ``+-0.5`` along each axis, the smaller
+    one). A corner with fewer than 5 such neighbours (or all on one line) fails.
+
+    With ``curved`` (the default), a corner the homography misses gets a second
+    chance from a second-order map of its neighbours within :data:`CURVE_REACH`
+    labels (:func:`_curved_errors`): through a fisheye, rows and columns are
+    curves and cells shrink towards the rim, which a homography over five labels
+    cannot follow (on a 180-degree lens it misses true corners by 0.1-0.4 of a
+    cell). The map has 14 unknowns against 24 or more equations, and is fitted
+    without the corner, so a corner off the board's smooth lattice still stands
+    out; on a flat board seen through a pinhole it reduces to the homography.
+    A corner the second order misses too gets a third chance from the
+    third-order map (22 unknowns, :data:`CUBIC_MIN` neighbours or more): radial
+    distortion ``x (1 + k r^2)`` is a cubic of the label, which the second
+    order misses by up to 0.3 of a cell at the rim of a 180-degree lens and the
+    third follows to a few hundredths, with the same ``tol``.
+
+    With ``only`` (indices), just those corners are tested (the others' entries are False).
+
+    Examples
+    --------
+    >>> lab = np.array([(i, j) for j in range(4) for i in range(4)])
+    >>> xy = 20.0 * lab + 3.0
+    >>> xy[5] += 4.0  # 0.2 cell off
+    >>> check(xy, lab).tolist().count(False), bool(check(xy, lab)[5])
+    (1, False)
+    """
+    xy = np.asarray(xy, dtype=np.float64)
+    labels = np.asarray(labels, dtype=np.int64)
+    n = len(xy)
+    ok = np.zeros(n, dtype=bool)
+    if n == 0:
+        return ok
+    which = np.arange(n) if only is None else np.asarray(only, dtype=np.int64).reshape(-1)
+    span = range(-reach, reach + 1)
+    offs = np.array([(a, b) for a in span for b in span if (a, b) != (0, 0)])
+    nbr = label_grid(labels, which, offs)
+    w = (nbr >= 0).astype(np.float64)
+    cnt = w.sum(axis=1)
+    cov = np.einsum("nk,ka,kb->nab", w, offs.astype(float), offs.astype(float))
+    fit = (cnt >= 5) & (np.linalg.det(cov) * 1.0 > 1e-9)
+    err = np.full(len(which), np.inf)
+    if fit.any():
+        err[fit] = _batch_errors(xy, nbr[fit], w[fit], offs.astype(float), which[fit])
+    okw = err <= tol
+    # a neighbour that is itself off spoils the fit: fit again without the worst one
+    for m in np.flatnonzero(fit & ~okw & (cnt >= 6)):
+        idx = nbr[m][nbr[m] >= 0]
+        k = which[m]
+        err_k = _loo_error(labels[idx].astype(np.float64), xy[idx], labels[k].astype(float), xy[k], tol)
+        okw[m] = err_k <= tol
+    for order in (2, 3) if curved else ():
+        bad = np.flatnonzero(~okw)
+        if len(bad) == 0:
+            break
+        okw[bad] = _curved_errors(xy, labels, which[bad], tol, order) <= tol
+    ok[which] = okw
+    return ok
+
+
+def label_grid(labels: np.ndarray, which: np.ndarray, offs: np.ndarray, *,
+                at_labels: np.ndarray | None = None) -> np.ndarray:
+    """Indices of the corners at ``labels[which] + offs`` (len(which), K), -1 where there is none.
+
+    With ``at_labels`` (M, 2), at ``at_labels + offs`` instead (labels that need not be corners).
+    """
+    pad = int(np.abs(offs).max())
+    at0 = labels[which] if at_labels is None else np.asarray(at_labels, dtype=np.int64).reshape(-1, 2)
+    both = np.r_[labels, at0]
+    lo = both.min(axis=0) - pad
+    ext = both.max(axis=0) - lo + pad + 1
+    grid = np.full(tuple(ext), -1, dtype=np.int64)
+    grid[labels[:, 0] - lo[0], labels[:, 1] - lo[1]] = np.arange(len(labels))
+    at = at0[:, None, :] - lo + offs[None].astype(np.int64)
+    return grid[at[..., 0], at[..., 1]]
+
+
+def predict_labels(xy: np.ndarray, labels: np.ndarray, targets: np.ndarray) -> np.ndarray:
+    """Where the lattice puts labels ``targets`` (M, 2): positions at offsets ``0, (+-1/2, 0), (0, +-1/2)``.
+
+    From the second-order map (:func:`_fit_batch`, 14 unknowns) of the corners
+    within :data:`CURVE_REACH` labels where at least :data:`CURVE_MIN` of them
+    span its monomials (rows and columns that curve, cells that shrink towards a
+    fisheye's rim), else from the homography of the corners within two labels
+    (at least 5, not on one line). Returns (M, 5, 2); NaN where neither fits.
+
+    Examples
+    --------
+    >>> lab = np.array([(i, j) for j in range(4) for i in range(5)])
+    >>> P = predict_labels(10.0 * lab + 3.0, lab, np.array([[5, 1], [9, 9]]))
+    >>> np.round(P[0, 0], 6).tolist(), bool(np.isnan(P[1]).all())
+    ([53.0, 13.0], True)
+    """
+    xy = np.asarray(xy, dtype=np.float64)
+    labels = np.asarray(labels, dtype=np.int64)
+    targets = np.asarray(targets, dtype=np.int64).reshape(-1, 2)
+    out = np.full((len(targets), 5, 2), np.nan)
+    if len(targets) == 0 or len(labels) == 0:
+        return out
+    nbr = label_grid(labels, np.zeros(0, np.int64), _CURVE_OFFS, at_labels=targets)
+    w = (nbr >= 0).astype(np.float64)
+    offs = _CURVE_OFFS.astype(np.float64)
+    mono = _monomials(offs, 2)
+    mom = np.einsum("nk,ka,kb->nab", w, mono, mono)
+    tr = np.trace(mom, axis1=1, axis2=2)
+    curved = (w.sum(axis=1) >= CURVE_MIN) & (np.linalg.eigvalsh(mom)[:, 0] > 1e-6 * np.maximum(tr, 1.0))
+    if curved.any():
+        out[curved] = predict_batch(xy, nbr[curved], w[curved], offs, order=2)
+    near = (np.abs(offs) <= 2).all(axis=1)
+    w1 = w[:, near]
+    cov = np.einsum("nk,ka,kb->nab", w1, offs[near], offs[near])
+    flat = ~curved & (w1.sum(axis=1) >= 5) & (np.linalg.det(cov) > 1e-9)
+    if flat.any():
+        out[flat] = predict_batch(xy, nbr[flat][:, near], w1[flat], offs[near])
+    return out
+
+
+def _curved_errors(xy: np.ndarray, labels: np.ndarray, which: np.ndarray, tol: float,
+                   order: int = 2) -> np.ndarray:
+    """Leave-one-out errors in cells of the corners ``which`` against second- or third-order maps of their
+    neighbours.
+
+    The map (:func:`_fit_batch`) is fitted to the corners within
+    :data:`CURVE_REACH` labels, at least :data:`CURVE_MIN` of them for
+    ``order=2`` (14 unknowns) and :data:`CUBIC_MIN` for ``order=3`` (22
+    unknowns), whose monomials (:func:`_monomials`) span all of theirs
+    (``order + 1`` distinct columns and rows: a row's curvature is measured,
+    not guessed); the error is divided by the local cell of the same map. A
+    corner whose error exceeds ``tol`` gets a second fit without the neighbour
+    that fits worst. Corners with too few neighbours get ``inf``.
+
+    The third order is there for strong lenses: a radial distortion
+    ``x_d = x (1 + k r^2)`` of a board seen face on is a cubic of the label,
+    which a second-order map misses by up to 0.3 of a cell at the rim of a
+    180-degree fisheye; the cubic follows it to a few hundredths, so the
+    tolerance stays the same.
+    """
+    err = np.full(len(which), np.inf)
+    if len(which) == 0:
+        return err
+    nbr = label_grid(labels, which, _CURVE_OFFS)
+    w = (nbr >= 0).astype(np.float64)
+    offs = _CURVE_OFFS.astype(np.float64)
+    mono = _monomials(offs, order)
+    mom = np.einsum("nk,ka,kb->nab", w, mono, mono)
+    tr = np.trace(mom, axis1=1, axis2=2)
+    least = CURVE_MIN if order == 2 else CUBIC_MIN
+    fit = (w.sum(axis=1) >= least) & (np.linalg.eigvalsh(mom)[:, 0] > 1e-6 * np.maximum(tr, 1.0))
+    if not fit.any():
+        return err
+    nbr, w, at = nbr[fit], w[fit], which[fit]
+    e = _cells_batch(xy, nbr, w, offs, at, order)
+    # a neighbour that is itself off spoils the fit: fit again without the worst one, if enough are left
+    again = (e > tol) & (w.sum(axis=1) > least)
+    if again.any():
+        f = _fit_batch(xy, nbr[again], w[again], offs, order)
+        res = np.hypot(*(_eval_batch(f, offs, order) - xy[np.maximum(nbr[again], 0)]).transpose(2, 0, 1))
+        w2 = w[again].copy()
+        w2[np.arange(len(w2)), np.argmax(np.where(w2 > 0, res, -np.inf), axis=1)] = 0.0
+        e[again] = np.minimum(e[again], _cells_batch(xy, nbr[again], w2, offs, at[again], order))
+    err[fit] = e
+    return err
+
+
+def _cells_batch(xy: np.ndarray, nbr: np.ndarray, w: np.ndarray, offs: np.ndarray,
+                 at: np.ndarray, order: int = 2) -> np.ndarray:
+    """Errors in local cells of ``xy[at]`` against maps of order ``order`` of the neighbours ``nbr``."""
+    P = _eval_batch(_fit_batch(xy, nbr, w, offs, order), _HALF, order)
+    cell = np.minimum(np.hypot(*(P[:, 1] - P[:, 2]).T), np.hypot(*(P[:, 3] - P[:, 4]).T))
+    e = np.hypot(*(P[:, 0] - xy[at]).T) / np.maximum(cell, 1e-9)
+    return np.where(np.isfinite(e), e, np.inf)
+
+
+def _batch_errors(xy: np.ndarray, nbr: np.ndarray, w: np.ndarray, offs: np.ndarray,
+                  which: np.ndarray) -> np.ndarray:
+    """Leave-one-out errors in cells of the corners ``which`` (:func:`predict_batch`)."""
+    P = predict_batch(xy, nbr, w, offs)
+    cell = np.minimum(np.hypot(*(P[:, 1] - P[:, 2]).T), np.hypot(*(P[:, 3] - P[:, 4]).T))
+    err = np.hypot(*(P[:, 0] - xy[which]).T) / np.maximum(cell, 1e-9)
+    return np.where(np.isfinite(err), err, np.inf)
+
+
+def predict_batch(xy: np.ndarray, nbr: np.ndarray, w: np.ndarray, offs: np.ndarray, *,
+                  order: int = 1) -> np.ndarray:
+    """Positions at label offsets ``0, (+-1/2, 0), (0, +-1/2)`` from maps fitted to the neighbours, (n, 5, 2).
+
+    ``nbr`` (n, K): indices into ``xy`` of the neighbours at label offsets ``offs``
+    (K, 2), -1 where there is none; ``w`` their 0/1 weights. One least-squares map
+    per corner, all solved at once (:func:`_fit_batch`): ``order=1`` a homography,
+    ``order=2`` its second-order extension.
+    """
+    fit = _fit_batch(xy, nbr, w, offs, order)
+    return _eval_batch(fit, _HALF, order)
+
+
+#: the label offsets at which a fitted map is evaluated: the corner and half a label along each axis
+_HALF = np.array([[0, 0], [0.5, 0], [-0.5, 0], [0, 0.5], [0, -0.5]], float)
+
+
+def _monomials(a: np.ndarray, order: int) -> np.ndarray:
+    """``(i, j, 1)``, for ``order >= 2`` also ``(i^2, i j, j^2)``, for ``order=3`` also
+    ``(i^3, i^2 j, i j^2, j^3)``, of label offsets ``a`` (..., 2).
+
+    The offsets are a few fixed sets (:data:`SUPPORT`, :data:`_CURVE_OFFS`, :data:`_HALF`, parts of
+    them), so the result is kept (read-only) for each set and order.
+    """
+    a = np.asarray(a, dtype=np.float64)
+    key = (a.shape, a.tobytes(), int(order))
+    out = _MONOMIALS.get(key)
+    if out is None:
+        i, j = a[..., 0], a[..., 1]
+        cols = [i, j, np.ones_like(i)]
+        if order >= 2:
+            cols += [i * i, i * j, j * j]
+        if order >= 3:
+            cols += [i ** 3, i * i * j, i * j * j, j ** 3]
+        out = np.stack(cols, axis=-1)
+        out.flags.writeable = False
+        if len(_MONOMIALS) < 64:
+            _MONOMIALS[key] = out
+    return out
+
+
+def _fit_batch(xy: np.ndarray, nbr: np.ndarray, w: np.ndarray, offs: np.ndarray,
+               order: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Least-squares rational maps from label offsets to positions, one per row of ``nbr``.
+
+    With ``m(i, j)`` the monomials of :func:`_monomials` (``M`` = 3 or 6 of
+    them), the map is
+
+        x = (p . m) / (1 + g1 i + g2 j),    y = (q . m) / (1 + g1 i + g2 j),
+
+    in positions relative to the neighbours' mean and scaled by their mean
+    distance from it (the normalisation of the DLT). ``order=1`` is the
+    homography with ``h33 = 1`` (8 unknowns); ``order=2`` adds the quadratic
+    terms to the numerators (14 unknowns): to second order in the label it
+    follows rows and columns that are curves (lens distortion) as well as
+    perspective, which it contains. The equations ``p . m - x (g1 i + g2 j) = x``
+    (and the same for ``y``) are linear; the normal equations get a ridge of
+    ``1e-12`` against exact degeneracy.
+
+    Returns ``(h (n, 2 M + 2), mean (n, 2), scale (n,))``.
+    """
+    dst = xy[np.maximum(nbr, 0)]  # (n, K, 2)
+    cnt = np.maximum(w.sum(axis=1), 1.0)
+    mean = np.einsum("nk,nkd->nd", w, dst) / cnt[:, None]
+    rel = dst - mean[:, None, :]
+    scale = np.einsum("nk,nk->n", w, np.hypot(rel[..., 0], rel[..., 1])) / cnt
+    scale = np.maximum(scale, 1e-12)
+    b = rel / scale[:, None, None]
+    m0 = _monomials(offs, order)
+    A, rhs = _normal_equations(np.ascontiguousarray(w, dtype=np.float64), np.ascontiguousarray(b),
+                               np.ascontiguousarray(offs, dtype=np.float64), np.ascontiguousarray(m0))
+    h = np.linalg.solve(A, rhs[..., None])[..., 0]
+    return h, mean, scale
+
+
+@numba.njit(**_JIT)
+def _normal_equations(w, b, a, m0):  # pragma: no cover - jit
+    """The normal equations of :func:`_fit_batch`, ``(A (n, P, P), rhs (n, P))`` with ``P = 2 M + 2``.
+
+    The rows of the design are ``r1 = (m, 0, -x a)`` and ``r2 = (0, m, -y a)`` (``m`` the monomials
+    ``m0`` (K, M) of the offsets ``a`` (K, 2), ``(x, y)`` = ``b`` (n, K, 2)), weighted by ``w`` (0 or 1):
+    ``A = sum_k w r1 r1^T + sum_k w r2 r2^T + 1e-12 I`` and ``rhs = sum_k w x r1 + sum_k w y r2``, as
+    numpy's ``einsum("nk,nki,nkj->nij", ...)`` computes them, bit for bit: each sum over ``k`` in order
+    from 0, each term ``(w r_i) r_j``. With ``w`` 0 or 1 the terms are symmetric in ``i, j``, and the sums
+    over the zero blocks of ``r1`` and ``r2`` are ``+0``, so only the other blocks' sums are computed.
+    """
+    n = w.shape[0]
+    P = 2 * m0.shape[1] + 2
+    A = np.zeros((n, P, P))
+    rhs = np.empty((n, P))
+    for t in range(n):
+        _monomial_rows(w[t], b[t], a, m0, A[t], rhs[t])
+        _step_rows(w[t], b[t], a, m0.shape[1], A[t], rhs[t])
+    return A, rhs
+
+
+@numba.njit(**_JIT)
+def _monomial_rows(w, b, a, m0, A, rhs):  # pragma: no cover - jit
+    """:func:`_normal_equations`' rows of the monomials (the first ``2 M``), for one map."""
+    K, M = m0.shape
+    C = 2 * M
+    for i in range(M):
+        for j in range(i, M):
+            s = 0.0
+            for k in range(K):
+                s += w[k] * m0[k, i] * m0[k, j]
+            e = 1e-12 * (1.0 if i == j else 0.0)
+            A[i, j] = A[j, i] = (s + 0.0) + e  # r1's block, r2's zeros
+            A[M + i, M + j] = A[M + j, M + i] = (0.0 + s) + e  # r1's zeros, r2's block
+        for c in range(2):
+            s1 = 0.0
+            s2 = 0.0
+            for k in range(K):
+                s1 += w[k] * m0[k, i] * (-b[k, 0] * a[k, c])
+                s2 += w[k] * m0[k, i] * (-b[k, 1] * a[k, c])
+            A[i, C + c] = A[C + c, i] = (s1 + 0.0) + 0.0
+            A[M + i, C + c] = A[C + c, M + i] = (0.0 + s2) + 0.0
+        q1 = 0.0
+        q2 = 0.0
+        for k in range(K):
+            q1 += w[k] * m0[k, i] * b[k, 0]
+            q2 += w[k] * m0[k, i] * b[k, 1]
+        rhs[i] = q1 + 0.0
+        rhs[M + i] = 0.0 + q2
+
+
+@numba.njit(**_JIT)
+def _step_rows(w, b, a, M, A, rhs):  # pragma: no cover - jit
+    """:func:`_normal_equations`' last two rows (the denominator's ``g1, g2``), for one map."""
+    K = w.shape[0]
+    C = 2 * M
+    for c in range(2):
+        for d in range(c, 2):
+            s1 = 0.0
+            s2 = 0.0
+            for k in range(K):
+                s1 += w[k] * (-b[k, 0] * a[k, c]) * (-b[k, 0] * a[k, d])
+                s2 += w[k] * (-b[k, 1] * a[k, c]) * (-b[k, 1] * a[k, d])
+            A[C + c, C + d] = A[C + d, C + c] = (s1 + s2) + 1e-12 * (1.0 if c == d else 0.0)
+        q1 = 0.0
+        q2 = 0.0
+        for k in range(K):
+            q1 += w[k] * (-b[k, 0] * a[k, c]) * b[k, 0]
+            q2 += w[k] * (-b[k, 1] * a[k, c]) * b[k, 1]
+        rhs[C + c] = q1 + q2
+
+
+def _eval_batch(fit: tuple[np.ndarray, np.ndarray, np.ndarray], q: np.ndarray, order: int) -> np.ndarray:
+    """The maps of :func:`_fit_batch` at label offsets ``q`` (Q, 2): positions (n, Q, 2)."""
+    h, mean, scale = fit
+    m = _monomials(q, order)  # (Q, M)
+    M = m.shape[1]
+    den = 1.0 + q @ h[:, 2 * M:].T  # (Q, n)
+    num = np.stack([h[:, :M] @ m.T, h[:, M:2 * M] @ m.T], axis=-1)  # (n, Q, 2)
+    return num / den.T[..., None] * scale[:, None, None] + mean[:, None, :]
+
+
+def _loo_error(src: np.ndarray, dst: np.ndarray, q: np.ndarray, p: np.ndarray, tol: float) -> float:
+    """The error of ``p`` against the homography of its neighbours, in cells; fitted again without the
+    neighbour that fits worst when the first is beyond ``tol`` (that neighbour may be the one that is off)."""
+    H = homography(src, dst)
+    if H is None:
+        return np.inf
+    err = _cells_off(H, q, p)
+    if err > tol and len(src) >= 6:
+        m = np.ones(len(src), bool)
+        m[np.argmax(np.hypot(*(apply(H, src) - dst).T))] = False
+        H2 = homography(src[m], dst[m])
+        if H2 is not None:
+            err = min(err, _cells_off(H2, q, p))
+    return err
+
+
+def _cells_off(H: np.ndarray, q: np.ndarray, p: np.ndarray) -> float:
+    pts = apply(H, np.array([q, q + (0.5, 0), q - (0.5, 0), q + (0, 0.5), q - (0, 0.5)]))
+    cell = min(np.hypot(*(pts[1] - pts[2])), np.hypot(*(pts[3] - pts[4])))
+    return float(np.hypot(*(pts[0] - p)) / max(cell, 1e-9))
