@@ -102,3 +102,15 @@ def test_a_dim_board_is_searched_as_a_bright_one():
     b2 = detect_board(dim, (9, 6), value_range=(0, 255), proposals=False, scale=1.0)
     assert b1 is not None and b2 is not None and len(b1) == len(b2) == 54
     assert np.abs(b1.image_points - b2.image_points).max() < 0.05
+
+
+def test_a_small_board_found_first_does_not_hide_the_view_board():
+    # a screen in the background shows the same pattern, small and sharp: it is complete at the finest
+    # level, where the view's own board, smeared, is not; the coarser levels find the view's board
+    v, _ = board_view()
+    img = smear(v.image, 17, 30.0)
+    small = np.kron((np.indices((7, 10)).sum(axis=0) % 2) * 180.0 + 40, np.ones((6, 6)))  # 9 x 6, 6 px cells
+    img[8:8 + 54, 8:8 + 72] = cv2.GaussianBlur(np.pad(small, 6, constant_values=220.0), (0, 0), 0.7)[:54, :72]
+    img = np.clip(img + np.random.default_rng(0).normal(0, 1.0, img.shape), 0, 255).astype(np.uint8)
+    b = detect_board(img, (9, 6), proposals=False)
+    assert_exact(b, v, 0.35)

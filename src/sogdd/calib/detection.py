@@ -15,7 +15,6 @@ import os
 import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from fractions import Fraction
 from typing import Literal
 
 import cv2
@@ -26,7 +25,7 @@ from ..image.files import max_pixels_limit, opencv_message, read_image
 from ..image.grey import to_gray255
 from ..image.validate import validate_image
 from .result import Calibration
-from .targets.board import Board
+from .targets.board import SMALL_CELL, Board, cell_size
 from .targets.precision import measure_precision
 from .targets.spec import BoardSpec, view_boards
 
@@ -52,11 +51,6 @@ ViewStatus = Literal["used", "rejected", "ignored", "no board", "unreadable"]
 BoardChoice = Literal["best", "all"]
 BOARD_CHOICES: tuple[BoardChoice, ...] = ("best", "all")
 
-#: a board whose median cell is under this fraction of that of its image's largest board is never a view:
-#: the targets of one scene lie at comparable distances (a third is one three times as far), while a
-#: screen, a reflection or a background pattern taken for the board is about ten times smaller, and its
-#: coarse corners and ill-determined pose pull the camera off
-SMALL_CELL = Fraction(1, 3)
 
 
 @dataclass(frozen=True)
@@ -173,22 +167,6 @@ def check_read_options(read_options: Mapping | None) -> dict:
             raise ValueError(f"read_options: unknown option {k!r} (known: {', '.join(READ_OPTIONS)})")
     max_pixels_limit(opts.get("max_pixels"))
     return opts
-
-
-def cell_size(board: Board) -> float:
-    """The board's median cell side in px: the median distance between corners whose labels are neighbours
-    (NaN without any).
-
-    Examples
-    --------
-    >>> b = Board(np.array([[0.0, 0], [10, 0], [0, 12], [10, 12]]), np.array([[0, 0], [1, 0], [0, 1], [1, 1]]))
-    >>> cell_size(b)
-    11.0
-    """
-    index = {lab: k for k, lab in enumerate(map(tuple, board.labels.tolist()))}
-    d = [float(np.hypot(*(board.image_points[index[(i + di, j + dj)]] - board.image_points[k])))
-         for (i, j), k in index.items() for di, dj in ((1, 0), (0, 1)) if (i + di, j + dj) in index]
-    return float(np.median(d)) if d else float("nan")
 
 
 def _describe(board: Board, cell: float) -> str:

@@ -3,12 +3,21 @@
 from __future__ import annotations
 
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from fractions import Fraction
 
 import numpy as np
 
-__all__ = ["LABEL_TURNS", "Board", "ViewBoards", "grid_dims", "parse_grid"]
+__all__ = ["LABEL_TURNS", "SMALL_CELL", "Board", "ViewBoards", "cell_size", "grid_dims", "parse_grid",
+           "view_board"]
 
+
+#: a board whose median cell is under this fraction of that of its image's largest board is never a view:
+#: the targets of one scene lie at comparable distances (a third is one three times as far), while a
+#: screen, a reflection or a background pattern taken for the board is about ten times smaller, and its
+#: coarse corners and ill-determined pose pull the camera off
+SMALL_CELL = Fraction(1, 3)
 
 #: the four quarter turns of a board's label grid, ``labels @ T.T`` (identity, then a quarter turn at a time)
 LABEL_TURNS = (np.array([[1, 0], [0, 1]]), np.array([[0, -1], [1, 0]]), np.array([[-1, 0], [0, -1]]),
@@ -161,3 +170,42 @@ def parse_grid(text: str) -> tuple[int, int] | None:
     """
     m = re.fullmatch(r"(\d+)[xX](\d+)", text)
     return (int(m.group(1)), int(m.group(2))) if m else None
+
+
+def cell_size(board: Board) -> float:
+    """The board's median cell side in px: the median distance between corners whose labels are neighbours
+    (NaN without any).
+
+    Examples
+    --------
+    >>> b = Board(np.array([[0.0, 0], [10, 0], [0, 12], [10, 12]]), np.array([[0, 0], [1, 0], [0, 1], [1, 1]]))
+    >>> cell_size(b)
+    11.0
+    """
+    index = {lab: k for k, lab in enumerate(map(tuple, board.labels.tolist()))}
+    d = [float(np.hypot(*(board.image_points[index[(i + di, j + dj)]] - board.image_points[k])))
+         for (i, j), k in index.items() for di, dj in ((1, 0), (0, 1)) if (i + di, j + dj) in index]
+    return float(np.median(d)) if d else float("nan")
+
+
+def view_board(boards: Sequence[Board]) -> Board | None:
+    """The image's board, of several: the largest in the image, complete first, then the most corners.
+
+    A board whose cells (:func:`cell_size`) are under :data:`SMALL_CELL` of
+    the largest board's is a screen, a reflection or a pattern in the
+    background: never the view's board, even complete where the view's own is
+    cut by an occluder or the frame. Of the others, ``(B.size is not None,
+    len(B))`` decides.
+
+    Examples
+    --------
+    >>> grid = np.array([(i, j) for j in range(4) for i in range(6)])
+    >>> screen = Board(grid * 4.0, grid, size=(6, 4))
+    >>> cut = Board(grid[:20] * 40.0, grid[:20])  # the view's board, a hand over four corners
+    >>> view_board([screen, cut]) is cut
+    True
+    """
+    cells = [cell_size(b) for b in boards]
+    largest = max((c for c in cells if np.isfinite(c)), default=float("nan"))
+    keep = [b for b, c in zip(boards, cells) if not c < SMALL_CELL * largest]
+    return max(keep, key=lambda b: (b.size is not None, len(b))) if keep else None

@@ -10,8 +10,11 @@ window stays far less point-symmetric than the board's others is dropped),
 checked against the lattice's map (:func:`sogdd.calib.targets.chessboard.mapping.check`,
 within :data:`CHECK_TOL` of a cell, twice over), filled at the labels it left
 free (:mod:`.fill`), accepted or not (:mod:`.checks`) and labelled
-(:mod:`.labels`). The search stops at the first level that gives the whole
-pattern, else keeps the level whose largest board is largest. Where it finds no
+(:mod:`.labels`). The boards of all levels are kept, one board found at several
+levels once (with the most corners); the search stops at the first level after
+which the frame has no room for a board of the pattern large enough to make the
+complete one found a background board (a screen showing the board, three times
+smaller, may be the clearest board at the finest level). Where it finds no
 complete board of a given pattern, OpenCV's detectors propose one
 (:mod:`.proposals`), which goes through the same refinement, checks and labels,
 and must not be a part of a larger grid (:func:`sogdd.calib.targets.chessboard.checks.extends`).
@@ -26,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..board import Board, ViewBoards, grid_dims, parse_grid
+from ..board import SMALL_CELL, Board, ViewBoards, cell_size, grid_dims, parse_grid, view_board
 from .checks import EDGE_SHARE, MAX_ORPHANS, edge_links, extends, has_block, orphans
 from .fill import fill_board
 from .labels import orient
@@ -183,9 +186,8 @@ def detect_boards(image: np.ndarray, pattern: tuple[int, int] | None = None, *, 
     scale : float or None
         Search at this scale only (:func:`sogdd.calib.targets.chessboard.xcorners.find_xcorners`);
         None: over the pyramid of :func:`sogdd.calib.targets.chessboard.xcorners.search_levels`,
-        finest first, until a level gives the whole ``pattern``, else the level
-        whose largest board is largest. The corners are refined at full
-        resolution.
+        finest first, the boards of every level kept (module doc for when it
+        stops). The corners are refined at full resolution.
     refine : bool
         Refine the corners (else the saddle points, coarse at a reduced scale).
     max_boards : int
@@ -292,11 +294,9 @@ def _search(grey: np.ndarray, pat: tuple[int, int] | None, min_corners: int, min
     others: list[Board] = []
     for level in (scale,) if scale is not None else search_levels(grey.shape):
         xc = search(grey, min_strength, level, mask)
-        out = _boards(grey, xc, pat, min_corners, refine, max_boards, others)
-        if _rank(out, pat) > _rank(best, pat):
-            best = out
-        if pat is not None and _rank(best, pat)[0]:
-            break  # the whole board: no coarser level can do better
+        best = _merged(best, _boards(grey, xc, pat, min_corners, refine, max_boards, others))
+        if pat is not None and not _room_for_larger(best, pat, grey.shape):
+            break
     if pat is not None and not _rank(best, pat)[0] and proposals:
         for prop in propose(grey, pat):
             board = _finish(grey, _proposed(grey, prop.xy), Lattice(np.arange(len(prop.xy)), prop.labels), pat,
@@ -306,6 +306,32 @@ def _search(grey: np.ndarray, pat: tuple[int, int] | None, min_corners: int, min
             elif board is not None and _rank([board], pat) > _rank(best, pat):
                 best = [board, *(b for b in best if not _overlaps(b, board))]
     return BoardSearch(best, others)
+
+
+def _merged(found: list[Board], new: list[Board]) -> list[Board]:
+    """The boards of the levels so far and of the next one: one board found at two levels kept once, with
+    the more corners (the finer level's on a tie), largest first."""
+    out = list(found)
+    for b in new:
+        same = [k for k, a in enumerate(out) if _overlaps(a, b) or _overlaps(b, a)]
+        if not same:
+            out.append(b)
+        elif len(b) > max(len(out[k]) for k in same):
+            out = [a for k, a in enumerate(out) if k not in same] + [b]
+    out.sort(key=lambda b: -len(b))
+    return out
+
+
+def _room_for_larger(boards: list[Board], pattern: tuple[int, int], shape: tuple[int, int]) -> bool:
+    """Whether the frame could hold a board of ``pattern`` that would make the complete one found so far a
+    background board (:func:`sogdd.calib.targets.board.view_board`): cells ``1 / SMALL_CELL`` times as
+    large, its shorter side (``min(pattern) + 1`` cells) within the frame's longer side. Until a complete
+    board is found, or while such a board fits, the coarser levels are searched too (a screen showing
+    the board may be the clearest board at the finest level)."""
+    cells = [cell_size(b) for b in boards if len(b) == pattern[0] * pattern[1]]
+    if not cells:
+        return True
+    return max(cells) / SMALL_CELL * (min(pattern) + 1) <= max(shape)
 
 
 def _proposed(grey: np.ndarray, xy: np.ndarray) -> XCorners:
@@ -332,9 +358,11 @@ def detect_board(image: np.ndarray, pattern: tuple[int, int] | None = None, *, m
                  min_strength: float | None = None, scale: float | None = None, refine: bool = True,
                  max_boards: int = 16, mask: np.ndarray | None = None,
                  value_range: tuple[float, float] | None = None, proposals: bool = True) -> Board | None:
-    """The largest board of :func:`detect_boards` (a complete one first when ``pattern`` is given), or None.
+    """The view's board of :func:`detect_boards` (a complete one first when ``pattern`` is given), or None.
 
-    Of the boards ``B`` found, the one that maximises ``(B.size is not None, len(B))``.
+    Of the boards ``B`` found, leaving out those whose cells are under a third of
+    the largest board's (a screen or a reflection: :func:`sogdd.calib.targets.board.view_board`),
+    the one that maximises ``(B.size is not None, len(B))``.
 
     Parameters
     ----------
@@ -353,9 +381,7 @@ def detect_board(image: np.ndarray, pattern: tuple[int, int] | None = None, *, m
     boards = detect_boards(image, pattern, min_corners=min_corners, min_strength=min_strength, scale=scale,
                            refine=refine, max_boards=max_boards, mask=mask, value_range=value_range,
                            proposals=proposals)
-    if not boards:
-        return None
-    return max(boards, key=lambda b: (b.size is not None, len(b)))
+    return view_board(boards)
 
 
 def parse_spec(parts: list[str], spec: str) -> dict | None:
