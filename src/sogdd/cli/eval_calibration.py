@@ -31,6 +31,15 @@ independent sessions of the convergent rig (``--sequences`` to choose it). Metho
 sogdd, opencv-stereo-fix, opencv-stereo-free, opencv-multiview, mrcal (rigs.json,
 rigs.md): :mod:`sogdd.evaluation.calibration.rig_metrics`.
 
+A randomized rendered corpus (``--sweep N``, instead of the above; ``--seed S``, ``--max-pixels``):
+N single views, each drawing every factor (frame size up to 12 MP, board, cell size, tilt, roll,
+lens from pincushion to a 200-degree fisheye, paper margin, contrast, illumination ramp,
+vignetting, glare, noise, blur, motion blur, JPEG, textured background, rectangles, a second
+board, a hand) from the view's own seed; per method (sogdd, opencv, opencv-sb by default):
+complete boards, corners found, wrong labels, off-board points, corner error and time, overall
+and by factor bin (sweep.json, sweep.md): :mod:`sogdd.evaluation.calibration.sweep`,
+:mod:`sogdd.evaluation.calibration.sweep_metrics`.
+
 Methods (``--methods``, comma-separated; all by default): sogdd, opencv-refine, hr-grid,
 opencv, opencv-sb, calib-targets, mrgingham, chess-corners, hr. A comparator
 that is not installed is skipped with a note (``pip install calib-targets
@@ -80,6 +89,40 @@ def evaluate_photos(args, argv_text: str) -> dict:
     res = run_photos(sets, methods, views=args.views, progress=reporter(args))
     return {"version": __version__, "command": argv_text, "methods": methods, **res,
             "notes": notes + res["notes"]}
+
+
+def evaluate_sweep(args, argv_text: str) -> dict:
+    """The ``--sweep`` evaluation that ``args`` asks for, as one dict (also what sweep.json holds)."""
+    from .._version import __version__
+    from ..evaluation.calibration.comparators import method_names
+    from ..evaluation.calibration.protocol import availability
+    from ..evaluation.calibration.sweep import MAX_PIXELS
+    from ..evaluation.calibration.sweep_metrics import run_sweep, sweep_methods
+
+    clash = [f for f in ("photos", "rigs", "quick", "sequences", "sets", "sessions", "views", "data", "no_real",
+                         "no_rendered", "merge") if getattr(args, f, None) not in (None, False)]
+    if clash or args.draws != 1:
+        drop = (clash or ["draws"])[0].replace("_", "-")
+        raise ValueError(f"--sweep renders its own views (with --seed, --max-pixels, --methods); drop --{drop}")
+    if args.sweep < 1:
+        raise ValueError(f"--sweep must be >= 1 view, got {args.sweep}")
+    seed = 0 if args.seed is None else args.seed
+    if seed < 0:
+        raise ValueError(f"--seed must be >= 0, got {seed}")
+    max_pixels = MAX_PIXELS if args.max_pixels is None else args.max_pixels
+    if max_pixels < 160 * 120:
+        raise ValueError(f"--max-pixels must be >= 19200 (160 x 120), got {max_pixels}")
+    methods, notes = availability(sweep_methods(method_names(args.methods) if args.methods else None))
+    if not methods:
+        raise ValueError("--sweep: none of the methods can run here (" + "; ".join(notes) + ")")
+    res = run_sweep(args.sweep, seed, methods, max_pixels=max_pixels, progress=reporter(args))
+    return {"version": __version__, "command": argv_text, **res, "notes": notes}
+
+
+def _run_sweep(args) -> int:
+    from ..evaluation.calibration.sweep_metrics import sweep_markdown, write_sweep
+
+    return _emit(args, evaluate_sweep(args, command_text(args)), write_sweep, sweep_markdown)
 
 
 def _emit(args, res: dict, write, markdown) -> int:
@@ -194,6 +237,11 @@ def _run_rigs(args) -> int:
 def run_calibration(args) -> int:
     from ..report.calibration_section import results_markdown, write_results
 
+    if getattr(args, "sweep", None) is not None:
+        return _run_sweep(args)
+    for flag in ("seed", "max_pixels"):
+        if getattr(args, flag, None) is not None:
+            raise ValueError(f"--{flag.replace('_', '-')} needs --sweep")
     if getattr(args, "rigs", False):
         return _run_rigs(args)
     if getattr(args, "photos", False):
@@ -214,10 +262,12 @@ def command_text(args) -> str:
     parts = ["sogdd", "eval", "calibration"] + (["--quick"] if getattr(args, "quick", False) else [])
     parts += ["--photos"] if getattr(args, "photos", False) else []
     parts += ["--rigs"] if getattr(args, "rigs", False) else []
-    for name in ("sequences", "sets", "methods", "draws", "views", "sessions", "data"):
+    if getattr(args, "sweep", None) is not None:
+        parts += ["--sweep", str(args.sweep), "--seed", str(getattr(args, "seed", None) or 0)]
+    for name in ("max_pixels", "sequences", "sets", "methods", "draws", "views", "sessions", "data"):
         val = getattr(args, name, None)
         if val is not None and not (name == "draws" and val == 1):
-            parts += [f"--{name}", str(val)]
+            parts += [f"--{name.replace('_', '-')}", str(val)]
     for flag in ("no_real", "no_rendered"):
         if getattr(args, flag, False):
             parts.append("--" + flag.replace("_", "-"))
@@ -252,6 +302,14 @@ def register_calibration(eval_subparsers) -> None:
                         "(rigs.json, rigs.md); --sequences names rigs")
     c.add_argument("--sessions", type=int, metavar="N",
                    help="with --rigs: the uncertainty's calibration over N independent sessions of one rig")
+    c.add_argument("--sweep", type=int, metavar="N",
+                   help="a randomized rendered corpus instead: N single views, every factor drawn per view, "
+                        "complete boards per method overall and by factor bin (sweep.json, sweep.md)")
+    c.add_argument("--seed", type=int, metavar="S",
+                   help="with --sweep: the corpus's seed (view k draws from default_rng([S, k])) [default: 0]")
+    c.add_argument("--max-pixels", type=int, metavar="P",
+                   help="with --sweep: the largest frame drawn, in pixels (small for quick runs) "
+                        "[default: 12000000]")
     add_output_arguments(c, "calibration.json, calibration.md and calibration.png")
     c.add_argument("--merge", action="store_true",
                    help="add to the calibration.json already in --out (rows of the same sequence or photo set "
