@@ -260,7 +260,8 @@ def noise_strength(grey: np.ndarray) -> float:
     gxx = cv2.sepFilter2D(img, -1, d2, g, borderType=cv2.BORDER_REFLECT)
     gyy = cv2.sepFilter2D(img, -1, g, d2, borderType=cv2.BORDER_REFLECT)
     gxy = cv2.sepFilter2D(img, -1, d1, d1, borderType=cv2.BORDER_REFLECT)
-    det = np.abs(gxy * gxy - gxx * gyy)
+    # every other pixel each way: a median of a quarter of the pixels is as good and four times cheaper
+    det = np.abs(gxy[::2, ::2] * gxy[::2, ::2] - gxx[::2, ::2] * gyy[::2, ::2])
     return float(SIGMA2 * np.sqrt(np.median(det)) / _unit(SIGMA2))
 
 
