@@ -66,7 +66,8 @@ def test_views_and_corners_csv(cal, tmp_path):
     assert views[4]["used"] == "0" and views[4]["reason"] and float(views[4]["rms"]) > 1.0
     assert views[2]["used"] == "1" and views[2]["corners_used"] == "53" and views[2]["corners_found"] == "54"
     corners = list(csv.DictReader(open(files["corners.csv"])))
-    assert list(corners[0]) == ["view", "i", "j", "x", "y", "residual", "used", "sigma_px"]
+    assert list(corners[0]) == ["view", "i", "j", "x", "y", "residual", "used", "sigma_px", "source"]
+    assert views[9]["source"] == "" and views[2]["source"] == corners[0]["source"] == "sogdd"
     assert all(c["sigma_px"] == "" for c in corners)  # boards without a measured precision
     assert len(corners) == 9 * 54
     planted = [c for c in corners if c["view"] == "f2.png" and (c["i"], c["j"]) == ("7", "0")]
@@ -120,7 +121,7 @@ def test_views_csv_and_camera_json_account_for_every_input(cal, tmp_path):
     assert [r["view"] for r in rows] == [v.name for v in views]
     assert rows[3] == {"view": "bad.png", "corners_found": "0", "corners_used": "0", "rms": "", "used": "0",
                        "reason": "in/bad.png: not a readable image", "status": "unreadable", "precision_px": "",
-                       "weight": ""}
+                       "weight": "", "source": ""}
     assert rows[4]["view"] == "f3.png" and rows[4]["corners_found"] == "54"
     js = json.loads(files["camera.json"].read_text())
     assert js["rejected_views"]["bad.png"] == "in/bad.png: not a readable image"

@@ -65,7 +65,8 @@ def test_end_to_end_writes_every_output(frames, tmp_path, capsys):
     assert all(0 < float(v["precision_px"]) < 0.05 and float(v["weight"]) > 0 for v in views)
     corners = list(csv.DictReader(open(out / "corners.csv")))
     assert len(corners) == 8 * 54 and {c["view"] for c in corners} == {f"f{k}.png" for k in range(8)}
-    assert list(corners[0])[-1] == "sigma_px" and all(float(c["sigma_px"]) > 0 for c in corners)
+    assert list(corners[0])[-2:] == ["sigma_px", "source"] and all(float(c["sigma_px"]) > 0 for c in corners)
+    assert {c["source"] for c in corners} == {v["source"] for v in views} == {"sogdd"}  # the own search
     html = (out / "report.html").read_text()
     assert "Verdict" in html and (out / "report" / "coverage.png").is_file()
     assert len(list((out / "report").glob("view_*.png"))) == 8

@@ -235,7 +235,7 @@ def _sig(v: float) -> str:
 
 def write_views_csv(cal: Calibration, path: str | os.PathLike, *,
                     views: Sequence[ViewRecord] | None = None) -> Path:
-    """``view,corners_found,corners_used,rms,used,reason,status,precision_px,weight``: one row per view.
+    """``view,corners_found,corners_used,rms,used,reason,status,precision_px,weight,source``: one row per view.
 
     ``rms`` is over the used corners (all corners of a rejected view, from its
     pose re-estimated with the final camera; empty without a pose); ``used`` is
@@ -249,40 +249,44 @@ def write_views_csv(cal: Calibration, path: str | os.PathLike, *,
     median weight in the fit relative to the set's typical corner
     (:func:`~sogdd.calib.weighting.corner_weights`: 1 typical, 0.5 a view twice
     as imprecise; a rejected view's what it would have had); both empty where
-    unknown (no precision measured; ``weight`` also for an unweighted fit). With
-    ``views`` (every input's fate, :attr:`sogdd.calib.ImageCalibration.views`)
+    unknown (no precision measured; ``weight`` also for an unweighted fit).
+    ``source`` names the detector that proposed the view's board
+    (``Board.source``: ``sogdd``, ``opencv`` or ``opencv-sb`` for a chessboard,
+    whose corners sogdd measured and checked whatever the source; ``charuco``),
+    empty without a board. With ``views`` (every input's fate, :attr:`sogdd.calib.ImageCalibration.views`)
     every input is a row, the images that could not be read too; without it,
     the views of ``cal``.
     """
     if views is None:
         views = view_records(cal)
     rows: list[list] = [["view", "corners_found", "corners_used", "rms", "used", "reason", "status",
-                         "precision_px", "weight"]]
+                         "precision_px", "weight", "source"]]
     for row in views:
         v = row.view
         if v is None:
-            rows.append([row.name, row.corners or 0, 0, "", 0, row.reason, row.status, "", ""])
+            rows.append([row.name, row.corners or 0, 0, "", 0, row.reason, row.status, "", "", ""])
             continue
         b, used = cal.boards[v], cal.corner_used[v]
         w = cal.corner_weights(v)
         rows.append([row.name, 0 if b is None else len(b), 0 if used is None else int(used.sum()),
                      _fmt(cal.view_rms[v]), int(bool(cal.view_used[v])), row.reason, row.status,
-                     _sig(view_precision(b)), "" if w is None or len(w) == 0 else _fmt(float(np.median(w)), 3)])
+                     _sig(view_precision(b)), "" if w is None or len(w) == 0 else _fmt(float(np.median(w)), 3),
+                     "" if b is None else b.source])
     path = Path(path)
     write_text(path, _csv(rows))
     return path
 
 
 def write_corners_csv(cal: Calibration, path: str | os.PathLike) -> Path:
-    """``view,i,j,x,y,residual,used,sigma_px``: one row per corner found.
+    """``view,i,j,x,y,residual,used,sigma_px,source``: one row per corner found.
 
     ``i, j`` the integer board label, ``x, y`` the position (OpenCV's pixel
     convention: pixel centres at integers), ``residual`` the reprojection
     error in px (empty without a pose), ``used`` 1 if the calibration used it,
     ``sigma_px`` its measured 1-sigma precision (``Board.precision``, px; empty
-    where unknown).
+    where unknown), ``source`` the detector that proposed its board (``Board.source``).
     """
-    rows: list[list] = [["view", "i", "j", "x", "y", "residual", "used", "sigma_px"]]
+    rows: list[list] = [["view", "i", "j", "x", "y", "residual", "used", "sigma_px", "source"]]
     for v, name in enumerate(cal.names):
         b = cal.boards[v]
         if b is None:
@@ -294,7 +298,7 @@ def write_corners_csv(cal: Calibration, path: str | os.PathLike) -> Path:
             i, j = b.labels[c]
             x, y = b.image_points[c]
             rows.append([name, int(i), int(j), _fmt(x), _fmt(y), _fmt(r[c]), int(bool(cal.corner_used[v][c])),
-                         _sig(sigma[c])])
+                         _sig(sigma[c]), b.source])
     path = Path(path)
     write_text(path, _csv(rows))
     return path
