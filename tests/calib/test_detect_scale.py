@@ -114,3 +114,23 @@ def test_a_small_board_found_first_does_not_hide_the_view_board():
     img = np.clip(img + np.random.default_rng(0).normal(0, 1.0, img.shape), 0, 255).astype(np.uint8)
     b = detect_board(img, (9, 6), proposals=False)
     assert_exact(b, v, 0.35)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_a_column_just_outside_the_frame_gets_no_label(seed):
+    # the board's first column of corners lies 0.5-6 px beyond the left edge: nothing near the edge may take
+    # its label (a saddle where the squares' edges meet the frame), and every point returned is a corner
+    rng = np.random.default_rng(seed)
+    cam = Camera(np.array([[800.0, 0, 319.5], [0, 800.0, 239.5], [0, 0, 1]]), (0.0, 0, 0, 0), (640, 480))
+    square, out = rng.uniform(0.02, 0.08), rng.uniform(0.5, 6.0)
+    y0 = rng.uniform(20, 460 - 5 * square * 800)
+    t = np.array([(-out - 319.5) / 800.0, (y0 - 239.5) / 800.0, 1.0])
+    v = render_view(cam, ChessboardTarget(9, 6, square), np.array([0.0, 0.0, rng.uniform(-0.05, 0.05)]), t,
+                    blur=rng.uniform(0.5, 3.0), noise=rng.uniform(0, 4), rng=seed, border=0.0)
+    b = detect_board(v.image, (9, 6))
+    assert b is not None and len(b) >= 40
+    d, k = cKDTree(v.corners).query(b.image_points)
+    assert d.max() < 1.0 and (v.corners[k, 0] >= 0).all()  # on a corner, and that corner in the frame
+    lab = b.labels - b.labels.min(axis=0)
+    truth = v.labels[k] - v.labels[k].min(axis=0)
+    assert np.array_equal(lab, truth) or np.array_equal(lab.max(axis=0) - lab, truth)  # one labelling
