@@ -14,8 +14,9 @@ free (:mod:`.fill`), accepted or not (:mod:`.checks`) and labelled
 levels once (with the most corners); the search stops at the first level after
 which the frame has no room for a board of the pattern large enough to make the
 complete one found a background board (a screen showing the board, three times
-smaller, may be the clearest board at the finest level). Where it finds no
-complete board of a given pattern, OpenCV's detectors propose one
+smaller, may be the clearest board at the finest level). Where the view's board
+it finds (:func:`sogdd.calib.targets.board.view_board`) is not the whole pattern,
+OpenCV's detectors propose one
 (:mod:`.proposals`), which goes through the same refinement, checks and labels,
 and must not be a part of a larger grid (:func:`sogdd.calib.targets.chessboard.checks.extends`).
 A grid that cannot be the given pattern (more rows or columns than it has) is not
@@ -199,8 +200,9 @@ def detect_boards(image: np.ndarray, pattern: tuple[int, int] | None = None, *, 
         grey levels); None: the dtype's, and a float image outside [0, 1] is a
         one-line ``ValueError``.
     proposals : bool
-        When ``pattern`` is given and the own search finds no complete board,
-        also take OpenCV's detectors' board as a proposal
+        When ``pattern`` is given and the view's board of the own search
+        (:func:`sogdd.calib.targets.board.view_board`) is not complete, also
+        take OpenCV's detectors' board as a proposal
         (:mod:`sogdd.calib.targets.chessboard.proposals`): refined, checked and labelled
         as any other, ``Board.source`` naming its source.
 
@@ -297,13 +299,14 @@ def _search(grey: np.ndarray, pat: tuple[int, int] | None, min_corners: int, min
         best = _merged(best, _boards(grey, xc, pat, min_corners, refine, max_boards, others))
         if pat is not None and not _room_for_larger(best, pat, grey.shape):
             break
-    if pat is not None and not _rank(best, pat)[0] and proposals:
+    view = view_board(best)
+    if pat is not None and proposals and (view is None or len(view) < pat[0] * pat[1]):
         for prop in propose(grey, pat):
             board = _finish(grey, _proposed(grey, prop.xy), Lattice(np.arange(len(prop.xy)), prop.labels), pat,
                             min_corners, refine, prop.source)
             if board is not None and extends(grey, board):
                 others.append(board)  # a part of a larger grid, which OpenCV may propose as the pattern
-            elif board is not None and _rank([board], pat) > _rank(best, pat):
+            elif board is not None and (view is None or len(board) > len(view)):
                 best = [board, *(b for b in best if not _overlaps(b, board))]
     return BoardSearch(best, others)
 
@@ -346,12 +349,6 @@ def _overlaps(a: Board, b: Board) -> bool:
     d, _ = cKDTree(b.image_points).query(a.image_points)
     step = float(np.min(cKDTree(b.image_points).query(b.image_points, k=2)[0][:, 1]))
     return bool(np.any(d < 0.25 * step))
-
-
-def _rank(boards: list[Board], pattern: tuple[int, int] | None) -> tuple[bool, int]:
-    """How good one level's boards are: a complete board of ``pattern`` first, then the largest board."""
-    whole = pattern is not None and any(len(b) == pattern[0] * pattern[1] for b in boards)
-    return whole, max((len(b) for b in boards), default=0)
 
 
 def detect_board(image: np.ndarray, pattern: tuple[int, int] | None = None, *, min_corners: int = 12,
