@@ -3,25 +3,25 @@
 Each stage is one module; :mod:`.search` runs them in this order for every level
 of the pyramid (finest first, until one gives the whole pattern):
 
-===== ============== ===================================================== ==========================
-stage module         what it does                                           comes out
-===== ============== ===================================================== ==========================
-1     xcorners       saddle points with their edge lines, at one level of   ``XCorners``
-                     the pyramid, above the noise the image shows there
-2     lattice        X-corners linked along their edge lines and grown     ``Lattice``: indices, labels
-                     from seeds by prediction
-3     windows        each corner refined at full resolution to its centre   points, quality
-                     of point symmetry, windows cut at the board's edge
-4     mapping        each corner predicted by its neighbours' map (the      the corners kept
-                     lattice's check)
-5     fill           the labels the lattice left free, measured where its   more corners
-                     map puts them
-6     checks         links along edges, no orphans, a 3 x 3 block; a        a board, or none
-                     proposal that is no part of a larger grid
-7     labels         right-handed labels, the same ``(0, 0)`` in every view ``Board``
-(1b)  proposals      OpenCV's detectors' board where the own search found   a lattice for stages 3-7
-                     no complete one
-===== ============== ===================================================== ==========================
+===== ========= ====================================================== ============================
+stage module    what it does                                           comes out
+===== ========= ====================================================== ============================
+1     xcorners  saddle points with their edge lines at one level       ``XCorners``
+                of the pyramid, above the noise the image shows there
+2     lattice   X-corners linked along their edge lines and grown      ``Lattice``: indices, labels
+                from seeds by prediction
+3     windows   each corner refined at full resolution to its centre   points, quality
+                of point symmetry, windows cut at the board's edge
+4     mapping   each corner predicted by its neighbours' map           the corners kept
+                (the lattice's check)
+5     fill      the labels the lattice left free, measured where       more corners
+                its map puts them
+6     checks    links along edges, no orphans, a 3 x 3 block; a        a board, or none
+                proposal that is no part of a larger grid
+7     labels    right-handed labels, the same ``(0, 0)`` in every view ``Board``
+1b    proposals OpenCV's detectors' board where the own search         a lattice for stages 3-7
+                found no complete one
+===== ========= ====================================================== ============================
 
 :mod:`.xcorners`: X-corner candidates, the pyramid's levels and the noise-relative threshold.
 :mod:`.lattice`: the lattice grown from X-corners by local-homography prediction.
