@@ -9,8 +9,8 @@ from fractions import Fraction
 
 import numpy as np
 
-__all__ = ["LABEL_TURNS", "SMALL_CELL", "Board", "ViewBoards", "cell_size", "grid_dims", "parse_grid",
-           "view_board"]
+__all__ = ["LABEL_TURNS", "SMALL_CELL", "Board", "ViewBoards", "cell_size", "grid_dims", "lattice_cells",
+           "parse_grid", "view_board"]
 
 
 #: a board whose median cell is under this fraction of that of its image's largest board is never a view:
@@ -209,3 +209,27 @@ def view_board(boards: Sequence[Board]) -> Board | None:
     largest = max((c for c in cells if np.isfinite(c)), default=float("nan"))
     keep = [b for b, c in zip(boards, cells) if not c < SMALL_CELL * largest]
     return max(keep, key=lambda b: (b.size is not None, len(b))) if keep else None
+
+
+def lattice_cells(xy: np.ndarray, labels: np.ndarray) -> np.ndarray:
+    """Each corner's distance (px) to its nearest 4-neighbour on the board's lattice; inf with none.
+
+    The local cell, as the board's own labels define it (unlike
+    :func:`~sogdd.calib.targets.refine.cell_sizes`, the nearest other point,
+    which a corner across a gap or a foreshortened diagonal could be).
+
+    Examples
+    --------
+    >>> lattice_cells(np.array([[0.0, 0], [10, 0], [30, 5]]), np.array([[0, 0], [1, 0], [5, 5]])).tolist()
+    [10.0, 10.0, inf]
+    """
+    pts = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    lab = np.asarray(labels, dtype=np.int64).reshape(-1, 2)
+    where = {(int(i), int(j)): k for k, (i, j) in enumerate(lab.tolist())}
+    out = np.full(len(pts), np.inf)
+    for k, (i, j) in enumerate(lab.tolist()):
+        for di, dj in ((1, 0), (-1, 0), (0, 1), (0, -1)):
+            m = where.get((i + di, j + dj))
+            if m is not None:
+                out[k] = min(out[k], float(np.hypot(*(pts[m] - pts[k]))))
+    return out

@@ -17,44 +17,16 @@ from dataclasses import replace
 
 import numpy as np
 
-from .board import Board
+from .board import Board, lattice_cells
 from .refine import MAX_WINDOW, corner_covariance, half_widths
 
-__all__ = ["lattice_cells", "measure_precision", "windows", "with_precision"]
-
-#: the lattice steps to a corner's four neighbours
-_STEPS = ((1, 0), (-1, 0), (0, 1), (0, -1))
-
-
-def lattice_cells(xy: np.ndarray, labels: np.ndarray) -> np.ndarray:
-    """Each corner's distance (px) to its nearest 4-neighbour on the board's lattice; inf with none.
-
-    The local cell, as the board's own labels define it (unlike
-    :func:`~sogdd.calib.targets.refine.cell_sizes`, the nearest other point,
-    which a corner across a gap or a foreshortened diagonal could be).
-
-    Examples
-    --------
-    >>> lattice_cells(np.array([[0.0, 0], [10, 0], [30, 5]]), np.array([[0, 0], [1, 0], [5, 5]])).tolist()
-    [10.0, 10.0, inf]
-    """
-    pts = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
-    lab = np.asarray(labels, dtype=np.int64).reshape(-1, 2)
-    where = {(int(i), int(j)): k for k, (i, j) in enumerate(lab.tolist())}
-    out = np.full(len(pts), np.inf)
-    for k, (i, j) in enumerate(lab.tolist()):
-        for di, dj in _STEPS:
-            m = where.get((i + di, j + dj))
-            if m is not None:
-                out[k] = min(out[k], float(np.hypot(*(pts[m] - pts[k]))))
-    return out
-
+__all__ = ["measure_precision", "windows", "with_precision"]
 
 def windows(board: Board) -> np.ndarray:
     """The half-widths (px) of the windows a board's corners are refined with, (N,) int64.
 
     As the chessboard detector's refinement sets them: 0.65 of the local cell
-    (:func:`lattice_cells`), clipped to [2, 20] px, and the default 5 px for a
+    (:func:`sogdd.calib.targets.board.lattice_cells`), clipped to [2, 20] px, and the default 5 px for a
     corner without a lattice neighbour
     (:func:`~sogdd.calib.targets.refine.half_widths`).
 

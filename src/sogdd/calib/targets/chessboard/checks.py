@@ -13,10 +13,10 @@ import cv2
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..board import Board
+from ..board import Board, lattice_cells
 from ..refine import half_widths, refine_grey
 from .mapping import predict_labels
-from .windows import ASYMMETRY, MIN_ASYMMETRY, bilinear, local_cells
+from .windows import ASYMMETRY, MIN_ASYMMETRY, bilinear
 from .xcorners import SIGMA2, XCorners, hessian_at, junction_strength
 
 __all__ = ["EDGE_CONTRAST", "EDGE_SHARE", "MAX_ORPHANS", "edge_links", "extends", "has_block", "orphans",
@@ -137,7 +137,7 @@ def extends(grey: np.ndarray, board: Board) -> bool:
     cols, rows = range(lo[0], hi[0] + 1), range(lo[1], hi[1] + 1)
     sides = [[(lo[0] - 1, j) for j in rows], [(hi[0] + 1, j) for j in rows],
              [(i, lo[1] - 1) for i in cols], [(i, hi[1] + 1) for i in cols]]
-    cells = local_cells(xy, labels)
+    cells = lattice_cells(xy, labels)
     cell = float(np.median(cells[np.isfinite(cells)])) if np.isfinite(cells).any() else 0.0
     own_half = half_widths(xy, None, np.where(np.isfinite(cells), cells, cell))
     _, q_own = refine_grey(grey, xy, own_half, own_half.astype(np.float64), iterations=1)

@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from ..board import lattice_cells
 from ..refine import MIN_HALF, WINDOW_FRACTION, half_widths, refine_grey
 from .mapping import check, label_grid, predict_labels
 from .windows import (
@@ -24,7 +25,6 @@ from .windows import (
     deshaded,
     edge_halves,
     inner_corners,
-    local_cells,
     recut,
 )
 from .xcorners import XCorners
@@ -172,7 +172,7 @@ def _measured(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, cand: np.nda
     shaded = 1.0 - q > thr
     if not shaded.any():  # the board's own windows are needed for the unshaded measure only
         return r, q
-    cells = local_cells(xy, labels)
+    cells = lattice_cells(xy, labels)
     inner = inner_corners(labels) & np.isfinite(cells)
     ref = np.flatnonzero(inner if np.count_nonzero(inner) >= 5 else np.isfinite(cells))
     if len(ref):

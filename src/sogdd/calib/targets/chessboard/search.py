@@ -30,14 +30,14 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..board import SMALL_CELL, Board, ViewBoards, cell_size, grid_dims, parse_grid, view_board
+from ..board import SMALL_CELL, Board, ViewBoards, cell_size, grid_dims, lattice_cells, parse_grid, view_board
 from .checks import EDGE_SHARE, MAX_ORPHANS, edge_links, extends, has_block, orphans
 from .fill import fill_board
 from .labels import orient
 from .lattice import Lattice, grow, ray_neighbours, seeds
 from .mapping import check
 from .proposals import Source, propose
-from .windows import local_cells, refine_board, symmetric
+from .windows import refine_board, symmetric
 from .xcorners import (
     SIGMA2,
     XCorners,
@@ -109,7 +109,7 @@ def _checked(grey: np.ndarray, xc: XCorners, lat: Lattice, pattern: tuple[int, i
         xc, idx, xy, labels, quality = fill_board(grey, xc, idx, xy, labels, quality, pattern)
     if len(xy) < min_corners or min(len(np.unique(labels[:, 0])), len(np.unique(labels[:, 1]))) < 3:
         return None
-    if orphans(grey, xc, idx, xy, local_cells(xy, labels), grown=lat.index) > MAX_ORPHANS:
+    if orphans(grey, xc, idx, xy, lattice_cells(xy, labels), grown=lat.index) > MAX_ORPHANS:
         return None
     share, linked = edge_links(grey, xy, labels)
     if share < EDGE_SHARE:
@@ -228,10 +228,7 @@ def detect_boards(image: np.ndarray, pattern: tuple[int, int] | None = None, *, 
     ...
     ValueError: float images must be on [0, 1] (got [30, 230]); give their range: value_range=(lo, hi) ...
     """
-    grey = to_grey(image, value_range)
-    pat = _check_pattern(pattern)
-    _check_counts(min_corners, max_boards)
-    check_search(grey, min_strength, scale, mask)
+    grey, pat = _validated(image, pattern, min_corners, min_strength, scale, max_boards, mask, value_range)
     return _search(grey, pat, int(min_corners), min_strength, scale, refine, int(max_boards), mask,
                    proposals).boards
 
@@ -273,19 +270,21 @@ def find_boards(image: np.ndarray, pattern: tuple[int, int] | None = None, *, mi
     >>> found.boards, grid_dims(found.others[0])
     ([], (7, 5))
     """
-    grey = to_grey(image, value_range)
-    pat = _check_pattern(pattern)
-    _check_counts(min_corners, max_boards)
-    check_search(grey, min_strength, scale, mask)
+    grey, pat = _validated(image, pattern, min_corners, min_strength, scale, max_boards, mask, value_range)
     return _search(grey, pat, int(min_corners), min_strength, scale, refine, int(max_boards), mask,
                    proposals)
 
 
-def _check_counts(min_corners: object, max_boards: object) -> None:
+def _validated(image, pattern, min_corners, min_strength, scale, max_boards, mask, value_range):
+    """The search's arguments checked at the door (one-line ``ValueError``): the grey image and the pattern."""
+    grey = to_grey(image, value_range)
+    pat = _check_pattern(pattern)
     if not isinstance(min_corners, (int, np.integer)) or isinstance(min_corners, bool) or min_corners < 9:
         raise ValueError(f"min_corners must be an integer >= 9, got {min_corners!r}")
     if not isinstance(max_boards, (int, np.integer)) or isinstance(max_boards, bool) or max_boards < 1:
         raise ValueError(f"max_boards must be a positive integer, got {max_boards!r}")
+    check_search(grey, min_strength, scale, mask)
+    return grey, pat
 
 
 def _search(grey: np.ndarray, pat: tuple[int, int] | None, min_corners: int, min_strength: float | None,
@@ -346,8 +345,9 @@ def _proposed(grey: np.ndarray, xy: np.ndarray) -> XCorners:
 
 def _overlaps(a: Board, b: Board) -> bool:
     """Whether two boards share corners (within a quarter of ``b``'s smallest spacing)."""
-    d, _ = cKDTree(b.image_points).query(a.image_points)
-    step = float(np.min(cKDTree(b.image_points).query(b.image_points, k=2)[0][:, 1]))
+    tree = cKDTree(b.image_points)
+    d, _ = tree.query(a.image_points)
+    step = float(np.min(tree.query(b.image_points, k=2)[0][:, 1]))
     return bool(np.any(d < 0.25 * step))
 
 

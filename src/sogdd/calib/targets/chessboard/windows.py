@@ -2,7 +2,7 @@
 
 :func:`refine_board` refines every corner of a grown lattice to its centre of
 point symmetry (:func:`sogdd.calib.targets.refine.refine_grey`) with a window of
-0.65 of its local cell (:func:`local_cells`), cut for the corners on the
+0.65 of its local cell (:func:`sogdd.calib.targets.board.lattice_cells`), cut for the corners on the
 border and for those far less point-symmetric than the board's others to where
 the squares around them are point-symmetric (:func:`edge_halves`,
 :func:`recut`), and, for those still far less symmetric, measured again on
@@ -17,9 +17,10 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from ..board import lattice_cells
 from ..refine import MAX_WINDOW, MIN_HALF, half_widths, refine_grey
 
-__all__ = ["ASYMMETRY", "MIN_ASYMMETRY", "bilinear", "deshaded", "edge_halves", "inner_corners", "local_cells",
+__all__ = ["ASYMMETRY", "MIN_ASYMMETRY", "bilinear", "deshaded", "edge_halves", "inner_corners",
            "recut", "refine_board", "symmetric"]
 
 #: a refined corner is dropped when its asymmetry ``1 - quality`` exceeds this multiple of the board's median
@@ -48,18 +49,6 @@ def bilinear(grey: np.ndarray, p: np.ndarray) -> np.ndarray:
     fx, fy = x - x0, y - y0
     return ((grey[y0, x0] * (1 - fx) + grey[y0, x0 + 1] * fx) * (1 - fy)
             + (grey[y0 + 1, x0] * (1 - fx) + grey[y0 + 1, x0 + 1] * fx) * fy)
-
-
-def local_cells(xy: np.ndarray, labels: np.ndarray) -> np.ndarray:
-    """Each corner's distance to its nearest 4-neighbour on the lattice (inf when it has none)."""
-    pos = {tuple(q): k for k, q in enumerate(labels.tolist())}
-    out = np.full(len(xy), np.inf)
-    for k, (i, j) in enumerate(labels.tolist()):
-        for di, dj in ((1, 0), (-1, 0), (0, 1), (0, -1)):
-            m = pos.get((i + di, j + dj))
-            if m is not None:
-                out[k] = min(out[k], float(np.hypot(*(xy[m] - xy[k]))))
-    return out
 
 
 #: radii (in cells) and directions at which a border corner's surroundings are compared with their mirror image
@@ -141,7 +130,7 @@ def refine_board(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray) -> tuple[
     beyond its clear margin only, so a window within that margin fits the
     corner; an occluder over the corner leaves the cut fit asymmetric too.
     """
-    cells = local_cells(xy, labels)
+    cells = lattice_cells(xy, labels)
     half = half_widths(xy, None, cells)
     out, quality = refine_grey(grey, xy, half, half.astype(np.float64))
     at = np.where(quality[:, None] > 0, out, xy)
