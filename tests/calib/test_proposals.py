@@ -47,3 +47,24 @@ def test_the_own_search_carries_the_load():
     v = view()
     b = detect_board(v.image, (9, 6))
     assert b is not None and b.source == "sogdd" and len(b) == 54
+
+
+def test_a_complete_screen_of_the_pattern_does_not_stop_the_proposals(monkeypatch):
+    from sogdd.calib.targets.board import Board
+    from sogdd.calib.targets.chessboard import search
+    from sogdd.calib.targets.chessboard.proposals import Proposal
+
+    v = view()
+    k = np.arange(54)
+    grid = np.stack([k % 9, k // 9], axis=1)
+    # the own search's boards: the view's board with a column missing, and a complete copy of the pattern
+    # with 4 px cells (a screen behind it)
+    whole = detect_board(v.image, (9, 6), proposals=False)
+    keep = whole.labels[:, 0] > 0
+    partial = Board(whole.image_points[keep], whole.labels[keep])
+    screen = Board(grid * 4.0 + 10.0, grid, size=(9, 6))
+    monkeypatch.setattr(search, "_boards", lambda *a, **kw: [screen, partial])
+    monkeypatch.setattr(search, "propose", lambda grey, pattern: [Proposal(v.corners.copy(), grid, "opencv")])
+    b = detect_board(v.image, (9, 6))
+    assert b is not None and b.source == "opencv" and len(b) == 54
+    assert cKDTree(v.corners).query(b.image_points)[0].max() < 0.1
