@@ -33,6 +33,9 @@ import os
 from pathlib import Path
 
 JIT = dict(cache=True, nogil=True, error_model="numpy", fastmath={"contract"})
+#: :data:`JIT` without ``fastmath`` (not even contraction): a compiled loop that computes the same
+#: floating-point operations, in the same order, as the numpy it replaces, bit for bit
+EXACT_JIT = dict(cache=True, nogil=True, error_model="numpy")
 
 #: Doubles added to the rows of compiled scratch arrays whose natural length is a
 #: power of two (a block of 256 or 512 columns). Rows 2^k x 8 bytes apart map to the

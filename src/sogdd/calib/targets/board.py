@@ -9,8 +9,8 @@ from fractions import Fraction
 
 import numpy as np
 
-__all__ = ["LABEL_TURNS", "SMALL_CELL", "Board", "ViewBoards", "cell_size", "grid_dims", "lattice_cells",
-           "parse_grid", "view_board"]
+__all__ = ["LABEL_TURNS", "SMALL_CELL", "Board", "ViewBoards", "cell_size", "grid_dims", "label_neighbours",
+           "lattice_cells", "parse_grid", "view_board"]
 
 
 #: a board whose median cell is under this fraction of that of its image's largest board is never a view:
@@ -182,10 +182,10 @@ def cell_size(board: Board) -> float:
     >>> cell_size(b)
     11.0
     """
-    index = {lab: k for k, lab in enumerate(map(tuple, board.labels.tolist()))}
-    d = [float(np.hypot(*(board.image_points[index[(i + di, j + dj)]] - board.image_points[k])))
-         for (i, j), k in index.items() for di, dj in ((1, 0), (0, 1)) if (i + di, j + dj) in index]
-    return float(np.median(d)) if d else float("nan")
+    nb = label_neighbours(board.labels)[:, ::2]  # the (+1, 0) and (0, +1) neighbours: each pair once
+    k, d = np.nonzero(nb >= 0)
+    pts = board.image_points
+    return float(np.median(np.hypot(*(pts[nb[k, d]] - pts[k]).T))) if len(k) else float("nan")
 
 
 def view_board(boards: Sequence[Board]) -> Board | None:
@@ -224,12 +224,25 @@ def lattice_cells(xy: np.ndarray, labels: np.ndarray) -> np.ndarray:
     [10.0, 10.0, inf]
     """
     pts = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    nb = label_neighbours(labels)
+    d = np.hypot(*(pts[nb] - pts[:, None]).transpose(2, 0, 1))
+    return np.where(nb >= 0, d, np.inf).min(axis=1, initial=np.inf)
+
+
+def label_neighbours(labels: np.ndarray) -> np.ndarray:
+    """(N, 4) index of each corner's neighbour on the lattice at label ``(+1, 0)``, ``(-1, 0)``, ``(0, +1)``,
+    ``(0, -1)``; -1 where there is none.
+
+    Examples
+    --------
+    >>> label_neighbours(np.array([[0, 0], [1, 0], [0, 1]])).tolist()
+    [[1, -1, 2, -1], [-1, 0, -1, -1], [-1, -1, -1, 0]]
+    """
     lab = np.asarray(labels, dtype=np.int64).reshape(-1, 2)
-    where = {(int(i), int(j)): k for k, (i, j) in enumerate(lab.tolist())}
-    out = np.full(len(pts), np.inf)
-    for k, (i, j) in enumerate(lab.tolist()):
-        for di, dj in ((1, 0), (-1, 0), (0, 1), (0, -1)):
-            m = where.get((i + di, j + dj))
-            if m is not None:
-                out[k] = min(out[k], float(np.hypot(*(pts[m] - pts[k]))))
-    return out
+    if not len(lab):
+        return np.zeros((0, 4), np.int64)
+    ij = lab - lab.min(axis=0) + 1  # a border of one empty label each side
+    grid = np.full(ij.max(axis=0) + 2, -1, np.int64)
+    grid[ij[:, 0], ij[:, 1]] = np.arange(len(lab))
+    steps = ((1, 0), (-1, 0), (0, 1), (0, -1))
+    return np.stack([grid[ij[:, 0] + di, ij[:, 1] + dj] for di, dj in steps], axis=1)

@@ -45,11 +45,12 @@ import numba
 import numpy as np
 from scipy.spatial import cKDTree
 
+from sogdd._jit import EXACT_JIT
+
 from .grey import to_grey
 
 __all__ = ["cell_sizes", "corner_covariance", "half_widths", "refine_corners"]
 
-_JIT = dict(cache=True, nogil=True, error_model="numpy")
 #: the most sampling steps of the window each way from the centre (larger windows are strided)
 MAX_HALF = 12
 #: the window's half-width as a fraction of the local cell
@@ -64,7 +65,7 @@ DEFAULT_ITERATIONS, DEFAULT_TOL = 20, 1e-4
 _COUNT, _EPS, _MAX_COUNT = 1, 2, 100
 
 
-@numba.njit(**_JIT)
+@numba.njit(**EXACT_JIT)
 def _bil(img, x, y):  # pragma: no cover - jit
     H, W = img.shape
     x = min(max(x, 0.0), W - 1.0)
@@ -78,7 +79,7 @@ def _bil(img, x, y):  # pragma: no cover - jit
     return a * (1.0 - fy) + b * fy
 
 
-@numba.njit(**_JIT)
+@numba.njit(**EXACT_JIT)
 def _normal(img, px, py, R, s, inv, A, b):  # pragma: no cover - jit
     """Normal equations of the symmetric fit at ``(px, py)`` (module doc); returns ``(E, total)``."""
     for u in range(2):
@@ -118,7 +119,7 @@ def _normal(img, px, py, R, s, inv, A, b):  # pragma: no cover - jit
     return e, s2 - s1 * s1 / max(sw, 1e-300)
 
 
-@numba.njit(**_JIT)
+@numba.njit(**EXACT_JIT)
 def _solve(A, b, x):  # pragma: no cover - jit
     """Solve the 2 x 2 normal equations of the corner's step; False when singular."""
     det = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
@@ -129,7 +130,7 @@ def _solve(A, b, x):  # pragma: no cover - jit
     return True
 
 
-@numba.njit(parallel=True, **_JIT)
+@numba.njit(parallel=True, **EXACT_JIT)
 def _refine(img, pts, half, stride, max_shift, iterations, tol, out, quality):  # pragma: no cover - jit
     for k in numba.prange(pts.shape[0]):
         px0 = pts[k, 0]
@@ -170,7 +171,7 @@ def _refine(img, pts, half, stride, max_shift, iterations, tol, out, quality):  
             quality[k] = 0.0
 
 
-@numba.njit(**_JIT)
+@numba.njit(**EXACT_JIT)
 def _spread(acc, x, y, ox, oy, gx, gy):  # pragma: no cover - jit
     """Add ``(gx, gy)`` times the bilinear weights of the sample at ``(x, y)`` (inside the image, as the
     windows keep it) to its four pixels in ``acc`` (pixel ``(i, j)`` at ``acc[j - oy, i - ox]``); return the
@@ -190,7 +191,7 @@ def _spread(acc, x, y, ox, oy, gx, gy):  # pragma: no cover - jit
     return q
 
 
-@numba.njit(**_JIT)
+@numba.njit(**EXACT_JIT)
 def _noise_gain(img, px, py, R, s, inv):  # pragma: no cover - jit
     """``G = sum_i g_i g_i^T`` (as ``G00, G01, G11``) and ``q = sum_d w_d sum_i l_di^2`` of
     :func:`corner_covariance` at ``(px, py)``: each term's ``w_d J_d`` spread onto the pixels its two
@@ -219,7 +220,7 @@ def _noise_gain(img, px, py, R, s, inv):  # pragma: no cover - jit
     return np.sum(g[:, 0] * g[:, 0]), np.sum(g[:, 0] * g[:, 1]), np.sum(g[:, 1] * g[:, 1]), q
 
 
-@numba.njit(parallel=True, **_JIT)
+@numba.njit(parallel=True, **EXACT_JIT)
 def _covariance(img, pts, half, stride, out):  # pragma: no cover - jit
     """Each point's position covariance (:func:`corner_covariance`); NaN where it has none."""
     for k in numba.prange(pts.shape[0]):

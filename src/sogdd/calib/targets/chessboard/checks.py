@@ -13,7 +13,7 @@ import cv2
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..board import Board, lattice_cells
+from ..board import Board, label_neighbours, lattice_cells
 from ..refine import half_widths, refine_grey
 from .mapping import predict_labels
 from .windows import ASYMMETRY, MIN_ASYMMETRY, bilinear
@@ -46,9 +46,9 @@ def edge_links(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray) -> tuple[fl
     corners across squares (a lattice of wrong steps, e.g. a knight's move of a
     board blurred beyond recognition) fails it at ``t = 1/4`` or ``3/4``.
     """
-    pos = {tuple(q): k for k, q in enumerate(labels.tolist())}
-    pairs = np.array([(k, pos[(i + di, j + dj)]) for k, (i, j) in enumerate(labels.tolist())
-                      for di, dj in ((1, 0), (0, 1)) if (i + di, j + dj) in pos], dtype=np.int64).reshape(-1, 2)
+    nb = label_neighbours(labels)[:, ::2]  # (+1, 0) and (0, +1): each link once
+    k, a = np.nonzero(nb >= 0)
+    pairs = np.stack([k, nb[k, a]], axis=1)
     if len(pairs) == 0:
         return 0.0, np.zeros(len(xy), dtype=bool)
     p, q = xy[pairs[:, 0]], xy[pairs[:, 1]]

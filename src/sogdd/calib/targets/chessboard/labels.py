@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..board import LABEL_TURNS
+from ..board import LABEL_TURNS, label_neighbours
 from .xcorners import XCorners
 
 __all__ = ["label_axes", "orient", "outer_square_dark"]
@@ -34,13 +34,12 @@ __all__ = ["label_axes", "orient", "outer_square_dark"]
 
 def label_axes(xy: np.ndarray, labels: np.ndarray) -> np.ndarray:
     """Mean image displacement per label step along ``i`` and ``j``: rows ``a_i``, ``a_j``."""
-    pos = {tuple(q): k for k, q in enumerate(labels.tolist())}
+    nb = label_neighbours(labels)
     out = np.zeros((2, 2))
-    for ax, (di, dj) in enumerate(((1, 0), (0, 1))):
-        d = [xy[pos[(i + di, j + dj)]] - xy[k] for k, (i, j) in enumerate(labels.tolist())
-             if (i + di, j + dj) in pos]
-        if d:
-            out[ax] = np.mean(d, axis=0)
+    for ax in range(2):
+        k = np.flatnonzero(nb[:, 2 * ax] >= 0)  # the neighbour at (+1, 0), then at (0, +1)
+        if len(k):
+            out[ax] = np.mean(xy[nb[k, 2 * ax]] - xy[k], axis=0)
     return out
 
 

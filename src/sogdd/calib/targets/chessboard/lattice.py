@@ -38,14 +38,13 @@ import numba
 import numpy as np
 from scipy.spatial import cKDTree
 
+from sogdd._jit import EXACT_JIT
+
 from .mapping import SUPPORT, predict_batch
 from .xcorners import XCorners
 
 __all__ = ["Lattice", "grow", "ray_neighbours", "seeds"]
 
-#: numba's options for this module's compiled loops: no ``fastmath`` (not even contraction), so that each
-#: computes the same floating-point operations, in the same order, as the numpy it replaces (bit for bit)
-_JIT = dict(cache=True, nogil=True, error_model="numpy")
 
 #: a neighbour lies within this angle (rad) of the ray along an edge line
 CONE = np.radians(20.0)
@@ -102,7 +101,7 @@ def ray_neighbours(xc: XCorners, tree: cKDTree | None = None) -> tuple[np.ndarra
     return nb, dist
 
 
-@numba.njit(**_JIT)
+@numba.njit(**EXACT_JIT)
 def _mod(a, b):  # pragma: no cover - jit
     """numpy's ``mod(a, b)`` for ``b > 0``, the same bits: ``fmod``, then ``+ b`` where the signs differ,
     ``+0`` for a zero. Within ``(-2 b, 2 b)``, where the angles here lie, ``fmod`` is ``a``, ``a - b`` or
@@ -122,19 +121,19 @@ def _mod(a, b):  # pragma: no cover - jit
     return a % b  # numba's float %: Python's, which is numpy's mod
 
 
-@numba.njit(**_JIT)
+@numba.njit(**EXACT_JIT)
 def _wrap_pi(a):  # pragma: no cover - jit
     """An angle difference of lines (mod pi) to ``[-pi/2, pi/2)``: ``mod(a + pi/2, pi) - pi/2``."""
     return _mod(a + np.pi / 2, np.pi) - np.pi / 2
 
 
-@numba.njit(**_JIT)
+@numba.njit(**EXACT_JIT)
 def _wrap(a):  # pragma: no cover - jit
     """An angle difference of rays (mod 2 pi) to ``[-pi, pi)``: ``mod(a + pi, 2 pi) - pi``."""
     return _mod(a + np.pi, 2 * np.pi) - np.pi
 
 
-@numba.njit(**_JIT)
+@numba.njit(**EXACT_JIT)
 def _rays(d, idx, ang, light, spread, edges, nb, dist):  # pragma: no cover - jit
     """:func:`ray_neighbours`' tests for every corner and ray: the nearest neighbour that passes them all.
 
@@ -208,7 +207,7 @@ def _edges_follow(light: float, spread: float, axes: np.ndarray) -> bool:
     return bool(_edges_follow1(float(light), float(spread), float(ang[0]), float(ang[1])))
 
 
-@numba.njit(**_JIT)
+@numba.njit(**EXACT_JIT)
 def _edges_follow1(light, spread, ang0, ang1):  # pragma: no cover - jit
     """:func:`_edges_follow` with the axes' angles ``ang0, ang1`` given (compiled)."""
     e0 = light - spread
@@ -226,7 +225,7 @@ def _edges_follow1(light, spread, ang0, ang1):  # pragma: no cover - jit
     return bis < EDGE_TOL / 2 and straight < 2 * EDGE_TOL
 
 
-@numba.njit(**_JIT)
+@numba.njit(**EXACT_JIT)
 def _accept(k, near, ang0, ang1, light, spread, strength):  # pragma: no cover - jit
     """Whether candidate ``k`` may take a label (module doc): its edge lines follow the axes at angles
     ``ang0, ang1`` (:func:`_edges_follow1`), its strength is within :data:`CONTRAST_RATIO` of the median
@@ -264,7 +263,7 @@ def _accept(k, near, ang0, ang1, light, spread, strength):  # pragma: no cover -
     return True
 
 
-@numba.njit(**_JIT)
+@numba.njit(**EXACT_JIT)
 def _claims(ptr, near, xy, p, free, blk, ang, light, spread, strength):  # pragma: no cover - jit
     """The corner each label claims, and which claims stand.
 
@@ -295,7 +294,7 @@ def _claims(ptr, near, xy, p, free, blk, ang, light, spread, strength):  # pragm
     return got, take
 
 
-@numba.njit(**_JIT)
+@numba.njit(**EXACT_JIT)
 def _nearest_first(near, xy, px, py, free, buf_k, buf_d):  # pragma: no cover - jit
     """The free corners among ``near`` by distance to ``(px, py)`` (ties: the lower index) into ``buf_k``,
     their distances (libm's ``hypot``, as numpy's) into ``buf_d``; returns how many."""
@@ -315,7 +314,7 @@ def _nearest_first(near, xy, px, py, free, buf_k, buf_d):  # pragma: no cover - 
     return m
 
 
-@numba.njit(**_JIT)
+@numba.njit(**EXACT_JIT)
 def _untried(grid, tried, sup, box, limit):  # pragma: no cover - jit
     """The free grid cells next to the board (4-neighbours, row by row: the labels sorted) with more
     support (labelled corners at the offsets ``sup``) than when last tried, and their support.

@@ -21,11 +21,10 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from sogdd._jit import EXACT_JIT
+
 __all__ = ["SUPPORT", "apply", "check", "homography", "label_grid", "predict_batch", "predict_labels"]
 
-#: numba's options for this module's compiled loops: no ``fastmath`` (not even contraction), so that each
-#: computes the same floating-point operations, in the same order, as the numpy it replaces (bit for bit)
-_JIT = dict(cache=True, nogil=True, error_model="numpy")
 #: the label offsets of the corners a local homography is fitted to: those within two labels
 SUPPORT = np.array([(a, b) for a in range(-2, 3) for b in range(-2, 3) if (a, b) != (0, 0)])
 
@@ -357,7 +356,7 @@ def _fit_batch(xy: np.ndarray, nbr: np.ndarray, w: np.ndarray, offs: np.ndarray,
     return h, mean, scale
 
 
-@numba.njit(**_JIT)
+@numba.njit(**EXACT_JIT)
 def _normal_equations(w, b, a, m0):  # pragma: no cover - jit
     """The normal equations of :func:`_fit_batch`, ``(A (n, P, P), rhs (n, P))`` with ``P = 2 M + 2``.
 
@@ -378,7 +377,7 @@ def _normal_equations(w, b, a, m0):  # pragma: no cover - jit
     return A, rhs
 
 
-@numba.njit(**_JIT)
+@numba.njit(**EXACT_JIT)
 def _monomial_rows(w, b, a, m0, A, rhs):  # pragma: no cover - jit
     """:func:`_normal_equations`' rows of the monomials (the first ``2 M``), for one map."""
     K, M = m0.shape
@@ -408,7 +407,7 @@ def _monomial_rows(w, b, a, m0, A, rhs):  # pragma: no cover - jit
         rhs[M + i] = 0.0 + q2
 
 
-@numba.njit(**_JIT)
+@numba.njit(**EXACT_JIT)
 def _step_rows(w, b, a, M, A, rhs):  # pragma: no cover - jit
     """:func:`_normal_equations`' last two rows (the denominator's ``g1, g2``), for one map."""
     K = w.shape[0]

@@ -25,6 +25,7 @@ returned as a board; :func:`find_boards` returns it among the ``others``.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -127,7 +128,9 @@ def _labelled(xy: np.ndarray, lab: np.ndarray, size: tuple[int, int] | None, qua
 
 
 def _boards(grey: np.ndarray, xc: XCorners, pattern: tuple[int, int] | None, min_corners: int, refine: bool,
-            max_boards: int, others: list[Board] | None = None) -> list[Board]:
+            max_boards: int, others: list[Board] | None = None, done: Sequence[Board] = ()) -> list[Board]:
+    """The boards of one level's X-corners, largest first. A lattice whose corners all lie on a complete
+    board of ``done`` (a finer level's) is that board again, and is not refined a second time."""
     if len(xc) < 5:
         return []
     tree = cKDTree(xc.xy)
@@ -143,6 +146,8 @@ def _boards(grey: np.ndarray, xc: XCorners, pattern: tuple[int, int] | None, min
         if len(lat) < min_corners:
             free[lat.index] = True
             free[s] = False  # not a seed again
+            continue
+        if any(_within(xc.xy[lat.index], b) for b in done if b.size is not None):
             continue
         board = _finish(grey, xc, lat, pattern, min_corners, refine, others=others)
         if board is not None:
@@ -293,9 +298,10 @@ def _search(grey: np.ndarray, pat: tuple[int, int] | None, min_corners: int, min
     """The search of :func:`find_boards` on a validated grey image."""
     best: list[Board] = []
     others: list[Board] = []
+    g32 = grey.astype(np.float32)  # the X-corner search's maps are float32
     for level in (scale,) if scale is not None else search_levels(grey.shape):
-        xc = search(grey, min_strength, level, mask)
-        best = _merged(best, _boards(grey, xc, pat, min_corners, refine, max_boards, others))
+        xc = search(g32, min_strength, level, mask)
+        best = _merged(best, _boards(grey, xc, pat, min_corners, refine, max_boards, others, best))
         if pat is not None and not _room_for_larger(best, pat, grey.shape):
             break
     view = view_board(best)
@@ -341,6 +347,12 @@ def _proposed(grey: np.ndarray, xy: np.ndarray) -> XCorners:
     hess = hessian_at(grey, xy, np.sqrt(SIGMA2))
     light, phi, _ = edge_geometry(hess)
     return XCorners(xy.copy(), junction_strength(hess), light, phi)
+
+
+def _within(xy: np.ndarray, board: Board) -> bool:
+    """Whether every point lies within a quarter of the board's cell of one of its corners."""
+    d, _ = cKDTree(board.image_points).query(xy)
+    return bool(np.all(d < 0.25 * cell_size(board)))
 
 
 def _overlaps(a: Board, b: Board) -> bool:

@@ -14,10 +14,15 @@ median.
 
 from __future__ import annotations
 
+import math
+
 import cv2
+import numba
 import numpy as np
 
-from ..board import lattice_cells
+from sogdd._jit import EXACT_JIT
+
+from ..board import label_neighbours, lattice_cells
 from ..refine import MAX_WINDOW, MIN_HALF, half_widths, refine_grey
 
 __all__ = ["ASYMMETRY", "MIN_ASYMMETRY", "bilinear", "deshaded", "edge_halves", "inner_corners",
@@ -42,13 +47,29 @@ def symmetric(quality: np.ndarray) -> np.ndarray:
 
 
 def bilinear(grey: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """The image at points ``p`` (..., 2), bilinear between pixels, the points clamped to the frame.
+
+    Examples
+    --------
+    >>> bilinear(np.array([[0.0, 10.0], [20.0, 30.0]]), np.array([[0.5, 0.5], [0.25, 0.0]])).tolist()
+    [15.0, 2.5]
+    """
+    pts = np.ascontiguousarray(p, dtype=np.float64).reshape(-1, 2)
+    out = np.empty(len(pts))
+    _bilinear(np.ascontiguousarray(grey, dtype=np.float64), pts, out)
+    return out.reshape(np.shape(p)[:-1])
+
+
+@numba.njit(**EXACT_JIT)
+def _bilinear(grey, p, out):  # pragma: no cover - jit
     H, W = grey.shape
-    x = np.clip(p[..., 0], 0, W - 1.001)
-    y = np.clip(p[..., 1], 0, H - 1.001)
-    x0, y0 = np.floor(x).astype(np.int64), np.floor(y).astype(np.int64)
-    fx, fy = x - x0, y - y0
-    return ((grey[y0, x0] * (1 - fx) + grey[y0, x0 + 1] * fx) * (1 - fy)
-            + (grey[y0 + 1, x0] * (1 - fx) + grey[y0 + 1, x0 + 1] * fx) * fy)
+    for k in range(p.shape[0]):
+        x = min(max(p[k, 0], 0.0), W - 1.001)
+        y = min(max(p[k, 1], 0.0), H - 1.001)
+        x0, y0 = int(math.floor(x)), int(math.floor(y))
+        fx, fy = x - x0, y - y0
+        out[k] = ((grey[y0, x0] * (1 - fx) + grey[y0, x0 + 1] * fx) * (1 - fy)
+                  + (grey[y0 + 1, x0] * (1 - fx) + grey[y0 + 1, x0 + 1] * fx) * fy)
 
 
 #: radii (in cells) and directions at which a border corner's surroundings are compared with their mirror image
@@ -79,9 +100,7 @@ def edge_halves(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, half: np.n
     squares mirrored through it) is measured the same way. ``xy`` must be
     refined already (:func:`refine_board`).
     """
-    pos = {tuple(q) for q in labels.tolist()}
-    border = np.array([any((i + a, j + b) not in pos for a, b in ((1, 0), (-1, 0), (0, 1), (0, -1)))
-                       for i, j in labels.tolist()], dtype=bool)
+    border = ~inner_corners(labels)
     if also is not None:
         border |= also
     k = np.flatnonzero(border & np.isfinite(cells))
@@ -154,9 +173,7 @@ def refine_board(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray) -> tuple[
 
 def inner_corners(labels: np.ndarray) -> np.ndarray:
     """The corners with all four lattice neighbours."""
-    pos = {tuple(q) for q in labels.tolist()}
-    return np.array([all((i + a, j + b) in pos for a, b in ((1, 0), (-1, 0), (0, 1), (0, -1)))
-                     for i, j in labels.tolist()], dtype=bool).reshape(-1)
+    return (label_neighbours(labels) >= 0).all(axis=1)
 
 
 #: the light envelope of :func:`deshaded`: a closing over this many cells, computed at this many px per cell

@@ -23,13 +23,17 @@ grey levels of contrast (an ideal X-junction of contrast ``c`` has strength ``c`
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import lru_cache
 
 import cv2
+import numba
 import numpy as np
 
+from sogdd._jit import EXACT_JIT
 from sogdd.params import PRESETS
+from sogdd.select.refine import one_per_point
 
 from ..grey import to_grey
 
@@ -46,6 +50,14 @@ NOISE_FACTOR = 4.0
 #: the search's floor without ``min_strength``: this share of the image's range (1st to 99th percentile of
 #: its grey levels), 6-10 grey levels on the real sets, whose range is 112-255
 CONTRAST_SHARE = 0.04
+#: pixels per band of the candidate search's filtered maps (five float32 maps of a band: 40 MB)
+BAND_PIXELS = 1 << 21
+#: about this many pixels are sampled for the image's statistics (its noise, its range)
+SAMPLES = 1 << 16
+#: Newton steps from each candidate pixel to its saddle (the ``hr`` search's number)
+NEWTON_STEPS = 4
+#: saddle points closer than this (px) are one saddle, reached from tied candidates (a plateau of strength)
+SADDLE_MERGE = 0.1
 #: the pyramid's coarsest level keeps at least this many pixels along the image's shorter side
 MIN_LEVEL_SIDE = 100
 
@@ -150,15 +162,13 @@ def junction_strength(hess: np.ndarray) -> np.ndarray:
 
 @lru_cache(maxsize=8)
 def _unit(sigma2: float) -> float:
-    """The saddle strength of an ideal X-junction of contrast 1 (levels 0 and 1, 4x4 supersampled)."""
-    from sogdd.select import find_saddles
-
+    """The saddle strength ``sigma^2 sqrt(g_xy^2 - g_xx g_yy)`` at the strongest pixel of an ideal X-junction
+    of contrast 1 (levels 0 and 1, 4 x 4 supersampled, off the pixel grid)."""
     n, s = 41, 4
     t = (np.arange(n * s) + 0.5) / s - 0.5 - 20.3
     fine = ((t[:, None] > 0) == (t[None, :] - 0.4 > 0)).astype(np.float64)
     img = 100.0 * fine.reshape(n, s, n, s).mean(axis=(1, 3))
-    _, st = find_saddles(img, sigma2)
-    return float(st.max()) / 100.0
+    return float(sigma2 * np.sqrt(_det(derivative_maps(img)).max())) / 100.0
 
 
 def check_search(grey: np.ndarray, min_strength: float | None, scale: float | None, mask) -> None:
@@ -232,18 +242,76 @@ def default_scale(shape: tuple[int, int]) -> float:
     return min(1.0, float(np.sqrt(SEARCH_PIXELS / (shape[0] * shape[1]))))
 
 
+@lru_cache(maxsize=8)
+def _filters(sigma2: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Correlation kernels (float32) of the Gaussian, its first and its second derivative at ``sigma^2``."""
+    g, d1, d2 = _kernels(np.sqrt(sigma2))
+    return g.astype(np.float32), (-d1).astype(np.float32), d2.astype(np.float32)  # correlation: d1 mirrored
+
+
+def derivative_maps(img: np.ndarray) -> np.ndarray:
+    """``(g_x, g_y, g_xx, g_xy, g_yy)`` of ``G_sigma * img`` at :data:`SIGMA2`, (5, H, W) float32.
+
+    Separable Gaussian-derivative filters (``cv2.sepFilter2D``, the border
+    reflected), the ones :func:`hessian_at` applies at points: the maps at pixel
+    centres, so that their bilinear interpolation is :func:`hessian_at`.
+
+    Examples
+    --------
+    >>> t = np.arange(40) - 20.0
+    >>> m = derivative_maps(np.tile(3.0 * t, (40, 1)))  # a ramp of slope 3 along x
+    >>> np.round(m[:, 20, 20], 3).tolist()
+    [3.0, 0.0, 0.0, 0.0, 0.0]
+    """
+    g, d1, d2 = _filters(SIGMA2)
+    src = np.ascontiguousarray(img, dtype=np.float32)
+    out = np.empty((5, *src.shape), np.float32)  # one block written in place: five fresh maps cost 3x more
+    for k, (kx, ky) in enumerate(((d1, g), (g, d1), (d2, g), (d1, d1), (g, d2))):  # (along x, along y)
+        cv2.sepFilter2D(src, -1, kx, ky, dst=out[k], borderType=cv2.BORDER_REFLECT)
+    return out
+
+
+def _bands(H: int, W: int) -> list[tuple[int, int]]:
+    rows = max(64, BAND_PIXELS // max(W, 1))
+    return [(a, min(H, a + rows)) for a in range(0, H, rows)]
+
+
+def _band_maps(work: np.ndarray, a: int, c: int) -> tuple[np.ndarray, int]:
+    """The derivative maps of image rows ``a - P .. c + P`` (``P`` the kernel radius and the Newton steps'
+    reach), exact on rows ``a .. c`` (and wherever the crop is the image's), and the crop's first row."""
+    pad = len(_filters(SIGMA2)[0]) // 2 + NEWTON_STEPS
+    top = max(0, a - pad)
+    return derivative_maps(work[top:min(work.shape[0], c + pad)]), top
+
+
+def _det(m: np.ndarray) -> np.ndarray:
+    """``g_xy^2 - g_xx g_yy`` of derivative maps (:func:`derivative_maps`): the saddle strength squared,
+    over ``sigma^4``."""
+    out = np.empty(m.shape[1:], m.dtype)
+    _det_into(m, out)
+    return out
+
+
+@numba.njit(**EXACT_JIT)
+def _det_into(m, out):  # pragma: no cover - jit
+    for i in range(out.shape[0]):
+        for j in range(out.shape[1]):
+            out[i, j] = m[3, i, j] * m[3, i, j] - m[2, i, j] * m[4, i, j]
+
+
 def noise_strength(grey: np.ndarray) -> float:
     """The image's noise, measured as the saddle search sees it: grey levels of saddle strength.
 
-    ``N = median_x sigma^2 sqrt(|g_xy^2 - g_xx g_yy|) / u`` over every pixel, with
-    ``g`` the Gaussian derivatives at :data:`SIGMA2` and ``u`` the strength of
-    an ideal junction of unit contrast: the strength map's typical value where
-    there is no junction. A board's corners and edges cover few pixels (along
-    a straight edge ``g_xy^2 = g_xx g_yy``), so the median is that of the noise
-    and texture, of whatever spectrum: on Gaussian noise, white or blurred, the
-    largest saddle maximum is 3.9-4.3 ``N`` (:data:`NOISE_FACTOR`), where a
-    threshold in grey levels would pass noise at one sigma and miss faint
-    boards at another.
+    ``N = median_x sigma^2 sqrt(|g_xy^2 - g_xx g_yy|) / u`` over every other
+    pixel each way (about :data:`SAMPLES` pixels on a large image), with ``g``
+    the Gaussian derivatives at :data:`SIGMA2` (:func:`derivative_maps`) and
+    ``u`` the strength of an ideal junction of unit contrast: the strength
+    map's typical value where there is no junction.
+    A board's corners and edges cover few pixels (along a straight edge
+    ``g_xy^2 = g_xx g_yy``), so the median is that of the noise and texture,
+    of whatever spectrum: on Gaussian noise, white or blurred, the largest
+    saddle maximum is 3.9-4.3 ``N`` (:data:`NOISE_FACTOR`), where a threshold in
+    grey levels would pass noise at one sigma and miss faint boards at another.
 
     Examples
     --------
@@ -255,14 +323,114 @@ def noise_strength(grey: np.ndarray) -> float:
     >>> noise_strength(np.full((50, 50), 100.0)) < 1e-4  # a flat image: float rounding only
     True
     """
-    g, d1, d2 = (k.astype(np.float32) for k in _kernels(np.sqrt(SIGMA2)))
-    img = np.ascontiguousarray(grey, dtype=np.float32)
-    gxx = cv2.sepFilter2D(img, -1, d2, g, borderType=cv2.BORDER_REFLECT)
-    gyy = cv2.sepFilter2D(img, -1, g, d2, borderType=cv2.BORDER_REFLECT)
-    gxy = cv2.sepFilter2D(img, -1, d1, d1, borderType=cv2.BORDER_REFLECT)
-    # every other pixel each way: a median of a quarter of the pixels is as good and four times cheaper
-    det = np.abs(gxy[::2, ::2] * gxy[::2, ::2] - gxx[::2, ::2] * gyy[::2, ::2])
+    H, W = grey.shape
+    step = _stride(grey.shape)
+    parts = []
+    for a, c in _bands(H, W):
+        m, top = _band_maps(grey, a, c)
+        parts.append(np.abs(_det(m[:, a + (-a % step) - top : c - top : step, ::step])).ravel())
+    return _noise(np.concatenate(parts))
+
+
+def _stride(shape: tuple[int, int]) -> int:
+    """The step between the pixels a statistic of the image samples each way: every other pixel, or fewer
+    on a large image, keeping about :data:`SAMPLES` (the median of as many is within 1 % of the image's)."""
+    return max(2, round(float(np.sqrt(shape[0] * shape[1] / SAMPLES))))
+
+
+def _noise(det: np.ndarray) -> float:
     return float(SIGMA2 * np.sqrt(np.median(det)) / _unit(SIGMA2))
+
+
+@numba.njit(**EXACT_JIT)
+def _sample(m, x, y, out):  # pragma: no cover - jit
+    """The maps ``m`` (K, h, w) at ``(x, y)``, bilinear, the point clamped to the maps, into ``out`` (K,)."""
+    h, w = m.shape[1], m.shape[2]
+    x = min(max(x, 0.0), w - 1.0)
+    y = min(max(y, 0.0), h - 1.0)
+    x0 = min(int(math.floor(x)), max(w - 2, 0))
+    y0 = min(int(math.floor(y)), max(h - 2, 0))
+    x1, y1 = min(x0 + 1, w - 1), min(y0 + 1, h - 1)
+    fx, fy = x - x0, y - y0
+    for k in range(m.shape[0]):
+        out[k] = ((m[k, y0, x0] * (1.0 - fx) + m[k, y0, x1] * fx) * (1.0 - fy)
+                  + (m[k, y1, x0] * (1.0 - fx) + m[k, y1, x1] * fx) * fy)
+
+
+@numba.njit(**EXACT_JIT)
+def _newton(m, x, y, steps, hess):  # pragma: no cover - jit
+    """``steps`` Newton steps ``p <- p - H^{-1} grad`` from each point (in place) on the derivative maps ``m``,
+    then ``(g_xx, g_xy, g_yy)`` at the point into ``hess`` (N, 3)."""
+    v = np.empty(5)
+    for t in range(x.shape[0]):
+        for _ in range(steps):
+            _sample(m, x[t], y[t], v)
+            det = v[2] * v[4] - v[3] * v[3]
+            dx = -(v[4] * v[0] - v[3] * v[1]) / det
+            dy = -(v[2] * v[1] - v[3] * v[0]) / det
+            # a singular Hessian is no saddle: the point is sent away, so that it is refused
+            x[t] += dx if math.isfinite(dx) else 9.0
+            y[t] += dy if math.isfinite(dy) else 9.0
+        _sample(m, x[t], y[t], v)
+        hess[t, 0], hess[t, 1], hess[t, 2] = v[2], v[3], v[4]
+
+
+def saddles(work: np.ndarray, floor: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Saddle points of ``G_sigma * work`` stronger than the search's threshold: ``(xy, strength, hess)``.
+
+    With the derivative maps of :func:`derivative_maps` (in bands of rows of
+    about :data:`BAND_PIXELS` pixels, each exact on its rows):
+
+    1. the threshold ``t = max(floor, NOISE_FACTOR N)`` (``N`` :func:`noise_strength`);
+    2. candidates: the 3 x 3 maxima (in-image neighbours) of the saddle strength
+       ``s = sigma^2 sqrt(g_xy^2 - g_xx g_yy) / u`` with ``s >= t``;
+    3. :data:`NEWTON_STEPS` Newton steps ``p <- p - H(p)^{-1} grad(p)`` from the
+       pixel, the derivatives interpolated bilinearly; a candidate that ends more
+       than a pixel away along either axis is no saddle of its own (an
+       L-corner's, an edge's); points within :data:`SADDLE_MERGE` are one.
+
+    ``strength`` is the candidate pixel's ``s`` (grey levels of contrast, the
+    maximum's), ``hess`` ``(g_xx, g_xy, g_yy)`` at the saddle point.
+
+    Examples
+    --------
+    >>> t = np.arange(60) - 30.4
+    >>> img = np.where((t[:, None] > 0) == (t[None, :] > 0), 200.0, 40.0)
+    >>> xy, s, _ = saddles(img, 5.0)
+    >>> np.round(xy, 2).tolist(), round(float(s[0]))  # contrast 160, the junction on the pixel grid
+    ([[30.5, 30.5]], 157)
+    """
+    H, W = work.shape
+    bands = _bands(H, W)
+    unit = _unit(SIGMA2)
+    m, top = _band_maps(work, *bands[0])
+    det = _det(m)
+    if len(bands) == 1:  # the maps once: the noise from them
+        step = _stride(work.shape)
+        noise = _noise(np.abs(det[::step, ::step]).ravel())
+    else:
+        noise = noise_strength(work)
+    t_det = (max(float(floor), NOISE_FACTOR * noise) * unit / SIGMA2) ** 2
+    xy, strength, hess = [], [], []
+    for k, (a, c) in enumerate(bands):
+        if k:
+            m, top = _band_maps(work, a, c)
+            det = _det(m)
+        peak = ((det >= cv2.dilate(det, np.ones((3, 3), np.uint8))) & (det >= t_det)).view(np.uint8)
+        peak[: a - top] = 0
+        peak[c - top :] = 0
+        pts = cv2.findNonZero(peak)
+        cols, rows = pts.reshape(-1, 2).T.astype(np.int64) if pts is not None else np.zeros((2, 0), np.int64)
+        x, y = cols.astype(np.float64), rows.astype(np.float64)
+        h = np.empty((len(x), 3))
+        _newton(m, x, y, NEWTON_STEPS, h)
+        ok = (np.abs(x - cols) <= 1.0) & (np.abs(y - rows) <= 1.0)
+        xy.append(np.stack([x[ok], y[ok] + top], axis=1))
+        strength.append(SIGMA2 * np.sqrt(det[rows[ok], cols[ok]].astype(np.float64)) / unit)
+        hess.append(h[ok])
+    xy, strength, hess = np.concatenate(xy), np.concatenate(strength), np.concatenate(hess)
+    keep = one_per_point(xy, strength, SADDLE_MERGE)
+    return xy[keep], strength[keep], hess[keep]
 
 
 def search_levels(shape: tuple[int, int]) -> tuple[float, ...]:
@@ -316,33 +484,34 @@ def threshold(grey: np.ndarray, min_strength: float | None = None) -> float:
     >>> round(threshold(bright, 20.0), 1)
     20.0
     """
+    return max(floor(grey, min_strength), NOISE_FACTOR * noise_strength(grey))
+
+
+def floor(grey: np.ndarray, min_strength: float | None = None) -> float:
+    """The search's floor: ``min_strength`` or, when None, :data:`CONTRAST_SHARE` of the image's range
+    (1st to 99th percentile of the pixels :func:`_stride` samples)."""
     if min_strength is None:
-        lo, hi = np.percentile(grey[::2, ::2], [1, 99])
-        min_strength = CONTRAST_SHARE * float(hi - lo)
-    return max(float(min_strength), NOISE_FACTOR * noise_strength(grey))
+        step = _stride(grey.shape)
+        lo, hi = np.percentile(grey[::step, ::step], [1, 99])
+        return CONTRAST_SHARE * float(hi - lo)
+    return float(min_strength)
 
 
 def search(grey: np.ndarray, min_strength: float | None, scale: float | None,
            mask: np.ndarray | None) -> XCorners:
-    """:func:`find_xcorners` on a validated grey image (float64, 0-255)."""
-    from sogdd.select import find_saddles
-
+    """:func:`find_xcorners` on a validated grey image (float32 or float64, 0-255)."""
     H, W = grey.shape
     scale = default_scale(grey.shape) if scale is None else scale
-    work = grey
+    work = np.asarray(grey, dtype=np.float32)  # the search's maps are float32: one conversion per image
     if scale < 1:
         size = (max(8, round(W * scale)), max(8, round(H * scale)))
-        work = cv2.resize(grey.astype(np.float32), size, interpolation=cv2.INTER_AREA).astype(np.float64)
-    unit = _unit(SIGMA2)
-    min_strength = threshold(work, min_strength)
-    xy, st = find_saddles(work, SIGMA2, min_strength=min_strength * unit)
-    st = st / unit
-    hess = hessian_at(work, xy, np.sqrt(SIGMA2))
+        work = cv2.resize(work, size, interpolation=cv2.INTER_AREA)
+    xy, st, hess = saddles(work, floor(work, min_strength))
     light, phi, saddle = edge_geometry(hess)
     if scale < 1:
         fx, fy = W / work.shape[1], H / work.shape[0]
         xy = np.stack([(xy[:, 0] + 0.5) * fx - 0.5, (xy[:, 1] + 0.5) * fy - 0.5], axis=1)
-    keep = saddle & (st >= min_strength)
+    keep = saddle
     if mask is not None:
         m = np.asarray(mask, dtype=bool)
         ix = np.clip(np.rint(xy[:, 0]).astype(np.int64), 0, W - 1)
