@@ -14,11 +14,13 @@ so
   the image is above its mean); at the next corner along either edge line the
   wedges' colours swap and the light axis turns by 90 degrees.
 
-The candidates are :func:`sogdd.select.find_saddles`' saddle points (the ``hr``
-machinery: 3 x 3 maxima of the saddle strength ``sigma^2 sqrt(g_xy^2 - g_xx g_yy)``,
-then Newton steps to the saddle, L-corners rejected); the Hessian is measured
-again at the saddle with Gaussian derivatives, and the strength is converted to
-grey levels of contrast (an ideal X-junction of contrast ``c`` has strength ``c``).
+The candidates are :func:`saddles`: the Gaussian derivatives of each level are
+filtered once (:func:`derivative_maps`, OpenCV's separable filters), and the 3 x 3
+maxima of the saddle strength ``sigma^2 sqrt(g_xy^2 - g_xx g_yy)`` above the
+noise-relative threshold are followed by Newton steps to their saddle on the
+same maps (L-corners and edges, which leave their pixel, rejected); the Hessian
+at the saddle is interpolated from them, and the strength is converted to grey
+levels of contrast (an ideal X-junction of contrast ``c`` has strength ``c``).
 """
 
 from __future__ import annotations
@@ -157,18 +159,18 @@ def junction_strength(hess: np.ndarray) -> np.ndarray:
     160
     """
     h = np.asarray(hess, dtype=np.float64).reshape(-1, 3)
-    return SIGMA2 * np.sqrt(np.maximum(h[:, 1] ** 2 - h[:, 0] * h[:, 2], 0.0)) / _unit(SIGMA2)
+    return SIGMA2 * np.sqrt(np.maximum(h[:, 1] ** 2 - h[:, 0] * h[:, 2], 0.0)) / _unit()
 
 
-@lru_cache(maxsize=8)
-def _unit(sigma2: float) -> float:
-    """The saddle strength ``sigma^2 sqrt(g_xy^2 - g_xx g_yy)`` at the strongest pixel of an ideal X-junction
-    of contrast 1 (levels 0 and 1, 4 x 4 supersampled, off the pixel grid)."""
+@lru_cache(maxsize=1)
+def _unit() -> float:
+    """The saddle strength ``sigma^2 sqrt(g_xy^2 - g_xx g_yy)`` (:data:`SIGMA2`) at the strongest pixel of an
+    ideal X-junction of contrast 1 (levels 0 and 1, 4 x 4 supersampled, off the pixel grid)."""
     n, s = 41, 4
     t = (np.arange(n * s) + 0.5) / s - 0.5 - 20.3
     fine = ((t[:, None] > 0) == (t[None, :] - 0.4 > 0)).astype(np.float64)
     img = 100.0 * fine.reshape(n, s, n, s).mean(axis=(1, 3))
-    return float(sigma2 * np.sqrt(_det(derivative_maps(img)).max())) / 100.0
+    return float(SIGMA2 * np.sqrt(_det(derivative_maps(img)).max())) / 100.0
 
 
 def check_search(grey: np.ndarray, min_strength: float | None, scale: float | None, mask) -> None:
@@ -189,7 +191,7 @@ def find_xcorners(image: np.ndarray, *, min_strength: float | None = None, scale
     """X-corner candidates: saddle points, their edge lines and grey-level strength.
 
     For each saddle ``p`` of ``G_sigma * I`` (:data:`SIGMA2`, the ``hr``
-    preset's ``sigma^2 = 1.5``; :func:`sogdd.select.find_saddles`), the Hessian ``H`` at
+    preset's ``sigma^2 = 1.5``; :func:`saddles`), the Hessian ``H`` at
     ``p`` gives the light axis ``alpha`` (eigenvector of the positive eigenvalue
     ``l+``) and the edge lines at ``alpha +- phi``, ``tan phi = sqrt(l+ / -l-)``
     (the directions with ``d^T H d = 0``). The strength is the saddle strength
@@ -242,10 +244,10 @@ def default_scale(shape: tuple[int, int]) -> float:
     return min(1.0, float(np.sqrt(SEARCH_PIXELS / (shape[0] * shape[1]))))
 
 
-@lru_cache(maxsize=8)
-def _filters(sigma2: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Correlation kernels (float32) of the Gaussian, its first and its second derivative at ``sigma^2``."""
-    g, d1, d2 = _kernels(np.sqrt(sigma2))
+@lru_cache(maxsize=1)
+def _filters() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Correlation kernels (float32) of the Gaussian, its first and its second derivative at :data:`SIGMA2`."""
+    g, d1, d2 = _kernels(np.sqrt(SIGMA2))
     return g.astype(np.float32), (-d1).astype(np.float32), d2.astype(np.float32)  # correlation: d1 mirrored
 
 
@@ -263,7 +265,7 @@ def derivative_maps(img: np.ndarray) -> np.ndarray:
     >>> np.round(m[:, 20, 20], 3).tolist()
     [3.0, 0.0, 0.0, 0.0, 0.0]
     """
-    g, d1, d2 = _filters(SIGMA2)
+    g, d1, d2 = _filters()
     src = np.ascontiguousarray(img, dtype=np.float32)
     out = np.empty((5, *src.shape), np.float32)  # one block written in place: five fresh maps cost 3x more
     for k, (kx, ky) in enumerate(((d1, g), (g, d1), (d2, g), (d1, d1), (g, d2))):  # (along x, along y)
@@ -279,7 +281,7 @@ def _bands(H: int, W: int) -> list[tuple[int, int]]:
 def _band_maps(work: np.ndarray, a: int, c: int) -> tuple[np.ndarray, int]:
     """The derivative maps of image rows ``a - P .. c + P`` (``P`` the kernel radius and the Newton steps'
     reach), exact on rows ``a .. c`` (and wherever the crop is the image's), and the crop's first row."""
-    pad = len(_filters(SIGMA2)[0]) // 2 + NEWTON_STEPS
+    pad = len(_filters()[0]) // 2 + NEWTON_STEPS
     top = max(0, a - pad)
     return derivative_maps(work[top:min(work.shape[0], c + pad)]), top
 
@@ -339,7 +341,7 @@ def _stride(shape: tuple[int, int]) -> int:
 
 
 def _noise(det: np.ndarray) -> float:
-    return float(SIGMA2 * np.sqrt(np.median(det)) / _unit(SIGMA2))
+    return float(SIGMA2 * np.sqrt(np.median(det)) / _unit())
 
 
 @numba.njit(**EXACT_JIT)
@@ -402,7 +404,7 @@ def saddles(work: np.ndarray, floor: float) -> tuple[np.ndarray, np.ndarray, np.
     """
     H, W = work.shape
     bands = _bands(H, W)
-    unit = _unit(SIGMA2)
+    unit = _unit()
     m, top = _band_maps(work, *bands[0])
     det = _det(m)
     if len(bands) == 1:  # the maps once: the noise from them
