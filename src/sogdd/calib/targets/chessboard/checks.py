@@ -23,7 +23,7 @@ __all__ = ["EDGE_CONTRAST", "EDGE_SHARE", "MAX_ORPHANS", "edge_links", "extends"
            "ring_contrast"]
 
 
-#: a link's contrast across it, relative to the board's median (:func:`edge_links`)
+#: a link's contrast across it, relative to the median of the board's links along its axis (:func:`edge_links`)
 EDGE_CONTRAST = 0.3
 
 
@@ -42,7 +42,10 @@ def edge_links(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray) -> tuple[fl
     between a dark and a light square: at ``t = 1/4, 1/2, 3/4`` of the way the
     image differs across the link, ``I(m + d n) - I(m - d n)`` (``n`` the link's
     normal, ``d = max(0.1 |q - p|, 1)`` px), with one sign and at least
-    :data:`EDGE_CONTRAST` of the board's median difference. A grid that links
+    :data:`EDGE_CONTRAST` of the median difference of the board's links along the
+    same axis (``i`` or ``j``): a motion blur smears the edges across it and a tilt
+    shortens the links of one axis, which lowers that axis's contrast (by 3.5
+    times under an 18 px smear) and not the other's. A grid that links
     corners across squares (a lattice of wrong steps, e.g. a knight's move of a
     board blurred beyond recognition) fails it at ``t = 1/4`` or ``3/4``.
     """
@@ -58,7 +61,10 @@ def edge_links(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray) -> tuple[fl
     d = np.maximum(0.1 * length, 1.0)[:, None] * n
     diff = np.stack([bilinear(grey, p + t * v + d) - bilinear(grey, p + t * v - d)
                      for t in (0.25, 0.5, 0.75)])
-    scale = float(np.median(np.abs(diff[1])))
+    scale = np.zeros(len(a))
+    for axis in (0, 1):
+        on = a == axis
+        scale[on] = np.median(np.abs(diff[1, on])) if on.any() else 0.0
     ok = (np.abs(diff) >= EDGE_CONTRAST * scale).all(axis=0) & (np.sign(diff) == np.sign(diff[1])).all(axis=0)
     ok &= scale > 0
     has = np.zeros(len(xy), dtype=bool)
