@@ -24,6 +24,11 @@ photos and their spread (interquartile range, min, max), the ratio of the median
 found (a board of ``C x R`` corners for sogdd):
 
     python benchmarks/bench_calib_detect.py --folder 'DATA/calibration/opencv_stereo/left*.jpg' --pattern 9x6
+
+``--sweep N --seed S [--max-pixels P]`` times the same two on N views of the randomized sweep
+(``sogdd eval calibration --sweep``; every factor drawn at random, each view with its own pattern),
+grouped by frame size. OpenCV's classic detector can take minutes on a large frame where it finds
+nothing: ``--max-pixels`` bounds the frames drawn.
 """
 
 from __future__ import annotations
@@ -193,38 +198,73 @@ def _spread(ms: list[float]) -> str:
     return f"median {q2:7.1f} ms (IQR {q1:.1f}-{q3:.1f}, min {min(ms):.1f}, max {max(ms):.1f})"
 
 
+def _methods() -> dict:
+    """The two detectors timed: ``fn(grey, pattern) -> found the whole pattern``."""
+    from sogdd.calib import detect_boards
+
+    crit = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 0.001)
+
+    def ours(img: np.ndarray, pattern: tuple[int, int]) -> bool:
+        return any(len(b) == pattern[0] * pattern[1] for b in detect_boards(img, pattern))
+
+    def opencv(img: np.ndarray, pattern: tuple[int, int]) -> bool:
+        ok, c = cv2.findChessboardCorners(img, pattern)
+        if ok:
+            cv2.cornerSubPix(img, c, (5, 5), (-1, -1), crit)
+        return bool(ok)
+
+    return {"sogdd detect_boards": ours, "OpenCV findChessboardCorners+cornerSubPix 11x11": opencv}
+
+
 def folder(pattern_glob: str, pattern: tuple[int, int], repeat: int) -> None:
     """Per-photo time of detect_boards against findChessboardCorners + cornerSubPix 11 x 11 (module doc)."""
     import glob
     import os
-
-    from sogdd.calib import detect_boards
 
     files = sorted(glob.glob(os.path.expanduser(pattern_glob)))
     images = [(f, cv2.imread(f, cv2.IMREAD_GRAYSCALE)) for f in files]
     images = [(f, g) for f, g in images if g is not None]
     if not images:
         raise SystemExit(f"no readable image matches {pattern_glob!r}")
-    crit = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 0.001)
-    n_corners = pattern[0] * pattern[1]
-
-    def ours(img: np.ndarray) -> bool:
-        return any(len(b) == n_corners for b in detect_boards(img, pattern))
-
-    def opencv(img: np.ndarray) -> bool:
-        ok, c = cv2.findChessboardCorners(img, pattern)
-        if ok:
-            cv2.cornerSubPix(img, c, (5, 5), (-1, -1), crit)
-        return bool(ok)
-
-    methods = {"sogdd detect_boards": ours, "OpenCV findChessboardCorners+cornerSubPix 11x11": opencv}
+    methods = _methods()
     for fn in methods.values():  # compile, load, warm the caches
-        fn(images[0][1])
-    by_size = _time_photos([g for _, g in images], methods, max(1, repeat))
+        fn(images[0][1], pattern)
+    by_size = _time_views([("{}x{}".format(*g.shape[::-1]), g, pattern) for _, g in images], methods,
+                          max(1, repeat))
     print(f"{pattern_glob}, pattern {pattern[0]}x{pattern[1]}: {len(images)} photos, median of {repeat} runs "
           "per photo")
-    for (w, h), row in by_size.items():
-        print(f"  {w}x{h}, {len(next(iter(row.values())))} photos:")
+    _report(by_size, "photos")
+
+
+#: the frame sizes (MP) by which ``--sweep`` groups its views
+SWEEP_BINS = (0.5, 1.0, 2.0, 4.0, 8.0)
+
+
+def sweep(n: int, seed: int, max_pixels: int, repeat: int) -> None:
+    """The same timing on ``n`` views of the randomized sweep (``sogdd eval calibration --sweep``),
+    grouped by frame size (:data:`SWEEP_BINS`); each view with its own board's pattern."""
+    from sogdd.evaluation.calibration.sweep import sweep_view
+
+    views = [sweep_view(seed, k, max_pixels=max_pixels) for k in range(n)]
+    methods = _methods()
+    for fn in methods.values():
+        fn(views[0].image, views[0].pattern)
+    items = []
+    for v in views:
+        mp = v.image.size / 1e6
+        k = int(np.searchsorted(SWEEP_BINS, mp, side="right"))
+        lo = 0.0 if k == 0 else SWEEP_BINS[k - 1]
+        group = f"{lo:g}-{SWEEP_BINS[k]:g} MP" if k < len(SWEEP_BINS) else f">= {lo:g} MP"
+        items.append((group, v.image, v.pattern))
+    items.sort(key=lambda it: it[1].size)
+    by_group = _time_views(items, methods, max(1, repeat))
+    print(f"sweep seed {seed}: {n} views (at most {max_pixels / 1e6:g} MP), median of {repeat} runs per view")
+    _report(by_group, "views")
+
+
+def _report(by_group: dict, what: str) -> None:
+    for group, row in by_group.items():
+        print(f"  {group}, {len(next(iter(row.values())))} {what}:")
         med = {}
         for m, got in row.items():
             ms = [t for t, _ in got]
@@ -234,22 +274,22 @@ def folder(pattern_glob: str, pattern: tuple[int, int], repeat: int) -> None:
         print(f"    ratio of the medians (sogdd / OpenCV): {a / max(b, 1e-9):.2f}")
 
 
-def _time_photos(images: list[np.ndarray], methods: dict, repeat: int) -> dict:
-    """``{(width, height): {method: [(median ms of the photo's runs, found), ...]}}``; the methods in turn
-    on each photo, so that a load that comes and goes meets both."""
-    by_size: dict[tuple[int, int], dict[str, list]] = {}
-    for img in images:
-        row = by_size.setdefault(img.shape[::-1], {m: [] for m in methods})
+def _time_views(items: list[tuple[str, np.ndarray, tuple[int, int]]], methods: dict, repeat: int) -> dict:
+    """``{group: {method: [(median ms of the view's runs, found), ...]}}`` for ``(group, grey, pattern)``
+    items; the methods in turn on each view, so that a load that comes and goes meets both."""
+    by_group: dict[str, dict[str, list]] = {}
+    for group, img, pattern in items:
+        row = by_group.setdefault(group, {m: [] for m in methods})
         times: dict[str, list[float]] = {m: [] for m in methods}
         found = {}
         for _ in range(repeat):
             for m, fn in methods.items():
                 t0 = time.perf_counter()
-                found[m] = fn(img)
+                found[m] = fn(img, pattern)
                 times[m].append(1e3 * (time.perf_counter() - t0))
         for m in methods:
             row[m].append((float(np.median(times[m])), found[m]))
-    return by_size
+    return by_group
 
 
 def main() -> None:
@@ -267,7 +307,14 @@ def main() -> None:
     ap.add_argument("--folder", metavar="GLOB",
                     help="instead: per-photo time of detect_boards and OpenCV's detector on these photos")
     ap.add_argument("--pattern", type=_pattern, metavar="CxR", help="--folder: inner corners, e.g. 9x6")
+    ap.add_argument("--sweep", type=int, default=0, metavar="N",
+                    help="instead: the same timing on N views of the randomized sweep, by frame size")
+    ap.add_argument("--seed", type=int, default=5, help="--sweep: the sweep's seed")
+    ap.add_argument("--max-pixels", type=int, default=12_000_000, help="--sweep: the largest frame drawn")
     a = ap.parse_args()
+    if a.sweep:
+        sweep(a.sweep, a.seed, a.max_pixels, a.repeat)
+        return
     if a.folder:
         if a.pattern is None:
             ap.error("--folder needs --pattern CxR")
