@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from sogdd.calib.targets.chessboard import detect_board, detect_boards
+from sogdd.calib.targets.board import view_board
+from sogdd.calib.targets.chessboard import detect_board, detect_boards, find_boards
 from sogdd.calib.targets.chessboard.xcorners import default_scale
 from sogdd.evaluation.calibration.render import Camera, ChessboardTarget, render_view
 
@@ -214,6 +215,33 @@ def test_noise_gives_no_board():
         assert detect_boards(img) == []
 
 
+def _small_board(cols, rows, cell=24):
+    """A fronto-parallel board of ``cols x rows`` inner corners on white paper, blurred 1 px."""
+    sq = np.kron((np.indices((rows + 1, cols + 1)).sum(axis=0) % 2) * 180.0 + 35, np.ones((cell, cell)))
+    return cv2.GaussianBlur(np.pad(sq, 40, constant_values=215.0), (0, 0), 1.0).astype(np.uint8)
+
+
+def test_detect_board_gives_none_where_there_is_no_board():
+    """The view's board (detect_board, not only the list of detect_boards) is None: on a flat image, on noise,
+    on a grid of fewer corners than min_corners, and on a board that is not the pattern asked for."""
+    rng = np.random.default_rng(3)
+    empty = [np.full((360, 480), 128, np.uint8)]
+    empty += [np.clip(rng.normal(128, s, (360, 480)), 0, 255).astype(np.uint8) for s in (10.0, 40.0)]
+    small = _small_board(3, 3)  # 9 corners, under the 12 of min_corners
+    assert len(detect_board(small, min_corners=9)) == 9  # the premise: a grid is there to find
+    for k, img in enumerate([*empty, small]):
+        for pattern in (None, (9, 6)):
+            b = detect_board(img, pattern)
+            assert b is None, f"image {k}, pattern {pattern}: a board of {len(b)} corners"
+        assert find_boards(img).boards == []
+    # a whole 9 x 6 board is found, but it is no 5 x 4 board: none of the pattern in the view
+    v = view()
+    assert find_boards(v.image, (5, 4)).others  # the premise: the search saw the 9 x 6 grid
+    b = detect_board(v.image, (5, 4))
+    assert b is None, f"pattern (5, 4): a board of {len(b)} corners, size {b.size}"
+    assert view_board([]) is None
+
+
 def test_photo_without_a_board_gives_no_board(data_dir):
     import cv2
 
@@ -225,6 +253,7 @@ def test_photo_without_a_board_gives_no_board(data_dir):
     img = read_image(path)
     small = cv2.resize(img, (img.shape[1] // 2, img.shape[0] // 2), interpolation=cv2.INTER_AREA)
     assert detect_boards(small) == []
+    assert detect_board(small) is None and detect_board(small, (9, 6)) is None
 
 
 @pytest.mark.parametrize("bad, message", [

@@ -1,9 +1,15 @@
-"""The fill's label bookkeeping (calib.targets.chessboard.fill): the labels it tries, the squares it reads."""
+"""The fill's label bookkeeping (calib.targets.chessboard.fill): the labels it tries, the squares it reads;
+and the checks that keep a candidate from being filled, each on a rendered view where it alone rejects one."""
 
+from functools import cache
+
+import cv2
 import numpy as np
 import pytest
 
-from sogdd.calib.targets.chessboard.fill import _fill_labels, _frame
+from sogdd.calib.targets.chessboard.fill import _fill, _fill_labels, _frame
+from sogdd.calib.targets.chessboard.windows import refine_board
+from sogdd.evaluation.calibration.render import Camera, ChessboardTarget, add_noise, render_scene
 
 
 def reference_fill_labels(labels, pattern):
@@ -76,3 +82,117 @@ def test_frame_reads_the_steps_to_the_neighbours_to_the_bit(seed):
     for g, w in zip(got, want):
         assert g.shape == w.shape and np.array_equal(g, w)
     assert [a.shape for a in _frame(p[:0], at[:0], xy, lab, P[:0])] == [(0, 4, 2), (0,)]
+
+
+# --------------------------------------------------------------------------------------------------
+# _fill's checks on rendered views: a 9 x 6 board, cells of about 25 px, blur 0.8 px, noise 2 grey levels.
+# The lattice handed to the fill is the board's true corners (refined as the search refines them) less the
+# free labels H and G; the image around H is altered (its four squares taken from another rendering of the
+# board) so that exactly one check must reject H's candidate, while G, untouched, is filled at its corner.
+
+CAM = Camera(np.array([[500.0, 0, 239.5], [0, 500.0, 179.5], [0, 0, 1]]), (0.0, 0, 0, 0), (480, 360))
+SQ = 0.03
+TARGET = ChessboardTarget(9, 6, SQ)
+POSE = (np.array([0.15, -0.1, 0.05]), np.array([0.0, 0.0, 0.62]))
+H, G = (2, 2), (6, 3)
+#: the label offset of the lattice's second copy of the board (the island tests)
+ISLAND = np.array([20, 0])
+
+
+def _pose(shift=(0.0, 0.0)):
+    """The board's pose, moved ``shift`` squares along its own i and j (its corners' image positions then
+    lie where labels ``(i + shift_i, j + shift_j)`` lay)."""
+    R = cv2.Rodrigues(POSE[0])[0]
+    centre = np.array([4 * SQ, 2.5 * SQ, 0.0])
+    return POSE[0], POSE[1] - R @ centre + R @ np.array([shift[0] * SQ, shift[1] * SQ, 0.0])
+
+
+def _truth():
+    return TARGET.labels(), CAM.project(TARGET.object_points(), *_pose())
+
+
+def _index(label) -> int:
+    return int(np.flatnonzero((TARGET.labels() == label).all(axis=1))[0])
+
+
+@cache
+def _view(alter: str = "", shift: float = 0.0) -> np.ndarray:
+    """The rendered view, the four squares around H replaced by ``alter``'s: "parity" (the board moved one
+    square along i: its squares the other way round), "faint" (a third of the contrast), "shift" (the board
+    moved ``shift`` of a square along i: its X-junction there off the lattice)."""
+    img = render_scene(CAM, TARGET, *_pose())
+    if alter:
+        other = {"parity": lambda: render_scene(CAM, TARGET, *_pose((1.0, 0.0))),
+                 "faint": lambda: render_scene(CAM, TARGET, *_pose(), levels=(95.0, 155.0, 110.0)),
+                 "shift": lambda: render_scene(CAM, TARGET, *_pose((shift, 0.0)))}[alter]()
+        i, j = H
+        quad = np.array([[i - 1, j - 1, 0], [i + 1, j - 1, 0], [i + 1, j + 1, 0], [i - 1, j + 1, 0]]) * SQ
+        mask = np.zeros(img.shape, np.uint8)
+        cv2.fillPoly(mask, [np.rint(CAM.project(quad, *_pose()) * 16).astype(np.int32)], 1, shift=4)
+        img = np.where(mask.astype(bool), other, img)
+    return add_noise(cv2.GaussianBlur(img, (0, 0), 0.8), 2.0, 7)
+
+
+def _filled(img: np.ndarray, free=(H, G), island_free=None) -> dict:
+    """The corners :func:`_fill` adds to the board's true corners less the ``free`` labels, ``{label: xy}``.
+
+    With ``island_free``, the lattice holds the board a second time at the same points, labelled
+    ``ISLAND`` further along i, less those labels (a lattice with one board under two labellings)."""
+    labels, xy = _truth()
+    keep = ~np.isin(np.arange(len(labels)), [_index(f) for f in free])
+    lab, pts = labels[keep], xy[keep]
+    if island_free is not None:
+        kept = ~np.isin(np.arange(len(labels)), [_index(f) for f in island_free])
+        lab, pts = np.r_[lab, labels[kept] + ISLAND], np.r_[pts, xy[kept]]
+    grey = img.astype(np.float64)
+    pts, quality = refine_board(grey, pts, lab)
+    out, out_lab, _, _ = _fill(grey, pts, lab, quality, np.zeros(len(pts)), None)
+    return {tuple(q): p for q, p in zip(out_lab[len(pts):].tolist(), out[len(pts):])}
+
+
+def _at_truth(new: dict, label) -> bool:
+    return label in new and float(np.hypot(*(new[label] - _truth()[1][_index(label)]))) < 0.05
+
+
+def test_the_fill_measures_the_free_labels_at_their_true_corners():
+    """The premise of the tests below: unaltered, both free labels are filled, each at its true corner."""
+    new = _filled(_view())
+    assert set(new) == {H, G} and _at_truth(new, H) and _at_truth(new, G)
+
+
+def test_a_candidate_whose_light_squares_lie_the_wrong_way_round_is_not_filled():
+    """H's squares the other way round: a perfect X-junction at H, symmetric, of the board's contrast and on
+    the lattice, but its light diagonal is not where H's parity puts it."""
+    new = _filled(_view("parity"))
+    assert H not in new, new[H]
+    assert set(new) == {G} and _at_truth(new, G)
+
+
+def test_a_candidate_of_a_faint_x_junction_is_not_filled():
+    """H's squares at a third of the board's contrast (under FILL_CONTRAST of the board's median): the right
+    parity, symmetric and on the lattice, but too faint to be one of the board's corners."""
+    new = _filled(_view("faint"))
+    assert H not in new, new[H]
+    assert set(new) == {G} and _at_truth(new, G)
+
+
+def test_a_candidate_off_the_lattice_is_not_filled_by_the_check_of_its_neighbours():
+    """H's X-junction moved 0.35 of a square along i: symmetric, of the right parity and contrast and more
+    than half a cell from every corner, but its neighbours' map puts H 0.35 of a cell away (FILL_TOL: 0.2)."""
+    new = _filled(_view("shift", 0.35))
+    assert H not in new, new[H]
+    assert set(new) == {G} and _at_truth(new, G)
+
+
+def test_a_candidate_on_a_corner_the_board_already_holds_is_not_filled():
+    """The lattice holds every corner a second time, ISLAND further along i; H is free in the first copy only,
+    so its candidate, H's true corner, is already the board's corner H + ISLAND: not half a cell away."""
+    new = _filled(_view(), free=(H,), island_free=())
+    assert new == {}
+
+
+def test_two_candidates_on_one_point_are_neither_filled():
+    """The lattice holds every corner twice, H free in both copies: H and H + ISLAND, of one parity, each on
+    its copy's lattice, both converge on H's true corner; one point cannot take two labels."""
+    new = _filled(_view(), free=(H,), island_free=(H,))
+    assert new == {}

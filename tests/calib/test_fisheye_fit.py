@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
+import pytest
 
 from sogdd.calib.cameras import project
 from sogdd.calib.fit import calibrate
-from sogdd.calib.solvers import fit_fisheye
+from sogdd.calib.solvers import FISHEYE_FOVS, fit_fisheye
 from sogdd.calib.targets.board import Board
 
 SIZE = (720, 720)
@@ -18,9 +19,10 @@ OBJ = np.array([(i, j, 0.0) for j in range(4) for i in range(6)])
 LABELS = OBJ[:, :2].astype(int)
 
 
-def _boards(n: int, noise: float, seed: int) -> tuple[list[Board], list[np.ndarray]]:
+def _boards(n: int, noise: float, seed: int, K: np.ndarray = K_TRUE, dist: np.ndarray = D_TRUE
+            ) -> tuple[list[Board], list[np.ndarray]]:
     """``n`` boards (6 x 4 corners) whose centres lie 60-85 degrees off the axis, all round it, facing
-    the camera within 25 degrees: their outer corners reach beyond 90 degrees."""
+    the camera within 25 degrees: their outer corners reach beyond 90 degrees (seen through ``K, dist``)."""
     rng = np.random.default_rng(seed)
     boards, theta = [], []
     for a in np.linspace(0, 2 * np.pi, n, endpoint=False) + rng.uniform(0, 0.3):
@@ -30,7 +32,7 @@ def _boards(n: int, noise: float, seed: int) -> tuple[list[Board], list[np.ndarr
         R = face @ cv2.Rodrigues(rng.normal(0, 0.25, 3))[0]
         t = rng.uniform(6, 9) * d - R @ np.array([2.5, 1.5, 0])
         rv = cv2.Rodrigues(R)[0].ravel()
-        p = project(OBJ, K_TRUE, D_TRUE, "fisheye", rv, t)
+        p = project(OBJ, K, dist, "fisheye", rv, t)
         boards.append(Board(p + rng.normal(0, noise, p.shape), LABELS))
         pc = OBJ @ R.T + t
         theta.append(np.arctan2(np.hypot(pc[:, 0], pc[:, 1]), pc[:, 2]))
@@ -74,3 +76,18 @@ def test_fixed_distortion_terms_stay_at_zero():
     assert D[2] == 0.0 and D[3] == 0.0 and rv.shape == tv.shape == (8, 3)
     # the true k3 is not 0, so the fit with it held is close, not exact
     assert abs(K[0, 0] / K_TRUE[0, 0] - 1) < 0.03
+
+
+@pytest.mark.parametrize("fov", [FISHEYE_FOVS[1], FISHEYE_FOVS[-2]])
+def test_the_starts_are_equidistant_lenses_of_their_field_of_view(fov):
+    """Each start is the equidistant lens that sees ``fov`` across the image's larger side: a ray fov / 2
+    off the axis lands on that side's edge, ``f = (max(w, h) / 2) / (fov / 2)``. With the focal length
+    held at the start's, a lens of exactly that focal length (k = 0) is fitted to the noise."""
+    f = max(SIZE) / 2 / np.deg2rad(fov / 2)
+    K = np.array([[f, 0, C[0]], [0, f, C[1]], [0, 0, 1]])
+    boards, _ = _boards(8, noise=0.05, seed=5, K=K, dist=np.zeros(4))
+    img = [b.image_points for b in boards]
+    Kf, D, rv, tv = fit_fisheye([OBJ] * 8, img, SIZE, cv2.fisheye.CALIB_FIX_FOCAL_LENGTH)
+    assert Kf[0, 0] == pytest.approx(f, rel=1e-12) and Kf[1, 1] == pytest.approx(f, rel=1e-12)
+    r = np.concatenate([i - project(OBJ, Kf, D, "fisheye", a, b) for i, a, b in zip(img, rv, tv)])
+    assert np.sqrt(np.mean(np.sum(r * r, axis=1))) < 0.1

@@ -151,3 +151,16 @@ def test_the_command_with_model_pinhole4(rendered_frames, tmp_path, capsys):
     page = (auto / "report.html").read_text()
     assert "Lens model" in page and "cross-validated RMS" in page
     assert json.loads((auto / "camera.json").read_text())["model_selection"]["table"]
+
+
+def test_the_folds_leave_every_training_set_min_views_or_fall_back_to_leave_one_out(mild):
+    """Five views in two folds are folds of three and two views: holding out the three leaves two, too few
+    for min_views = 3, so leave-one-out (five folds of one, four views to fit each) is used instead."""
+    sel = select_model(mild[:5], DEMO_SIZE, folds=2, min_views=3, candidates=["pinhole4"], reject=False)
+    assert len(sel.views) == 5
+    assert len(sel.folds) == 5 and all(len(f) == 1 for f in sel.folds)
+    assert all(len(sel.views) - len(f) >= 3 for f in sel.folds)
+    assert sel.rule.startswith("5-fold cross-validation over 5 views")
+    # six views in two folds of three leave three to fit: the two folds are kept
+    six = select_model(mild[:6], DEMO_SIZE, folds=2, min_views=3, candidates=["pinhole4"], reject=False)
+    assert [len(f) for f in six.folds] == [3, 3] and six.rule.startswith("2-fold cross-validation over 6 views")

@@ -132,3 +132,11 @@ def test_rational_coefficients_are_judged_by_their_map(synthetic):
     # a numerator that turns the map over at r = 1 / 3, inside the corners
     fold = dataclasses.replace(rat, dist=np.array([-3.0, 0, 0, 0, 0, 0, 0, 0]))
     assert "bad: the distortion folds over" in texts(fold)
+
+
+@pytest.mark.parametrize("n, few", [(9, True), (10, False)])
+def test_few_views_is_fewer_than_ten_used(synthetic, n, few):
+    cal = calibrate(synthetic.boards(n, noise=0.05, seed=21, spread=1.6), SIZE)
+    assert cal.n_used == n
+    found = [(lv, t.split(":")[0]) for lv, t in verdict(cal) if t.startswith("few views")]
+    assert found == ([("warn", f"few views ({n} used)")] if few else [])

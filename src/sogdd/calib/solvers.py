@@ -13,8 +13,8 @@ from .cameras import MODELS, project
 from .cameras.models import fisheye_distorted, fisheye_theta
 from .targets.board import Board
 
-__all__ = ["fisheye_fixed", "fit_camera", "fit_fisheye", "fit_fisheye_from", "fit_camera_checked",
-           "jacobian_std", "refine_weighted", "solve_pose"]
+__all__ = ["FISHEYE_FOVS", "fisheye_fixed", "fit_camera", "fit_fisheye", "fit_fisheye_from",
+           "fit_camera_checked", "jacobian_std", "refine_weighted", "solve_pose"]
 
 # (JᵀJ with unit columns) beyond this condition number leaves some parameters undetermined: its
 # inverse would carry the rounding of the other parameters, about 1e-16 times this, into them
@@ -364,9 +364,9 @@ def jacobian_std(obj: list[np.ndarray], img: list[np.ndarray], K: np.ndarray, di
 # --------------------------------------------------------------------------------------------------
 # the fisheye fit: OpenCV's fisheye model, fitted by sogdd's own least squares
 
-# the equidistant starts' fields of view across the image's larger side (degrees): lenses from a
-# wide angle to beyond a half sphere
-_FISHEYE_FOVS = (100.0, 130.0, 160.0, 190.0, 220.0)
+#: the equidistant starts' fields of view across the image's larger side (degrees): lenses from a
+#: wide angle to beyond a half sphere
+FISHEYE_FOVS = (100.0, 130.0, 160.0, 190.0, 220.0)
 # rays farther than this from a view's mean ray are left out of its first pose: projected to a plane
 # they stretch without bound towards 90 degrees, where a guessed focal length errs the most
 _POSE_RAY_MAX = np.deg2rad(70.0)
@@ -592,7 +592,7 @@ def fit_fisheye(obj: list[np.ndarray], img: list[np.ndarray], size: tuple[int, i
     view = np.repeat(np.arange(len(obj)), [len(o) for o in obj])
     w, h = size
     starts = [] if start is None else [start]
-    for fov in _FISHEYE_FOVS:
+    for fov in FISHEYE_FOVS:
         f0 = max(w, h) / 2 / np.deg2rad(fov / 2)
         intr = np.array([f0, f0, (w - 1) / 2, (h - 1) / 2, 0.0, 0.0, 0.0, 0.0])
         poses = _initial_poses(obj, img, intr, X, uv, view)
