@@ -121,6 +121,52 @@ def test_usage_errors_are_one_line(argv, message, tmp_path, capsys, monkeypatch)
     assert not (tmp_path / "rig").exists()
 
 
+RIG = ("--camera", "left", "l/*.png", "--camera", "right", "r/*.png")
+
+
+@pytest.mark.parametrize("argv, line", [
+    ((*RIG, "--board", "chessboard:auto"),
+     "--board chessboard:auto cannot calibrate a rig: the cameras' corner labels must agree, which needs the "
+     "board's size; give --board chessboard:COLSxROWS (inner corners)"),
+    ((*RIG, "--board", "chessboard:9x6", "--boards", "all"),
+     "--boards all cannot be used with --camera: a rig's frame is one pose of one board"),
+    (("--camera", "left", "l/*.png", "--board", "chessboard:9x6"),
+     "--camera: a rig needs two or more cameras (one camera: give its images without --camera)"),
+    (("--camera", "left", "l/*.png", "--camera", "my/cam", "r/*.png", "--board", "chessboard:9x6"),
+     "--camera: camera name 'my/cam': use letters, digits, _ and - only (it names FileStorage nodes and a "
+     "folder)"),
+    ((*RIG, "--board", "chessboard:9x6", "--jobs", "0"), "--jobs must be >= 1, got 0"),
+    ((*RIG, "--board", "chessboard:9x6", "--min-views", "0"), "--min-views must be >= 1, got 0"),
+    ((*RIG, "--board", "chessboard:9x6", "--square", "0"), "--square must be a positive size, got 0.0"),
+])
+def test_the_librarys_rules_are_the_commands_lines_with_its_flags(argv, line, tmp_path, capsys, monkeypatch):
+    """The checks now live in the library; the command still says each in one line, naming its flags."""
+    monkeypatch.chdir(tmp_path)
+    code, _, err = _run(capsys, *argv, "--out", tmp_path / "rig")
+    assert (code, err) == (2, f"sogdd: error: {line}\n")
+    assert not (tmp_path / "rig").exists()
+
+
+def test_a_camera_without_images_is_named_by_its_flag(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    for name in ("l", "r"):
+        (tmp_path / name).mkdir()
+    (tmp_path / "l" / "left01.png").write_bytes(b"x")
+    code, _, err = _run(capsys, "--camera", "left", "l", "--camera", "right", "r", "--board", "chessboard:9x6",
+                        "--out", tmp_path / "rig")
+    assert (code, err) == (2, "sogdd: error: --camera right: no input images\n")
+
+
+def test_rig_json_holds_the_rotation_the_summary_prints(rig_out):
+    code, text, out = rig_out
+    d = json.loads((out / "rig.json").read_text())
+    right = d["cameras"][1]
+    line = next(ln for ln in text.splitlines() if ln.lstrip().startswith("right "))
+    assert f"rotation {right['rotation_deg']:.3f} ± {right['std']['rotation_deg']:.2g} deg" in line
+    R = np.array(right["R"])
+    assert right["rotation_deg"] == pytest.approx(np.degrees(np.linalg.norm(cv2.Rodrigues(R)[0])), abs=1e-9)
+
+
 def test_ctrl_c_and_a_folder_of_other_files_leave_the_folder_as_it_was(rendered_rig, rig_out, tmp_path, capsys,
                                                                        monkeypatch):
     folder, _, _ = rendered_rig

@@ -98,6 +98,41 @@ def test_rig_json_holds_the_cameras_with_their_standard_deviations(tmp_path):
     assert set(d["stereo"]) == {"R", "T", "E", "F", "R1", "R2", "P1", "P2", "Q"}
 
 
+def test_rig_json_holds_each_cameras_rotation_angle_with_its_std(tmp_path):
+    """``rotation_deg`` is the angle of ``R`` (the norm of its rotation vector), its std the fit's."""
+    rig = _rig(("left", "right", "third"))
+    d = json.loads(write_rig_json(rig, tmp_path / "rig.json").read_text())
+    for cam, c in zip(rig.cameras, d["cameras"]):
+        angle = np.degrees(np.linalg.norm(cv2.Rodrigues(np.array(c["R"]))[0]))
+        assert c["rotation_deg"] == pytest.approx(angle, abs=1e-9) == cam.rotation_deg
+        assert c["std"]["rotation_deg"] == cam.std["rotation_deg"]
+    turns = [np.degrees(np.linalg.norm([0.01 * k, np.deg2rad(5.0 * k), 0.0])) for k in range(3)]  # as _rig's
+    assert [c["rotation_deg"] for c in d["cameras"]] == pytest.approx(turns, abs=1e-9)
+    assert [c["std"]["rotation_deg"] for c in d["cameras"]] == [0.0, 0.02, 0.02]
+
+
+@pytest.mark.parametrize("deg", [0.0, 1e-7, 0.5, 5.0, 90.0, 179.0, 179.9999])
+def test_the_rotation_angle_keeps_its_digits_from_zero_to_a_half_turn(deg):
+    axis = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
+    cam = replace(_rig().cameras[1], R=cv2.Rodrigues(np.deg2rad(deg) * axis)[0])
+    assert cam.rotation_deg == pytest.approx(deg, rel=1e-9, abs=1e-12)
+    assert np.isnan(replace(cam, R=np.full((3, 3), np.nan)).rotation_deg)  # a camera without a pose
+
+
+def test_rig_json_holds_the_figures_the_report_shows(tmp_path):
+    rig = _rig()
+    d = json.loads(write_rig_json(rig, tmp_path / "rig.json").read_text())
+    left, right = d["cameras"]
+    assert d["frames_used"] == int(np.sum(rig.frame_used)) == 8 and left["views"] == len(rig.frames) == 9
+    assert left["rectified"] is None and set(right["rectified"]) == {"frame", "shared_corners",
+                                                                     "vertical_disparity_px"}
+    assert right["rectified"]["shared_corners"] > 0 and right["rectified"]["frame"] in rig.frames
+    rms = [float(v) if np.isfinite(v) else None for v in rig.camera("right").calibration.view_rms]
+    assert [f["rms"]["right"] for f in d["frames"]] == rms and rms[-1] is None  # the frame not seen: null
+    # a rig built by hand has no covariance to judge it by: null, rather than an invalid NaN or a guess
+    assert right["projection_uncertainty_px"] == {"centre": None, "worst": None} and d["verdict"] is None
+
+
 def test_rig_json_carries_the_model_selection_when_there_is_one(tmp_path):
     rig = _rig(model_selection={"left": {"chosen": "pinhole4", "score": np.float64(0.12)},
                                 "right": {"chosen": "pinhole", "score": float("nan")}})

@@ -22,11 +22,29 @@ def _errors(rig, d):
     return out
 
 
+def _intrinsics_off(rig, d, z=4.0):
+    """Per camera, the intrinsics (fx, fy, cx, cy, each distortion coefficient) further than ``z`` of their
+    predicted standard deviations from the truth: name -> (fitted, true, std)."""
+    out = {}
+    for c, cam in enumerate(rig.cameras):
+        cal = cam.calibration
+        names = ["fx", "fy", "cx", "cy", *cal.coefficients()]
+        fitted = [cam.K[0, 0], cam.K[1, 1], cam.K[0, 2], cam.K[1, 2], *cam.dist]
+        true = [d.K[c][0, 0], d.K[c][1, 1], d.K[c][0, 2], d.K[c][1, 2], *d.dist[c]]
+        assert len(fitted) == len(true) == len(names)
+        for n, f, t in zip(names, fitted, true):
+            assert cam.std[n] > 0, (cam.name, n)
+            if not abs(f - t) <= z * cam.std[n]:
+                out[f"{cam.name}.{n}"] = (float(f), float(t), cam.std[n])
+    return out
+
+
 def test_a_two_camera_rig_is_recovered():
     d = synthetic_rig(cameras=2, frames=12, noise=0.05, seed=0)
     rig = calibrate_rig(d.boards, d.image_sizes, view_names={"cam1": [f"r{f}.png" for f in range(12)]})
     for dt, ang, dfx in _errors(rig, d):
         assert dt < 0.03 and ang < 0.05 and dfx < 1.5
+    assert _intrinsics_off(rig, d) == {}
     assert rig.rms < 0.1 and rig.sigma == pytest.approx(0.05, rel=0.2)
     cam = rig.camera("cam1")
     assert cam.calibration.names[3] == "r3.png" and rig.camera("cam0").calibration.names[3] == "3"
@@ -41,6 +59,25 @@ def test_a_two_camera_rig_is_recovered():
     assert rig.layout["cam1.pose"].stop - rig.layout["cam1.pose"].start == 6 and "cam0.pose" not in rig.layout
 
 
+def test_the_rms_is_over_corners_not_coordinates():
+    """Corner noise of 0.05 px per coordinate: a corner's residual has an RMS length of sqrt(2) 0.05 px; the
+    rig's RMS and each camera's are the root mean squared residual length of their used corners."""
+    noise = 0.05
+    d = synthetic_rig(cameras=2, frames=12, noise=noise, seed=5)
+    rig = calibrate_rig(d.boards, d.image_sizes)
+    per_camera = []
+    for cam in rig.cameras:
+        cal = cam.calibration
+        r2 = np.concatenate([np.sum(cal.residuals[v][cal.corner_used[v]] ** 2, axis=1)
+                             for v in np.flatnonzero(cal.view_used)])
+        assert cal.rms == pytest.approx(np.sqrt(np.mean(r2)), rel=1e-9)
+        per_camera.append(r2)
+    assert rig.rms == pytest.approx(np.sqrt(np.mean(np.concatenate(per_camera))), rel=1e-9)
+    # and of the size the noise gives a corner (a per-coordinate RMS would be near 0.05)
+    for rms in (rig.rms, *(cam.calibration.rms for cam in rig.cameras)):
+        assert np.sqrt(2) * noise * 0.85 < rms < np.sqrt(2) * noise * 1.1
+
+
 def _rot(rv):
     import cv2
 
@@ -52,6 +89,7 @@ def test_three_cameras_with_boards_seen_by_only_some():
     rig = calibrate_rig(d.boards, d.image_sizes)
     for dt, ang, dfx in _errors(rig, d):
         assert dt < 0.05 and ang < 0.1 and dfx < 3
+    assert _intrinsics_off(rig, d) == {}
     seen = np.array([[b is not None for b in d.boards[n]] for n in d.names])
     assert (seen.sum(axis=0) < 3).any()  # some frames lack a camera ...
     single = np.flatnonzero(seen.sum(axis=0) == 1)
@@ -132,17 +170,38 @@ def test_one_camera_is_a_rig_too():
     assert rig.names == ("cam0",) and abs(rig.cameras[0].K[0, 0] - 600) < 2 and rig.frame_used.all()
 
 
-def test_a_camera_sharing_no_frame_has_no_pose():
+def test_a_camera_sharing_no_frame_is_refused_naming_the_groups():
     d = synthetic_rig(cameras=2, frames=12, noise=0.05, seed=0)
     seen = [f for f in range(12) if d.boards["cam1"][f] is not None]
     for f in seen[:5]:
         d.boards["cam0"][f] = None
     for f in seen[5:]:
         d.boards["cam1"][f] = None
+    with pytest.raises(ValueError, match=r"^cameras are not connected: \{cam0\} and \{cam1\}: no frame shows"):
+        calibrate_rig(d.boards, d.image_sizes, min_views=3)
+
+
+def test_a_camera_whose_shared_views_are_rejected_has_no_pose():
+    """The one frame both cameras saw is one the second camera's own calibration rejects: nothing ties it to
+    the first in the joint fit, so it keeps its views in frames of its own."""
+    d = synthetic_rig(cameras=2, frames=12, noise=0.05, seed=0)
+    seen = [f for f in range(12) if d.boards["cam1"][f] is not None]
+    for f in seen[:5]:
+        d.boards["cam0"][f] = None
+    for f in seen[5:]:
+        d.boards["cam1"][f] = None
+    f = next(f for f in range(12) if d.boards["cam0"][f] is not None)
+    b = d.boards["cam1"][seen[0]]
+    noisy = b.image_points + np.random.default_rng(0).normal(0, 6.0, b.image_points.shape)
+    d.boards["cam1"][f] = Board(noisy, b.labels, size=b.size)
     rig = calibrate_rig(d.boards, d.image_sizes, min_views=3)
     cam = rig.camera("cam1")
+    assert not cam.calibration.view_used[f]
     assert np.isnan(cam.T).all() and np.isnan(cam.std["baseline"]) and abs(cam.K[0, 0] - 625) < 3
     assert any("shares no frame" in n for n in rig.notes)
+    # the fit's connectivity: two groups, though the boards tied them
+    assert rig.connectivity.components == (("cam0",), ("cam1",)) and rig.connectivity.pairs == {}
+    assert any(".frame." in k for k in rig.layout)
 
 
 def test_bad_input_is_refused_in_one_line():
@@ -184,3 +243,97 @@ def test_the_joint_fit_of_a_full_session():
     assert all(sum(b is not None and len(b) == 54 for b in d.boards[n]) >= 19 for n in d.names)
     rig = calibrate_rig(d.boards, d.image_sizes)
     assert _errors(rig, d)[1][0] < 0.03
+
+
+def _jacobian_problem(model: str):
+    """A 3-camera fit's corners and parameters near the truth: the reference, a ``model`` camera with a pose,
+    and a pinhole camera without one (frames of its own); every corner weighted differently."""
+    from types import SimpleNamespace
+
+    import cv2
+
+    from sogdd.calib.cameras import MODELS
+    from sogdd.calib.rig import fit
+
+    d = synthetic_rig(cameras=3, frames=6, noise=0.05, seed=0, baseline=3.0, models={"cam1": model})
+    rng = np.random.default_rng(1)
+    def weighted(b):  # each corner's precision, relative to the typical 0.1 px: weights 1/3 to 2
+        return Board(b.image_points, b.labels, size=b.size, precision=rng.uniform(0.05, 0.3, len(b)))
+
+    states = [SimpleNamespace(typical=0.1, boards=[None if b is None else weighted(b) for b in d.boards[n]])
+              for n in d.names]
+    models, private = ["pinhole", model, "pinhole"], [False, False, True]
+    co = fit._gather(states, 1.0, lambda c, f, st: np.arange(len(st.boards[f])), private)
+    lay = fit._layout([len(MODELS[m]) for m in models], sorted(set(co.frame.tolist())), private)
+    x = np.zeros(lay.size)
+    for c, m in enumerate(models):
+        dist = np.zeros(len(MODELS[m]))
+        dist[:min(len(dist), len(d.dist[c]))] = d.dist[c][:len(dist)]
+        if m == "rational":
+            dist[5:] = [0.01, -0.003, 0.001]
+        x[lay.intr[c]] = np.r_[d.K[c][0, 0], d.K[c][1, 1], d.K[c][0, 2], d.K[c][1, 2], dist]
+        if lay.pose[c] is not None:
+            x[lay.pose[c]] = np.r_[cv2.Rodrigues(d.R[c])[0].ravel(), d.T[c]]
+    F = len(d.rvecs)
+    for f, s in lay.frame.items():
+        R, t = cv2.Rodrigues(d.rvecs[f % F])[0], d.tvecs[f % F]
+        if f >= F:  # the camera without a pose: the board in its own frame
+            R, t = d.R[2] @ R, d.R[2] @ t + d.T[2]
+        x[s] = np.r_[cv2.Rodrigues(R)[0].ravel(), t]
+    return x + rng.normal(0, 1e-3, x.shape) * np.maximum(np.abs(x), 0.01), lay, models, co
+
+
+@pytest.mark.parametrize("model", ["pinhole4", "pinhole", "rational", "fisheye"])
+def test_the_analytic_jacobian_matches_finite_differences(model):
+    from scipy.sparse import issparse
+
+    from sogdd.calib.rig import fit
+
+    x, lay, models, co = _jacobian_problem(model)
+    assert any(s is None for s in lay.pose[1:]) and any(f >= 6 for f in lay.frame)  # a camera without a pose
+    J = fit._jacobian(x, lay, models, co)
+    assert issparse(J) and J.format == "csr" and J.shape == (2 * len(co.cam), lay.size)
+    Jn = np.zeros(J.shape)
+    for j in range(lay.size):  # central differences of the whitened residuals
+        h = 1e-6 * max(abs(x[j]), 1.0)
+        up, down = x.copy(), x.copy()
+        up[j] += h
+        down[j] -= h
+        Jn[:, j] = (fit._whitened(up, lay, models, co) - fit._whitened(down, lay, models, co)) / (2 * h)
+    scale = np.abs(Jn).max(axis=0)
+    assert np.all(scale > 0)
+    rel = np.abs(J.toarray() - Jn).max(axis=0) / scale
+    assert rel.max() < 1e-5, (model, rel.max(), int(rel.argmax()))
+    # each residual depends on its camera's intrinsics and pose and its frame's pose only: the pattern holds at
+    # most 4 + nd + 12 entries a row
+    assert np.diff(J.indptr).max() <= 4 + max(s.stop - s.start for s in lay.intr) + 12
+
+
+def _bench():
+    """benchmarks/bench_rig.py, whose :func:`ring_rig` builds a ring of cameras."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_rig.py"
+    spec = importlib.util.spec_from_file_location("bench_rig", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_a_ring_of_cameras_is_recovered():
+    """6 cameras around 30 frames of a board (benchmarks/bench_rig.py's ring; 0.1 px noise): each camera
+    tied to the first only through its neighbours."""
+    bench = _bench()
+    d = bench.ring_rig(cameras=6, frames=30, seed=3)
+    seen = np.array([[b is not None for b in d.boards[n]] for n in d.names])
+    assert not (seen[0] & seen[3]).any()  # the opposite camera shares no frame with the first
+    rig = calibrate_rig(d.boards, d.image_sizes)
+    assert rig.connectivity.connected and rig.connectivity.shared("cam0", "cam3") == (0, 0)
+    assert rig.connectivity.shared("cam0", "cam1")[0] > 0
+    for c, cam in enumerate(rig.cameras):
+        assert abs(cam.K[0, 0] / d.K[c][0, 0] - 1) < 0.005, cam.name
+        if c:
+            assert abs(cam.baseline / np.linalg.norm(d.T[c]) - 1) < 0.01, cam.name
+    err = bench.truth_errors(rig, d)
+    assert err["rotation_deg"] < 0.5 and rig.rms < 0.2

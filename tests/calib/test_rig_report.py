@@ -9,9 +9,11 @@ import pytest
 
 from sogdd.calib.detection import Thumbnail
 from sogdd.calib.rig.demo import DEMO_RIG, demo_rig, demo_rig_boards
+from sogdd.calib.rig.files import rig_dict
 from sogdd.calib.rig.fit import calibrate_rig
-from sogdd.calib.rig.report import write_rig_report
+from sogdd.calib.rig.report import rectified_pair, write_rig_report
 from sogdd.calib.rig.verdict import rig_verdict, shared_frames, uncertainty_summary
+from sogdd.calib.targets.board import Board
 
 
 def test_the_demo_rig_is_recovered():
@@ -40,11 +42,16 @@ def test_the_far_point_uncertainty_is_smallest_where_the_corners_are():
 def test_a_camera_tied_by_few_frames_is_reported():
     boards, sizes = demo_rig_boards(12)
     seen = [f for f, b in enumerate(boards["right"]) if b is not None]
-    for f in seen[3:]:  # the right camera keeps its boards only in 3 frames...
+    for f in seen[4:]:  # the right camera keeps its boards only in 4 frames...
         boards["right"][f] = None
-    for f in seen[:3]:  # ... and the left camera loses those, so only they tie nothing: no shared frame
+    shared = [f for f in seen[:4] if boards["left"][f] is not None]
+    for f in shared[1:]:  # ... of which the left camera sees one...
         boards["left"][f] = None
-    rig = calibrate_rig(boards, sizes, models="pinhole", pattern=(9, 6))
+    b = boards["right"][shared[0]]  # ... and the right camera's own calibration rejects its view of it
+    noisy = b.image_points + np.random.default_rng(0).normal(0, 6.0, b.image_points.shape)
+    boards["right"][shared[0]] = Board(noisy, b.labels, size=b.size)
+    rig = calibrate_rig(boards, sizes, models="pinhole", pattern=(9, 6), min_views=3)
+    assert not rig.camera("right").calibration.view_used[shared[0]]
     found = [(lv, t) for lv, t in rig_verdict(rig) if t.startswith("right: no frame")]
     assert found and found[0][0] == "bad"
 
@@ -67,6 +74,21 @@ def test_the_rectified_pair_puts_shared_corners_on_one_row(tmp_path):
     text = page.read_text()
     value = float(text.split("left / right: ")[1].split(" px RMS")[0])
     assert value < 0.2  # 0.05 px corner noise; a wrong rectification is pixels off
+
+
+def test_the_report_shows_the_figures_rig_json_holds(tmp_path):
+    """The rotation and the rectified pair's disparity are computed once, in the library: the page shows
+    what rig.json holds (rig_dict), to the digits it prints."""
+    rig = demo_rig()
+    text = write_rig_report(rig, tmp_path).read_text()
+    d = rig_dict(rig)
+    right = d["cameras"][1]
+    assert f"<td>{right['rotation_deg']:.3f} ± {right['std']['rotation_deg']:.2g}</td>" in text
+    assert f"left / right: {right['rectified']['vertical_disparity_px']:.3f} px RMS" in text
+    check = rectified_pair(rig, "right")
+    assert right["rectified"]["frame"] == rig.frames[check.frame]
+    assert right["rectified"]["shared_corners"] == len(check.shared) == 54  # the whole 9 x 6 board
+    assert check.points[0].keys() == check.points[1].keys()
 
 
 def test_a_model_selection_table_is_shown(tmp_path):

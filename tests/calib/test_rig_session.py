@@ -1,9 +1,12 @@
-"""calibrate_rig_images and write_rig_outputs on a rendered two-camera rig: the rig recovered, every input
-accounted for, the one-line errors before any work, and the output folder complete or as it was."""
+"""calibrate_rig_images, write_rig_outputs and calibrate_rig_into (the two in one, what the command runs) on a
+rendered two-camera rig: the rig recovered, every input accounted for, the rig's rules and the other one-line
+errors before any work (the command's, in the library's words), and the output folder complete or as it was."""
 
 from __future__ import annotations
 
 import csv
+import json
+import os
 import shutil
 
 import cv2
@@ -11,16 +14,37 @@ import numpy as np
 import pytest
 
 from sogdd.calib.rig import files as rig_files
+from sogdd.calib.rig import session as rig_session
 from sogdd.calib.rig.files import read_rig
-from sogdd.calib.rig.session import calibrate_rig_images, check_rig_output_folder, write_rig_outputs
+from sogdd.calib.rig.session import (
+    calibrate_rig_images,
+    calibrate_rig_into,
+    check_rig_output_folder,
+    write_rig_outputs,
+)
+from sogdd.calib.session import ParameterError
+
+#: the command's words for the library's parameters (``sogdd calibrate``'s flags), which its errors use
+FLAGS = {"board": "--board", "boards": "--boards", "square": "--square", "jobs": "--jobs",
+         "min_views": "--min-views", "camera": "--camera", "cameras": "--camera",
+         "single": "one camera: give its images without --camera"}
 
 
 @pytest.fixture(scope="module")
-def rig_result(rendered_rig):
-    """The rendered rig calibrated once (pinhole model, square 25), for the tests that only read it."""
+def rig_run(rendered_rig, tmp_path_factory):
+    """The rendered rig calibrated once into a folder (pinhole model, square 25, no report), as the command
+    runs it: ``(result, files, out)``."""
     folder, _, _ = rendered_rig
-    return calibrate_rig_images({"left": folder / "left", "right": folder / "right"}, "chessboard:9x6",
-                                square=25.0, model="pinhole", thumbnails=False)
+    out = tmp_path_factory.mktemp("run") / "rig"
+    result, files = calibrate_rig_into({"left": folder / "left", "right": folder / "right"}, out,
+                                       "chessboard:9x6", square=25.0, model="pinhole", report=False)
+    return result, files, out
+
+
+@pytest.fixture(scope="module")
+def rig_result(rig_run):
+    """The rendered rig's calibration, for the tests that only read it."""
+    return rig_run[0]
 
 
 def _tree(folder):
@@ -53,18 +77,133 @@ def test_every_image_is_a_record_named_by_its_file(rig_result):
 
 def test_parameters_fail_before_any_image_is_read(tmp_path):
     cams = {"left": tmp_path / "nothing-here", "right": tmp_path / "nor-here"}
-    with pytest.raises(ValueError, match="chessboard:auto cannot calibrate a rig.*give chessboard:COLSxROWS"):
+    with pytest.raises(ValueError, match="chessboard:auto cannot calibrate a rig.*give board chessboard:COLS"):
         calibrate_rig_images(cams)
     with pytest.raises(ValueError, match="two or more cameras"):
         calibrate_rig_images({"left": tmp_path}, "chessboard:9x6")
     with pytest.raises(ValueError, match="camera name 'my cam'"):
         calibrate_rig_images({"left": tmp_path, "my cam": tmp_path}, "chessboard:9x6")
-    with pytest.raises(ValueError, match="boards must be 'best' for a rig"):
+    with pytest.raises(ValueError, match="boards all cannot be used with a rig"):
         calibrate_rig_images(cams, "chessboard:9x6", boards="all")
+    with pytest.raises(ValueError, match="boards must be one of best, all, got 'every'"):
+        calibrate_rig_images(cams, "chessboard:9x6", boards="every")
     with pytest.raises(ValueError, match="one per camera"):
         calibrate_rig_images(cams, "chessboard:9x6", model={"left": "pinhole", "centre": "pinhole"})
     with pytest.raises(ValueError, match="unknown camera model"):
         calibrate_rig_images(cams, "chessboard:9x6", model={"left": "pinhole", "right": "pinhol"})
+
+
+# each rule as the library says it, and as the command said it before the rule moved here (its flags)
+RULES = [
+    ({"board": "chessboard:auto"},
+     "board chessboard:auto cannot calibrate a rig: the cameras' corner labels must agree, which needs the "
+     "board's size; give board chessboard:COLSxROWS (inner corners)",
+     "--board chessboard:auto cannot calibrate a rig: the cameras' corner labels must agree, which needs the "
+     "board's size; give --board chessboard:COLSxROWS (inner corners)"),
+    ({"boards": "all"}, "boards all cannot be used with a rig: a rig's frame is one pose of one board",
+     "--boards all cannot be used with --camera: a rig's frame is one pose of one board"),
+    ({"square": 0.0}, "square must be a positive size, got 0.0", "--square must be a positive size, got 0.0"),
+    ({"square": float("inf")}, "square must be a positive size, got inf",
+     "--square must be a positive size, got inf"),
+    ({"jobs": 0}, "jobs must be >= 1, got 0", "--jobs must be >= 1, got 0"),
+    ({"min_views": -2}, "min_views must be >= 1, got -2", "--min-views must be >= 1, got -2"),
+    ({"cameras": {"left": "l"}}, "cameras: a rig needs two or more cameras (one camera: "
+     "sogdd.calib.calibrate_images)",
+     "--camera: a rig needs two or more cameras (one camera: give its images without --camera)"),
+    ({"cameras": {"left": "l", "my/cam": "r"}},
+     "cameras: camera name 'my/cam': use letters, digits, _ and - only (it names FileStorage nodes and a "
+     "folder)",
+     "--camera: camera name 'my/cam': use letters, digits, _ and - only (it names FileStorage nodes and a "
+     "folder)"),
+]
+
+
+@pytest.mark.parametrize("given, library, command", RULES)
+def test_the_rigs_rules_are_the_librarys_and_say_what_the_command_said(given, library, command, tmp_path):
+    """A Python caller gets each rule the command had, before any work: one line naming the parameter,
+    which the command words with its flags."""
+    kw = {"cameras": {"left": tmp_path / "l", "right": tmp_path / "r"}, "board": "chessboard:9x6", **given}
+    cameras = kw.pop("cameras")
+    for call in (lambda: calibrate_rig_images(cameras, **kw),
+                 lambda: calibrate_rig_into(cameras, tmp_path / "out", **kw)):
+        with pytest.raises(ParameterError) as info:
+            call()
+        assert str(info.value) == library and info.value.worded(**FLAGS) == command
+    assert sorted(p.name for p in tmp_path.iterdir()) == []  # no folder made, no image looked for
+
+
+def test_a_camera_without_images_is_named(tmp_path):
+    (tmp_path / "l").mkdir()
+    (tmp_path / "r").mkdir()
+    (tmp_path / "l" / "left01.png").write_bytes(b"x")
+    cameras = {"left": tmp_path / "l", "right": tmp_path / "r"}
+    with pytest.raises(ParameterError) as info:
+        calibrate_rig_into(cameras, tmp_path / "out", "chessboard:9x6")
+    assert str(info.value) == "camera right: no input images"
+    assert info.value.worded(**FLAGS) == "--camera right: no input images"
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("kind", ["device", "fifo"])
+def test_a_device_or_a_fifo_is_refused_before_any_work(rendered_rig, tmp_path, monkeypatch, kind):
+    folder, _, _ = rendered_rig
+    if kind == "device":
+        odd = "/dev/zero"
+    else:
+        odd = str(tmp_path / "right01.png")
+        os.mkfifo(odd)
+    monkeypatch.setattr(rig_session, "detect_files", lambda *a, **k: pytest.fail("the images were read"))
+    what = "a device" if kind == "device" else "a FIFO (named pipe)"
+    with pytest.raises(ValueError) as info:
+        calibrate_rig_into({"left": folder / "left" / "left01.png", "right": odd}, tmp_path / "out",
+                           "chessboard:9x6")
+    assert str(info.value) == f"{odd}: {what}, not a file; give an image file"
+    assert not (tmp_path / "out").exists()
+
+
+def test_the_output_folder_is_checked_before_any_work(rendered_rig, tmp_path, monkeypatch):
+    folder, _, _ = rendered_rig
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine")
+    monkeypatch.setattr(rig_session, "detect_files", lambda *a, **k: pytest.fail("the images were read"))
+    with pytest.raises(ValueError, match="holds notes.txt, which sogdd calibrate did not write"):
+        calibrate_rig_into({"left": folder / "left", "right": folder / "right"}, out, "chessboard:9x6")
+    with pytest.raises(ValueError, match="holds the input"):
+        calibrate_rig_into({"left": folder / "left", "right": folder / "right"}, folder, "chessboard:9x6")
+    assert [p.name for p in out.iterdir()] == ["notes.txt"]
+
+
+def test_calibrate_rig_into_writes_the_commands_folder(rig_run):
+    result, files, out = rig_run
+    assert sorted(files) == sorted(["rig.yaml", "rig.json"] + [f"{n}/{f}" for n in ("left", "right") for f in
+                                   ("camera.yaml", "camera.json", "views.csv", "corners.csv")])
+    assert all(files[n] == out / n and files[n].is_file() for n in files)
+    assert not (out / "report.html").exists()  # report=False
+
+
+def test_rig_json_holds_the_rotation_and_what_the_report_shows(rig_run, rendered_rig):
+    """rotation_deg is the angle of R as rig.yaml holds it (and its std the fit's); the report's figures too."""
+    result, _, out = rig_run
+    _, R_true, _ = rendered_rig
+    d = json.loads((out / "rig.json").read_text())
+    fs = cv2.FileStorage(str(out / "rig.yaml"), cv2.FILE_STORAGE_READ)
+    R = fs.getNode("R_right").mat()
+    fs.release()
+    left, right = d["cameras"]
+    assert right["rotation_deg"] == pytest.approx(np.degrees(np.linalg.norm(cv2.Rodrigues(R)[0])), abs=1e-9)
+    assert right["rotation_deg"] == pytest.approx(np.degrees(np.linalg.norm(cv2.Rodrigues(R_true)[0])), abs=0.3)
+    assert right["std"]["rotation_deg"] == result.rig.camera("right").std["rotation_deg"] > 0
+    assert left["rotation_deg"] == 0.0 and left["std"]["rotation_deg"] == 0.0
+    assert d["frames_used"] == 8 and right["views_used"] == right["views"] == 8
+    assert [f["rms"]["right"] for f in d["frames"]] == pytest.approx(
+        list(result.rig.camera("right").calibration.view_rms))
+    assert left["rectified"] is None and right["rectified"]["shared_corners"] == 54
+    assert 0 <= right["rectified"]["vertical_disparity_px"] < 0.2
+    assert right["rectified"]["frame"] in result.frames
+    assert 0 < right["projection_uncertainty_px"]["centre"] <= right["projection_uncertainty_px"]["worst"]
+    assert d["verdict"] and {v["level"] for v in d["verdict"]} <= {"ok", "warn", "bad"}
+    assert any("rotation" in v["text"] for v in d["verdict"])
 
 
 def test_an_image_given_to_two_cameras_is_refused(rendered_rig):

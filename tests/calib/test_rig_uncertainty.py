@@ -86,7 +86,16 @@ def test_the_pose_std_is_consistent_with_the_covariance():
     assert cam.std["baseline"] == pytest.approx(np.sqrt(g @ C[3:, 3:] @ g))
     # a small rotation: the rotation vector's error is nearly the rotation's
     assert cam.std["rotation_deg"] == pytest.approx(np.degrees(np.sqrt(np.trace(C[:3, :3]))), rel=0.05)
-    assert cv2.Rodrigues(cam.R)[0].shape == (3, 1)
+    # the fitted rotation is the true one within its predicted uncertainty: its error's angle within four
+    # times the RMS angle, each component of the rotation vector within four of its standard deviations
+    R_true = d.R[1]
+    dR = cam.R @ R_true.T
+    angle = np.degrees(np.arccos(np.clip((np.trace(dR) - 1) / 2, -1, 1)))
+    assert angle < 4 * cam.std["rotation_deg"]
+    off = cv2.Rodrigues(cam.R)[0].ravel() - cv2.Rodrigues(R_true)[0].ravel()
+    assert np.all(np.abs(off) < 4 * np.sqrt(np.diag(C)[:3])), (off, np.sqrt(np.diag(C)[:3]))
+    # (the truth's rotation is far beyond that uncertainty: the test can tell a wrong rotation)
+    assert np.degrees(np.linalg.norm(cv2.Rodrigues(R_true)[0])) > 20 * cam.std["rotation_deg"]
 
 
 def test_a_degenerate_fit_has_no_covariance():
@@ -95,3 +104,27 @@ def test_a_degenerate_fit_has_no_covariance():
     assert cov.size == 0 and "degenerate" in note and sigma > 0
     cov, sigma, note = covariance(np.eye(3), np.array([0.1, 0.2]))
     assert cov.size == 0 and np.isnan(sigma)
+
+
+def test_a_large_fit_keeps_the_cameras_block_by_the_schur_complement(monkeypatch):
+    """Past the size of the full inverse the covariance is the cameras' block alone, eliminated frame by frame:
+    the same numbers as the full inverse's block (forced here on a small rig), and the same uncertainties."""
+    from sogdd.calib.rig import fit
+
+    d = synthetic_rig(cameras=3, frames=16, noise=0.05, seed=1, baseline=3.0, missing=0.25)
+    full = calibrate_rig(d.boards, d.image_sizes)
+    monkeypatch.setattr(fit, "_FULL_COVARIANCE_MAX", 0)
+    block = calibrate_rig(d.boards, d.image_sizes)
+    n = block.covariance.shape[0]
+    assert n == max(s.stop for k, s in full.layout.items() if ".frame" not in k and not k.startswith("frame"))
+    assert n < full.covariance.shape[0] and not any("frame" in k for k in block.layout)
+    assert any("Schur complement" in note for note in block.notes)
+    scale = np.sqrt(np.outer(np.diag(full.covariance[:n, :n]), np.diag(full.covariance[:n, :n])))
+    assert np.abs(block.covariance - full.covariance[:n, :n]).max() / scale.max() < 1e-6
+    assert block.sigma == pytest.approx(full.sigma, rel=1e-9)
+    for a, b in zip(full.cameras, block.cameras):
+        for k in ("fx", "cx", "k1", "baseline", "rotation_deg"):
+            assert b.std[k] == pytest.approx(a.std[k], rel=1e-5, abs=1e-12), (a.name, k)
+    _, s_full = projection_uncertainty(full, "cam2", grid=(3, 3))
+    _, s_block = projection_uncertainty(block, "cam2", grid=(3, 3))
+    assert np.allclose(s_block, s_full, rtol=1e-5)

@@ -84,6 +84,65 @@ def test_the_library_checks_its_parameters_before_any_work(inputs):
         calibrate_images(inputs / "broken.png", "chessboard:9x6")
 
 
+@pytest.mark.parametrize("given, library, command", [
+    ({"square": 0.0}, "square must be a positive size, got 0.0", "--square must be a positive size, got 0.0"),
+    ({"square": -1}, "square must be a positive size, got -1", "--square must be a positive size, got -1"),
+    ({"jobs": 0}, "jobs must be >= 1, got 0", "--jobs must be >= 1, got 0"),
+    ({"jobs": 1.5}, "jobs must be an integer, got 1.5", "--jobs must be an integer, got 1.5"),
+    ({"min_views": 0}, "min_views must be >= 1, got 0", "--min-views must be >= 1, got 0"),
+    ({"min_views": True}, "min_views must be an integer, got True", "--min-views must be an integer, got True"),
+])
+def test_the_numbers_are_checked_at_the_door_as_the_command_said(given, library, command, inputs, tmp_path,
+                                                                 monkeypatch):
+    """The checks the command made are the library's: one line naming the parameter, the flag in its words."""
+    monkeypatch.setattr(session, "detect_files", lambda *a, **k: pytest.fail("the images were read"))
+    for call in (lambda: calibrate_images(inputs, "chessboard:9x6", **given),
+                 lambda: session.calibrate_into(inputs, tmp_path / "out", "chessboard:9x6", **given)):
+        with pytest.raises(session.ParameterError) as info:
+            call()
+        assert str(info.value) == library
+        assert info.value.worded(square="--square", jobs="--jobs", min_views="--min-views") == command
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_parameter_error_keeps_its_words_through_a_pickle():
+    """A worker process (or a Dask client) that sends the error on still lets the command word it."""
+    import pickle
+
+    exc = session.ParameterError("{jobs} must be >= 1, got {value}", jobs="jobs", value={"a": 1})
+    back = pickle.loads(pickle.dumps(exc))
+    assert type(back) is session.ParameterError and str(back) == str(exc) == "jobs must be >= 1, got {'a': 1}"
+    assert back.worded(jobs="--jobs") == "--jobs must be >= 1, got {'a': 1}"
+
+
+@pytest.mark.parametrize("kind", ["device", "fifo"])
+def test_calibrate_into_refuses_a_device_or_a_fifo_before_any_work(kind, inputs, tmp_path, monkeypatch):
+    if kind == "device":
+        odd, what = "/dev/zero", "a device"
+    else:
+        odd, what = str(tmp_path / "f.png"), "a FIFO (named pipe)"
+        os.mkfifo(odd)
+    monkeypatch.setattr(session, "detect_files", lambda *a, **k: pytest.fail("the images were read"))
+    with pytest.raises(ValueError) as info:
+        session.calibrate_into([inputs / "f0.png", odd], tmp_path / "out", "chessboard:9x6")
+    assert str(info.value) == f"{odd}: {what}, not a file; give an image file"
+    assert not (tmp_path / "out").exists()
+
+
+def test_calibrate_into_checks_the_output_folder_before_any_work(inputs, tmp_path, monkeypatch):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine")
+    monkeypatch.setattr(session, "detect_files", lambda *a, **k: pytest.fail("the images were read"))
+    with pytest.raises(ValueError, match="holds notes.txt, which sogdd calibrate did not write"):
+        session.calibrate_into(inputs, out, "chessboard:9x6")
+    with pytest.raises(ValueError, match="holds the input"):
+        session.calibrate_into(inputs / "*.png", inputs, "chessboard:9x6")
+    with pytest.raises(ValueError, match="^no input images$"):
+        session.calibrate_into([], out, "chessboard:9x6")
+    assert [p.name for p in out.iterdir()] == ["notes.txt"]
+
+
 def test_the_report_never_reads_an_image_file(inputs, tmp_path, monkeypatch):
     reads = []
     real, imread = detection.read_image, cv2.imread

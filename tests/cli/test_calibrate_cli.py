@@ -94,6 +94,20 @@ def test_bad_board_syntax(spec, tmp_path, capsys):
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.parametrize("argv, line", [
+    (("--jobs", "-1"), "--jobs must be >= 1, got -1"),
+    (("--min-views", "0"), "--min-views must be >= 1, got 0"),
+    (("--square", "-2.5"), "--square must be a positive size, got -2.5"),
+    (("--square", "inf"), "--square must be a positive size, got inf"),
+])
+def test_the_librarys_checks_are_one_line_naming_the_flag(argv, line, frames, tmp_path, capsys, monkeypatch):
+    """The library checks the numbers, before any image is read; the command names its flags."""
+    monkeypatch.setattr(chessboard, "find_boards", lambda *a, **k: pytest.fail("an image was searched"))
+    code, _, err = _run(capsys, frames, "--board", "chessboard:9x6", *argv, "--out", tmp_path / "o")
+    assert (code, err) == (2, f"sogdd: error: {line}\n")
+    assert not (tmp_path / "o").exists()
+
+
 def test_no_board_in_any_image(tmp_path, capsys):
     for k in range(3):
         cv2.imwrite(str(tmp_path / f"blank{k}.png"), np.full((480, 640), 128, np.uint8))

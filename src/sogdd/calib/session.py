@@ -9,7 +9,13 @@ board that matches the specification best; other boards in it are reported, igno
 (``boards="all"``: every board is a view, for a scene built with several targets); a much
 smaller board (a screen, a reflection or a pattern in the background) is never a view
 (:func:`~sogdd.calib.detection.pick_boards`). :func:`write_outputs` writes the output
-folder (:func:`check_output_folder` says beforehand whether it may).
+folder (:func:`check_output_folder` says beforehand whether it may). :func:`calibrate_into` is the two
+in one, what ``sogdd calibrate`` runs: every check before any work (the output folder's too), then the
+calibration, then its folder.
+
+Bad parameters are refused at the door, before any image is read, each as a one-line
+``ValueError``; one that names a parameter is a :class:`ParameterError`, so that the
+command line can say the same with its flags.
 
 The output folder is complete or as it was, never a mix: everything is written
 into a new hidden folder beside it (``.<name>.new-<random>.sogdd.tmp``), which then
@@ -24,6 +30,7 @@ holding anything else is refused, so a run never deletes a file it did not make.
 
 from __future__ import annotations
 
+import functools
 import numbers
 import os
 import re
@@ -37,7 +44,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from ..collection import expand_inputs, relative_names
-from ..formats.safe_write import TMP_SUFFIX, folder_holds
+from ..formats.safe_write import TMP_SUFFIX, check_input_files, folder_holds
 from .detection import (
     BOARD_CHOICES,
     THUMB_WIDTH,
@@ -56,8 +63,9 @@ from .result import Calibration
 from .targets.board import Board, grid_dims
 from .targets.spec import BoardSpec, parse_board
 
-__all__ = ["OUTPUTS", "ImageCalibration", "calibrate_images", "check_output_folder", "foreign_entry",
-           "write_folder", "write_outputs"]
+__all__ = ["OUTPUTS", "ImageCalibration", "ParameterError", "calibrate_images", "calibrate_into",
+           "check_detections", "check_output_folder", "check_run_parameters",
+           "common_image_size", "foreign_entry", "write_folder", "write_outputs"]
 
 #: what :func:`write_outputs` writes: the four files, report.html and the report/ folder of figures
 OUTPUTS = (*FILES, "report.html", "report")
@@ -95,20 +103,75 @@ class ImageCalibration:
         return tuple(v for v in self.views if v.status == "unreadable")
 
 
+class ParameterError(ValueError):
+    """A parameter refused at the door, before any work: one line that names the parameters it is about.
+
+    The message is ``template.format(**words)``: each ``{slot}`` of the template
+    is a parameter's name in this library's words (or a value, or a phrase), so
+    that a caller with other names for the parameters (a command line's flags)
+    can say the same in its own words (:meth:`worded`).
+
+    Attributes
+    ----------
+    template : str
+    words : dict of str to object
+        Each slot's word in the message.
+
+    Examples
+    --------
+    >>> exc = ParameterError("{jobs} must be >= 1, got {value}", jobs="jobs", value=0)
+    >>> str(exc)
+    'jobs must be >= 1, got 0'
+    >>> exc.worded(jobs="--jobs", square="--square")  # a slot the message lacks is ignored
+    '--jobs must be >= 1, got 0'
+    """
+
+    def __init__(self, template: str, **words: object) -> None:
+        self.template = template
+        self.words = words
+        super().__init__(template.format(**words))
+
+    def worded(self, **words: object) -> str:
+        """The message with the slots given worded so (the others as they were)."""
+        return self.template.format(**{**self.words, **words})
+
+    def __reduce__(self):
+        # rebuilt from its template and words (an exception's default is its message alone, which is not one)
+        return functools.partial(type(self), self.template, **self.words), ()
+
+
+def check_run_parameters(*, square: float, jobs: int, min_views: int) -> None:
+    """The numbers every calibration run takes, checked: a one-line :class:`ParameterError` naming the bad one.
+
+    ``square`` must be a positive finite size; ``jobs`` and ``min_views``
+    integers >= 1.
+
+    Examples
+    --------
+    >>> check_run_parameters(square=25.0, jobs=1, min_views=0)
+    Traceback (most recent call last):
+    ...
+    sogdd.calib.session.ParameterError: min_views must be >= 1, got 0
+    """
+    if not (isinstance(square, numbers.Real) and 0 < square < float("inf")):
+        raise ParameterError("{square} must be a positive size, got {value}", square="square", value=square)
+    for name, v in (("jobs", jobs), ("min_views", min_views)):
+        integral = isinstance(v, numbers.Integral) and not isinstance(v, bool)
+        if not integral or v < 1:
+            why = "must be >= 1, got {value}" if integral else "must be an integer, got {value!r}"
+            raise ParameterError(f"{{{name}}} {why}", **{name: name, "value": v})
+
+
 def _check_parameters(board: str | BoardSpec, square: float, model: str, jobs: int,
                       min_views: int, boards: str) -> BoardSpec:
     """Bad parameters fail before any image is read."""
     spec = parse_board(board) if isinstance(board, str) else board
     if not isinstance(spec, BoardSpec):
         raise TypeError(f"board must be a specification string or a BoardSpec, got {type(board).__name__}")
-    if not (isinstance(square, numbers.Real) and 0 < square < float("inf")):
-        raise ValueError(f"square must be a positive size, got {square}")
     check_model_choice(model)
     if boards not in BOARD_CHOICES:
         raise ValueError(f"boards must be one of {', '.join(BOARD_CHOICES)}, got {boards!r}")
-    for name, v in (("jobs", jobs), ("min_views", min_views)):
-        if not isinstance(v, numbers.Integral) or isinstance(v, bool) or v < 1:
-            raise ValueError(f"{name} must be an integer >= 1, got {v!r}")
+    check_run_parameters(square=square, jobs=jobs, min_views=min_views)
     return spec
 
 
@@ -212,25 +275,32 @@ def calibrate_images(
     """
     spec = _check_parameters(board, square, model, jobs, min_views, boards)
     opts = check_read_options(read_options)
-    given = [images] if isinstance(images, (str, os.PathLike)) else list(images)
-    paths = expand_inputs([os.fspath(g) for g in given], recursive=recursive)
-    if not paths:
-        raise ValueError("no input images")
+    paths = _expand(images, recursive)
     names = relative_names(paths)  # collisions fail before any work
     results = detect_files(paths, spec, jobs=jobs, scheduler=scheduler, progress=progress, read_options=opts,
                            thumb_width=THUMB_WIDTH if thumbnails else None)
     picked = [pick_boards(r.boards, spec, boards) for r in results]
     results = [replace(r, boards=kept) for r, (kept, _) in zip(results, picked)]
-    _check_results(results, spec)
+    check_detections(results, spec)
     views, vnames, owners = _views(results, names)
-    cal = calibrate(views, _image_size(results), square=float(square), model=model, names=vnames,
+    cal = calibrate(views, common_image_size(results), square=float(square), model=model, names=vnames,
                     reject=reject, min_views=min_views)
     records = _records(results, names, cal, spec, [ignored for _, ignored in picked])
     return ImageCalibration(cal, spec, tuple(records), tuple(results[i].thumbnail for i in owners))
 
 
-def _check_results(results: list[ViewResult], spec: BoardSpec) -> None:
-    """The one-line error for a run that cannot calibrate: nothing readable, no board, a miscounted board."""
+def _expand(images: str | os.PathLike | Iterable[str | os.PathLike], recursive: bool) -> list[Path]:
+    """The image files that ``images`` names; a one-line error when there are none."""
+    given = [images] if isinstance(images, (str, os.PathLike)) else list(images)
+    paths = expand_inputs([os.fspath(g) for g in given], recursive=recursive)
+    if not paths:
+        raise ValueError("no input images")
+    return paths
+
+
+def check_detections(results: Sequence[ViewResult], spec: BoardSpec) -> None:
+    """The one-line ``ValueError`` for detections a camera cannot be calibrated from: nothing readable, no
+    board, a miscounted board (each camera of a rig is asked too)."""
     failed = [r for r in results if r.error]
     if len(failed) == len(results):
         more = f"; and {len(failed) - 1} more" if len(failed) > 1 else ""
@@ -282,8 +352,9 @@ def _records(results: list[ViewResult], names: list[str], cal: Calibration, spec
     return out
 
 
-def _image_size(results: list[ViewResult]) -> tuple[int, int]:
-    """The one size of every readable image (a calibration is for one camera at one resolution)."""
+def common_image_size(results: Sequence[ViewResult]) -> tuple[int, int]:
+    """The one size of every readable image (a calibration is for one camera at one resolution); a one-line
+    ``ValueError`` naming two images of different sizes."""
     sizes: dict = {}
     for r in results:
         if r.size is not None:
@@ -475,6 +546,91 @@ def write_outputs(result: ImageCalibration, out: str | os.PathLike, *, report: b
         return files
 
     return write_folder(out, fill, inputs=inputs)
+
+
+def calibrate_into(
+    images: str | os.PathLike | Iterable[str | os.PathLike],
+    out: str | os.PathLike,
+    board: str | BoardSpec = "chessboard:auto",
+    *,
+    boards: BoardChoice = "best",
+    square: float = 1.0,
+    model: ModelChoice = "auto",
+    jobs: int = 1,
+    scheduler: str | None = None,
+    min_views: int = 3,
+    reject: bool = True,
+    recursive: bool = False,
+    read_options: dict | None = None,
+    report: bool = True,
+    title: str | None = None,
+    progress: bool = False,
+) -> tuple[ImageCalibration, dict[str, Path]]:
+    """Calibrate a camera from image files of a board into an output folder: what ``sogdd calibrate`` runs.
+
+    Every check comes before any work: the parameters, the inputs (none of them a
+    device or a FIFO, :func:`sogdd.formats.safe_write.check_input_files`) and ``out``
+    (:func:`check_output_folder`). Then :func:`calibrate_images` and
+    :func:`write_outputs`: the folder ends complete, or as it was.
+
+    Parameters
+    ----------
+    images, board, boards, square, model, jobs, scheduler, min_views, reject, recursive, read_options, progress
+        As :func:`calibrate_images`.
+    out : path
+        The output folder: missing (made), empty, or a previous output (replaced whole).
+    report : bool
+        Write report.html and its figures; the images' thumbnails are kept for it only then.
+    title : str, optional
+        The report's title (default: the number of views and the board).
+
+    Returns
+    -------
+    result : ImageCalibration
+    files : dict of str to Path
+        File name (``report.html`` and ``report`` too) -> its final path, as :func:`write_outputs`.
+
+    Raises
+    ------
+    ParameterError
+        ``square``, ``jobs`` or ``min_views`` out of range (one line naming it).
+    ValueError
+        One line: the other errors of :func:`calibrate_images`; an input that is a
+        device, a FIFO or a socket; an ``out`` that may not be written.
+    OSError
+        A write failed; ``out`` was left as it was.
+    sogdd.collection.BatchInterrupted
+        On Ctrl-C or ``SIGTERM``; ``out`` was left as it was.
+
+    Examples
+    --------
+    >>> import tempfile, cv2, numpy as np
+    >>> from sogdd.evaluation.calibration import render
+    >>> cam = render.Camera(np.array([[560.0, 0, 322], [0, 560, 236], [0, 0, 1]]), (-0.2, 0.06, 0, 0, 0),
+    ...                     (640, 480))
+    >>> target = render.ChessboardTarget(9, 6, 1.0)
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> for k, (rv, tv) in enumerate(render.random_sequence(cam, target, 5, seed=3)):
+    ...     view = render.render_view(cam, target, rv, tv, blur=0.8, noise=2.0, rng=k)
+    ...     _ = cv2.imwrite(str(folder / f"f{k}.png"), view.image)
+    >>> calibrate_into(folder / "*.png", folder / "calib", "chessboard:9x6", jobs=0)
+    Traceback (most recent call last):
+    ...
+    sogdd.calib.session.ParameterError: jobs must be >= 1, got 0
+    >>> result, files = calibrate_into(folder / "*.png", folder / "calib", "chessboard:9x6", model="pinhole",
+    ...                                report=False)
+    >>> result.calibration.n_used, sorted(files)
+    (5, ['camera.json', 'camera.yaml', 'corners.csv', 'views.csv'])
+    """
+    spec = _check_parameters(board, square, model, jobs, min_views, boards)
+    check_read_options(read_options)
+    paths = _expand(images, recursive)
+    check_input_files(paths)  # a device or a FIFO would be read for ever
+    check_output_folder(out, paths)
+    result = calibrate_images(paths, spec, boards=boards, square=square, model=model, jobs=jobs,
+                              scheduler=scheduler, min_views=min_views, reject=reject,
+                              read_options=read_options, thumbnails=report, progress=progress)
+    return result, write_outputs(result, out, report=report, inputs=paths, title=title)
 
 
 def write_folder(out: str | os.PathLike, fill: Callable[[Path], Mapping[str, object]], *,

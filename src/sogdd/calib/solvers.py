@@ -13,12 +13,12 @@ from .cameras import MODELS, project
 from .cameras.models import fisheye_distorted, fisheye_theta
 from .targets.board import Board
 
-__all__ = ["FISHEYE_FOVS", "fisheye_fixed", "fit_camera", "fit_fisheye", "fit_fisheye_from",
-           "fit_camera_checked", "jacobian_std", "refine_weighted", "solve_pose"]
+__all__ = ["COND_MAX", "FISHEYE_FOVS", "BlockNormal", "fisheye_fixed", "fit_camera", "fit_fisheye",
+           "fit_fisheye_from", "fit_camera_checked", "jacobian_std", "refine_weighted", "solve_pose"]
 
-# (JᵀJ with unit columns) beyond this condition number leaves some parameters undetermined: its
-# inverse would carry the rounding of the other parameters, about 1e-16 times this, into them
-_COND_MAX = 1e12
+#: (JᵀJ with unit columns) beyond this condition number leaves some parameters undetermined: its
+#: inverse would carry the rounding of the other parameters, about 1e-16 times this, into them
+COND_MAX = 1e12
 
 
 def fit_camera(obj: list[np.ndarray], img: list[np.ndarray], size: tuple[int, int], model: str, flags: int,
@@ -94,7 +94,7 @@ def _intrinsic_steps(model: str, flags: int, K: np.ndarray) -> np.ndarray:
 
 
 @dataclass
-class _Normal:
+class BlockNormal:
     """The normal equations :math:`N \\delta = g` of the weighted fit, by blocks: ``U`` (z, z) of the free
     intrinsics, ``W`` (V, z, 6) between them and each view's pose, ``P`` (V, 6, 6) of each pose (the
     poses share no residual: ``N``'s pose part is block-diagonal), and ``g`` split the same way."""
@@ -123,18 +123,18 @@ class _Normal:
         WP = np.einsum("vzi,vij->vzj", self.W, np.linalg.inv(self.P))
         S = self.U - np.einsum("vzj,vyj->zy", WP, self.W)
         norms = np.sqrt(np.diag(S))
-        if not np.all(norms > 0) or np.linalg.cond(S / np.outer(norms, norms)) > _COND_MAX:
+        if not np.all(norms > 0) or np.linalg.cond(S / np.outer(norms, norms)) > COND_MAX:
             raise np.linalg.LinAlgError("degenerate")
         return np.linalg.inv(S / np.outer(norms, norms)) / np.outer(norms, norms)
 
 
 def _weighted_system(obj, img, weights, intr, poses, T, nd: int, jacobian: bool = True):
     """Whitened residuals ``w (x - pi)`` (2N,) and, with ``jacobian``, the normal equations
-    (:class:`_Normal`) of the free intrinsics (``T``) and every pose, from ``cv2.projectPoints``' analytic
+    (:class:`BlockNormal`) of the free intrinsics (``T``) and every pose, from ``cv2.projectPoints``' analytic
     derivatives."""
     K = np.array([[intr[0], 0.0, intr[2]], [0.0, intr[1], intr[3]], [0.0, 0.0, 1.0]])
     z, V = T.shape[1], len(obj)
-    ne = _Normal(np.zeros((z, z)), np.zeros((V, z, 6)), np.zeros((V, 6, 6)), np.zeros(z), np.zeros((V, 6)))
+    ne = BlockNormal(np.zeros((z, z)), np.zeros((V, z, 6)), np.zeros((V, 6, 6)), np.zeros(z), np.zeros((V, 6)))
     out = []
     for v in range(V):
         p, J = cv2.projectPoints(np.asarray(obj[v], np.float64).reshape(-1, 1, 3), poses[v, :3], poses[v, 3:],
@@ -226,7 +226,7 @@ def refine_weighted(obj: list[np.ndarray], img: list[np.ndarray], weights: list[
     return Kw, intr[4:].copy(), poses[:, :3].copy(), poses[:, 3:].copy(), _whitened_std(ne, r, T)
 
 
-def _whitened_std(ne: _Normal, r: np.ndarray, T: np.ndarray) -> np.ndarray | None:
+def _whitened_std(ne: BlockNormal, r: np.ndarray, T: np.ndarray) -> np.ndarray | None:
     """The intrinsics' standard deviations :math:`\\sqrt{\\mathrm{diag}(T\\,[s^2 N^{-1}]_{zz} T^T)}`,
     :math:`s^2 = \\lVert r \\rVert^2 / (\\dim r - \\dim N)`; None when degenerate (a singular pose
     block, or the intrinsics' Schur complement, columns scaled to unit length, beyond 1e12)."""
@@ -353,7 +353,7 @@ def jacobian_std(obj: list[np.ndarray], img: list[np.ndarray], K: np.ndarray, di
         return None
     Js = J / norms
     JtJ = Js.T @ Js
-    if not np.isfinite(JtJ).all() or np.linalg.cond(JtJ) > _COND_MAX:
+    if not np.isfinite(JtJ).all() or np.linalg.cond(JtJ) > COND_MAX:
         return None
     cov = np.linalg.inv(JtJ) / np.outer(norms, norms) * (float(r0 @ r0) / dof)
     std = np.zeros(len(theta))

@@ -7,12 +7,11 @@ import errno
 import json
 import math
 import os
-import stat
 import sys
 from collections.abc import Callable
 from pathlib import Path
 
-from ..formats.safe_write import check_not_inputs, existing_file
+from ..formats.safe_write import check_input_files, check_not_inputs
 
 __all__ = [
     "HelpFormatter",
@@ -143,43 +142,6 @@ def write_stdout(data: bytes) -> None:
 
 
 
-def _kind(mode: int) -> str | None:
-    """What a file that is neither a regular file nor a folder is, or ``None`` for those two."""
-    if stat.S_ISREG(mode) or stat.S_ISDIR(mode):
-        return None
-    if stat.S_ISFIFO(mode):
-        return "a FIFO (named pipe)"
-    if stat.S_ISSOCK(mode):
-        return "a socket"
-    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
-        return "a device"
-    return "not a regular file"
-
-
-def check_input_files(paths, what: str = "an image file") -> None:
-    """Refuse inputs that are devices, FIFOs or sockets (``ValueError``, one line), before any work.
-
-    Reading ``/dev/zero`` or a FIFO never ends (or waits for a writer for ever),
-    so such an input is named and refused at the door. Missing files are left
-    to the reader, which names them.
-
-    Examples
-    --------
-    >>> check_input_files(["/dev/zero"])
-    Traceback (most recent call last):
-    ...
-    ValueError: /dev/zero: a device, not a file; give an image file
-    """
-    for path in paths:
-        p = existing_file(path)
-        try:
-            kind = _kind(os.stat(p).st_mode) if p is not None else None
-        except OSError:  # a broken link, no permission: the reader says so
-            kind = None
-        if kind:
-            raise ValueError(f"{p}: {kind}, not a file; give {what}")
-
-
 def output_folder(text: str) -> str:
     """An argparse ``type`` for ``--out DIR``: refuse an existing file (the folder is made later).
 
@@ -217,14 +179,14 @@ def reporter(args: argparse.Namespace) -> Callable[[str], None] | None:
     return lambda msg: print(msg, file=sys.stderr, flush=True)
 
 
-def run_calibration(out: str, calibrate: Callable[[], object], write: Callable[[object], dict],
+def run_calibration(out: str, calibrate: Callable[[], tuple[object, dict]],
                     summary: Callable[[object, dict], None]) -> int:
-    """A calibration command's run: ``calibrate()``, then ``write(result)``, Ctrl-C saying that ``out`` is as it
-    was; each unreadable input on stderr, then ``summary(result, written)``. Returns the exit code: 2 when
-    an input could not be read, else 0 (one camera and a rig alike)."""
+    """A calibration command's run: ``calibrate()`` (the library's, which checks, calibrates and writes ``out``,
+    returning the result and the files written), Ctrl-C saying that ``out`` is as it was; each unreadable
+    input on stderr, then ``summary(result, written)``. Returns the exit code: 2 when an input could not be
+    read, else 0 (one camera and a rig alike)."""
     try:
-        result = calibrate()
-        written = write(result)
+        result, written = calibrate()
     except KeyboardInterrupt:
         print(f"sogdd: interrupted; {out} left as it was", file=sys.stderr)
         raise

@@ -36,10 +36,19 @@ from __future__ import annotations
 
 import argparse
 import sys
+from typing import TYPE_CHECKING
 
-from ._common import check_input_files, print_json, run_calibration
-from .calibrate_rig import RIG_HELP, add_rig_arguments, run_rig
+from ._common import print_json, run_calibration
+from .calibrate_rig import RIG_HELP, RIG_WORDS, add_rig_arguments, run_rig
 from .params import add_read_arguments, read_options
+
+if TYPE_CHECKING:  # the command imports the library when it runs (sogdd --help stays fast)
+    from ..calib import BoardSpec
+
+#: the library's words for its parameters (:class:`sogdd.calib.session.ParameterError`), as this command
+#: names them: its errors say what the library's say, with the flags
+WORDS = {"board": "--board", "boards": "--boards", "square": "--square", "jobs": "--jobs",
+         "min_views": "--min-views", **RIG_WORDS}
 
 
 def configure(p: argparse.ArgumentParser) -> None:
@@ -76,45 +85,41 @@ def configure(p: argparse.ArgumentParser) -> None:
     p.set_defaults(func=run)
 
 
-def _checked(args: argparse.Namespace) -> tuple:
-    """The board and the read options, every option checked before any work (one camera or a rig)."""
+def _board(text: str) -> BoardSpec:
+    """``--board``'s specification, parsed (bad syntax fails before any work, naming the flag)."""
     from ..calib import parse_board
 
     try:
-        spec = parse_board(args.board)  # bad syntax fails before any work, naming the flag
+        return parse_board(text)
     except ValueError as exc:
         raise ValueError(f"--{exc}") from None
-    for flag, v in (("--jobs", args.jobs), ("--min-views", args.min_views)):
-        if v < 1:
-            raise ValueError(f"{flag} must be >= 1, got {v}")
-    if not 0 < args.square < float("inf"):
-        raise ValueError(f"--square must be a positive size, got {args.square}")
-    return spec, read_options(args)
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..calib import calibrate_images, check_output_folder, write_outputs
-    from ..collection import expand_inputs
+    from ..calib.session import ParameterError
 
-    spec, reading = _checked(args)
+    try:
+        return _run(args)
+    except ParameterError as exc:  # the library's checks, in this command's words
+        raise ValueError(exc.worded(**WORDS)) from None
+
+
+def _run(args: argparse.Namespace) -> int:
+    from ..calib.session import calibrate_into
+
+    spec, reading = _board(args.board), read_options(args)
     if args.cameras:
         return run_rig(args, spec, reading)
     if not args.images:
         raise ValueError("no images: give the image files, or --camera NAME PATTERN... per camera of a rig")
     if args.allow_missing_frames:
         raise ValueError("--allow-missing-frames is for a rig (--camera NAME PATTERN... per camera)")
-    paths = expand_inputs(args.images, recursive=args.recursive)
-    if not paths:
-        raise ValueError("no input images")
-    check_input_files(paths)  # a device or a FIFO would be read for ever
-    check_output_folder(args.out, paths)  # before any work
     return run_calibration(
         args.out,
-        lambda: calibrate_images(paths, spec, boards=args.boards, square=args.square, model=args.model,
-                                 jobs=args.jobs, scheduler=args.scheduler, min_views=args.min_views,
-                                 reject=args.reject, read_options=reading, thumbnails=args.report,
-                                 progress=not args.quiet),
-        lambda result: write_outputs(result, args.out, report=args.report, inputs=paths),
+        lambda: calibrate_into(args.images, args.out, spec, boards=args.boards, square=args.square,
+                               model=args.model, jobs=args.jobs, scheduler=args.scheduler,
+                               min_views=args.min_views, reject=args.reject, recursive=args.recursive,
+                               read_options=reading, report=args.report, progress=not args.quiet),
         lambda result, written: _summary(args, result, written))
 
 

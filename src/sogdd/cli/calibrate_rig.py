@@ -3,19 +3,28 @@
   sogdd calibrate --camera left 'left/*.jpg' --camera right 'right/*.jpg' --board chessboard:9x6 --out rig/
 
 Run by :mod:`sogdd.cli.calibrate` when --camera is given (its options and help are there);
-:func:`sogdd.calib.rig.session.calibrate_rig_images` does the work.
+:func:`sogdd.calib.rig.session.calibrate_rig_into` does the work, the rig's rules included.
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ._common import check_input_files, print_json, run_calibration
+from ._common import print_json, run_calibration
 
-__all__ = ["add_rig_arguments", "run_rig"]
+if TYPE_CHECKING:  # the library is imported when the command runs
+    from ..calib import BoardSpec
+
+__all__ = ["RIG_WORDS", "add_rig_arguments", "run_rig"]
+
+#: the rig's words in the library's errors (:class:`sogdd.calib.session.ParameterError`), as this command
+#: says them: its cameras are --camera options
+RIG_WORDS = {"camera": "--camera", "cameras": "--camera",
+             "single": "one camera: give its images without --camera"}
 
 #: the --help text of the rig options (sogdd calibrate's module doc says more)
 RIG_HELP = """Rigs (two or more cameras, --camera NAME PATTERN... once per camera, the first the reference):
@@ -43,9 +52,8 @@ def add_rig_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _cameras(given: list[list[str]]) -> dict[str, list[str]]:
-    """``--camera NAME PATTERN...`` options as ``{name: patterns}``, checked (one-line errors)."""
-    from ..calib.rig.files import check_camera_names
-
+    """``--camera NAME PATTERN...`` options as ``{name: patterns}`` (the names and their number are the
+    library's to check)."""
     out: dict[str, list[str]] = {}
     for name, *patterns in given:
         if not patterns:
@@ -54,53 +62,25 @@ def _cameras(given: list[list[str]]) -> dict[str, list[str]]:
         if name in out:
             raise ValueError(f"--camera {name}: given twice; give each camera once, with all its images")
         out[name] = patterns
-    try:
-        check_camera_names(out)
-    except ValueError as exc:
-        raise ValueError(f"--camera: {exc}") from None
-    if len(out) < 2:
-        raise ValueError("--camera: a rig needs two or more cameras (one camera: give its images without "
-                         "--camera)")
     return out
 
 
-def run_rig(args: argparse.Namespace, spec, reading: dict) -> int:
+def run_rig(args: argparse.Namespace, spec: BoardSpec, reading: dict) -> int:
     """``sogdd calibrate --camera ...``: the rig's calibration, its output folder and its summary."""
-    from ..calib.rig.session import calibrate_rig_images, check_rig_output_folder, write_rig_outputs
-    from ..collection import expand_inputs
+    from ..calib.rig.session import calibrate_rig_into
 
     if args.images:
         raise ValueError("give the images of one camera, or --camera NAME PATTERN... for each camera of a rig, "
                          "not both")
     cameras = _cameras(args.cameras)
-    if spec.kind == "chessboard" and spec.pattern is None:
-        raise ValueError("--board chessboard:auto cannot calibrate a rig: the cameras' corner labels must "
-                         "agree, which needs the board's size; give --board chessboard:COLSxROWS (inner "
-                         "corners)")
-    if args.boards != "best":
-        raise ValueError("--boards all cannot be used with --camera: a rig's frame is one pose of one board")
-    paths = {}
-    for name, patterns in cameras.items():
-        paths[name] = expand_inputs(patterns, recursive=args.recursive)
-        if not paths[name]:
-            raise ValueError(f"--camera {name}: no input images")
-    every = [p for ps in paths.values() for p in ps]
-    check_input_files(every)  # a device or a FIFO would be read for ever
-    check_rig_output_folder(args.out, every)  # before any work
     return run_calibration(
         args.out,
-        lambda: calibrate_rig_images(paths, spec, square=args.square, model=args.model, jobs=args.jobs,
-                                     scheduler=args.scheduler, min_views=args.min_views, reject=args.reject,
-                                     allow_missing=args.allow_missing_frames, read_options=reading,
-                                     thumbnails=args.report, progress=not args.quiet),
-        lambda result: write_rig_outputs(result, args.out, report=args.report, inputs=every),
+        lambda: calibrate_rig_into(cameras, args.out, spec, square=args.square, model=args.model,
+                                   boards=args.boards, jobs=args.jobs, scheduler=args.scheduler,
+                                   min_views=args.min_views, reject=args.reject, recursive=args.recursive,
+                                   allow_missing=args.allow_missing_frames, read_options=reading,
+                                   report=args.report, progress=not args.quiet),
         lambda result, written: _summary(args, result, written))
-
-
-def _rotation_deg(R: np.ndarray) -> float:
-    import cv2
-
-    return float(np.degrees(np.linalg.norm(cv2.Rodrigues(np.asarray(R, np.float64))[0])))
 
 
 def _camera_summary(c) -> dict:
@@ -109,7 +89,7 @@ def _camera_summary(c) -> dict:
             "dist": np.ravel(c.dist).tolist(), "std": {k: c.std.get(k) for k in ("fx", "fy", "cx", "cy")},
             "rms": cal.rms, "views_used": cal.n_used, "views": len(cal.names),
             "baseline": c.baseline, "baseline_std": c.std.get("baseline"),
-            "rotation_deg": _rotation_deg(c.R), "rotation_std_deg": c.std.get("rotation_deg"),
+            "rotation_deg": c.rotation_deg, "rotation_std_deg": c.std.get("rotation_deg"),
             "R": np.asarray(c.R).tolist(), "T": np.ravel(c.T).tolist()}
 
 

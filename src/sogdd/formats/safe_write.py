@@ -16,12 +16,13 @@ from __future__ import annotations
 
 import os
 import re
+import stat
 import tempfile
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
-__all__ = ["TMP_SUFFIX", "atomic_write", "check_not_inputs", "existing_file", "folder_holds",
-           "temporary_beside", "user_mode", "write_bytes", "write_text"]
+__all__ = ["TMP_SUFFIX", "atomic_write", "check_input_files", "check_not_inputs", "existing_file",
+           "folder_holds", "temporary_beside", "user_mode", "write_bytes", "write_text"]
 
 #: the suffix of a temporary file that is being written (an interrupted writer's are stale)
 TMP_SUFFIX = ".sogdd.tmp"
@@ -105,6 +106,43 @@ def existing_file(path: str | os.PathLike) -> Path | None:
         return Path(text)
     m = _FRAME.match(text)
     return Path(m.group(1)) if m and os.path.lexists(m.group(1)) else None
+
+
+def _kind(mode: int) -> str | None:
+    """What a file that is neither a regular file nor a folder is, or ``None`` for those two."""
+    if stat.S_ISREG(mode) or stat.S_ISDIR(mode):
+        return None
+    if stat.S_ISFIFO(mode):
+        return "a FIFO (named pipe)"
+    if stat.S_ISSOCK(mode):
+        return "a socket"
+    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
+        return "a device"
+    return "not a regular file"
+
+
+def check_input_files(paths: Iterable[str | os.PathLike], what: str = "an image file") -> None:
+    """Refuse inputs that are devices, FIFOs or sockets (``ValueError``, one line), before any work.
+
+    Reading ``/dev/zero`` or a FIFO never ends (or waits for a writer for ever),
+    so such an input is named and refused at the door. Missing files are left
+    to the reader, which names them.
+
+    Examples
+    --------
+    >>> check_input_files(["/dev/zero"])
+    Traceback (most recent call last):
+    ...
+    ValueError: /dev/zero: a device, not a file; give an image file
+    """
+    for path in paths:
+        p = existing_file(path)
+        try:
+            kind = _kind(os.stat(p).st_mode) if p is not None else None
+        except OSError:  # a broken link, no permission: the reader says so
+            kind = None
+        if kind:
+            raise ValueError(f"{p}: {kind}, not a file; give {what}")
 
 
 def _identity(path: Path) -> tuple:

@@ -2,6 +2,7 @@
 
 :mod:`.result`: :class:`RigCalibration` and :class:`RigCamera`, the result with its uncertainties.
 :mod:`.fit`: :func:`calibrate_rig`, the joint fit of every camera, its pose and every frame's board pose.
+:mod:`.connectivity`: which cameras share frames (each pair's frames and corners) and the groups they form.
 :mod:`.labels`: chessboard labels made to agree across the cameras of a frame (half turns, partial boards).
 :mod:`.uncertainty`: the parameters' covariance and the projection uncertainty, tied to the first camera.
 :mod:`.stereo`: :func:`stereo_pair`, a two-camera rig as OpenCV's stereo calibration and rectification.

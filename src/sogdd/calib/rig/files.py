@@ -7,7 +7,8 @@ unit of the board's square, the first camera identity and zero. A two-camera rig
 ``R``, ``T``, ``E``, ``F`` as ``cv2.stereoCalibrate`` names them (the second camera's pose in
 the first's frame, the essential and fundamental matrices) and ``R1``, ``R2``, ``P1``,
 ``P2``, ``Q`` as ``cv2.stereoRectify`` does (:func:`~sogdd.calib.rig.stereo.stereo_pair`).
-``rig.json`` holds the same with every standard deviation. Each camera's folder holds
+``rig.json`` holds the same with every standard deviation, and every figure the report shows
+(:func:`rig_dict`), each computed where the report's is. Each camera's folder holds
 the one-camera files (:func:`sogdd.calib.files.write_calibration`): its camera.yaml,
 camera.json, views.csv and corners.csv, its views named by its image files.
 
@@ -32,8 +33,10 @@ from ..._version import __version__
 from ...formats.safe_write import atomic_write, check_not_inputs, write_text
 from ..detection import ViewRecord
 from ..files import FILES, open_storage, write_calibration
+from .report import rectified_pair
 from .result import RigCalibration
 from .stereo import stereo_pair
+from .verdict import rig_verdict, uncertainty_summary
 
 __all__ = ["RIG_FILES", "STEREO_KEYS", "check_camera_names", "read_rig", "rig_dict", "write_rig",
            "write_rig_json", "write_rig_yaml"]
@@ -108,11 +111,23 @@ def rig_dict(rig: RigCalibration) -> dict:
     ``cameras``: per camera ``name``, ``model``, ``camera_matrix``,
     ``distortion_coefficients`` (OpenCV's order), ``distortion`` (by name),
     ``image_size`` ``[w, h]``, ``R`` (3x3), ``T`` (3), ``baseline`` (:math:`\\lVert T \\rVert`),
-    ``rms`` (px, its corners), ``views_used`` and ``std`` (``fx``, ``fy``, ``cx``, ``cy``, each
-    coefficient, ``T``, ``baseline``, ``rotation_deg``); then ``rms``, ``sigma``
-    (the corner noise, px), ``square``, ``frames`` (``name``, ``used``, the board's
-    ``rvec`` and ``tvec`` in the first camera's frame), ``notes``, ``model_selection``
-    where the models were chosen, and ``stereo`` (:data:`STEREO_KEYS`) for two cameras.
+    ``rotation_deg`` (the angle of ``R``, :attr:`RigCamera.rotation_deg
+    <sogdd.calib.rig.result.RigCamera.rotation_deg>`), ``rms`` (px, its corners),
+    ``views_used`` of ``views`` (one per frame), ``std`` (``fx``, ``fy``, ``cx``, ``cy``,
+    each coefficient, ``T``, ``baseline``, ``rotation_deg``), ``projection_uncertainty_px``
+    (``centre`` and ``worst``: a far point's, 1 sigma,
+    :func:`~sogdd.calib.rig.verdict.uncertainty_summary`) and, for each camera but the
+    reference, ``rectified`` (``frame``, ``shared_corners`` and ``vertical_disparity_px``
+    of the pair rectified with the reference, :func:`~sogdd.calib.rig.report.rectified_pair`;
+    None when they share no corner); then ``rms``, ``sigma`` (the corner noise, px),
+    ``square``, ``frames_used``, ``frames`` (``name``, ``used``, the board's ``rvec`` and
+    ``tvec`` in the first camera's frame, ``rms``: each camera's RMS in it, px), ``notes``,
+    ``verdict`` (``level``, ``text``: :func:`~sogdd.calib.rig.verdict.rig_verdict`; None, and
+    no uncertainty, for a rig without the fit's ``layout``, built by hand),
+    ``model_selection`` where the models were chosen, ``connectivity`` (``groups``: the
+    cameras the used views tie together; ``pairs``: each pair that shares frames, with its
+    ``frames`` and ``corners``, :mod:`~sogdd.calib.rig.connectivity`) from the fit, and
+    ``stereo`` (:data:`STEREO_KEYS`) for two cameras.
 
     Examples
     --------
@@ -120,31 +135,67 @@ def rig_dict(rig: RigCalibration) -> dict:
     >>> d = rig_dict(demo_rig())
     >>> [c["name"] for c in d["cameras"]], sorted(d["cameras"][1]["std"])[:4], sorted(d["stereo"])[:3]
     (['left', 'right'], ['T', 'baseline', 'cx', 'cy'], ['E', 'F', 'P1'])
+    >>> right = d["cameras"][1]
+    >>> round(right["rotation_deg"], 6) == round(demo_rig().camera("right").rotation_deg, 6)
+    True
+    >>> sorted(right["rectified"]), d["cameras"][0]["rectified"] is None
+    (['frame', 'shared_corners', 'vertical_disparity_px'], True)
+    >>> d["connectivity"]["groups"], d["connectivity"]["pairs"][0]["cameras"]
+    ([['left', 'right']], ['left', 'right'])
     """
-    cams = [{
-        "name": c.name, "model": c.model,
-        "camera_matrix": _plain(c.K), "distortion_coefficients": _plain(np.ravel(c.dist)),
-        "distortion": _plain(c.calibration.coefficients()),
-        "image_size": [int(c.image_size[0]), int(c.image_size[1])],
-        "R": _plain(c.R), "T": _plain(np.ravel(c.T)), "baseline": _num(c.baseline),
-        "rms": _num(c.calibration.rms), "views_used": c.calibration.n_used, "std": _plain(c.std),
-    } for c in rig.cameras]
+    # the uncertainty and the verdict read the covariance through the fit's layout, which a rig built by hand
+    # (not by calibrate_rig) may lack: it then has neither
+    fitted = all(f"{n}.intrinsics" in rig.layout for n in rig.names)
+    cams = []
+    for k, c in enumerate(rig.cameras):
+        centre, worst = uncertainty_summary(rig, c.name) if fitted else (float("nan"), float("nan"))
+        cams.append({
+            "name": c.name, "model": c.model,
+            "camera_matrix": _plain(c.K), "distortion_coefficients": _plain(np.ravel(c.dist)),
+            "distortion": _plain(c.calibration.coefficients()),
+            "image_size": [int(c.image_size[0]), int(c.image_size[1])],
+            "R": _plain(c.R), "T": _plain(np.ravel(c.T)), "baseline": _num(c.baseline),
+            "rotation_deg": _num(c.rotation_deg), "rms": _num(c.calibration.rms),
+            "views_used": c.calibration.n_used, "views": len(c.calibration.names),
+            "std": _plain(c.std), "projection_uncertainty_px": {"centre": _num(centre), "worst": _num(worst)},
+            "rectified": None if k == 0 else _rectified(rig, c.name),
+        })
+    view_rms = {c.name: c.calibration.view_rms for c in rig.cameras}
     out = {
         "cameras": cams,
         "reference": rig.cameras[0].name,
         "pose_convention": f"x_NAME = R x_{rig.cameras[0].name} + T, T in the square's unit",
         "rms": _num(rig.rms), "sigma": _num(rig.sigma), "square": float(rig.square),
-        "frames": [{"name": f, "used": bool(u), "rvec": _plain(rv), "tvec": _plain(tv)}
-                   for f, u, rv, tv in zip(rig.frames, rig.frame_used, rig.rvecs, rig.tvecs)],
+        "frames_used": int(np.sum(rig.frame_used)),
+        "frames": [{"name": f, "used": bool(u), "rvec": _plain(rv), "tvec": _plain(tv),
+                    "rms": {n: _num(r[i]) for n, r in view_rms.items()}}
+                   for i, (f, u, rv, tv) in enumerate(zip(rig.frames, rig.frame_used, rig.rvecs, rig.tvecs))],
         "notes": list(rig.notes),
+        "verdict": [{"level": level, "text": text} for level, text in rig_verdict(rig)] if fitted else None,
     }
     if rig.model_selection is not None:
         out["model_selection"] = _plain(rig.model_selection)
+    if rig.connectivity is not None:
+        con = rig.connectivity
+        out["connectivity"] = {
+            "groups": [list(g) for g in con.components],
+            "pairs": [{"cameras": [a, b], "frames": int(con.frames[i, j]), "corners": int(con.corners[i, j])}
+                      for i, a in enumerate(con.names) for j, b in enumerate(con.names)
+                      if i < j and con.frames[i, j] > 0]}
     if len(rig.cameras) == 2:
         pair = stereo_pair(rig)
         out["stereo"] = {k: _plain(getattr(pair, k)) for k in STEREO_KEYS}
     out["sogdd_version"] = __version__
     return out
+
+
+def _rectified(rig: RigCalibration, name: str) -> dict | None:
+    """Camera ``name`` rectified with the reference, as the report shows it (None: no shared corner)."""
+    check = rectified_pair(rig, name)
+    if check is None:
+        return None
+    return {"frame": rig.frames[check.frame], "shared_corners": len(check.shared),
+            "vertical_disparity_px": _num(check.disparity)}
 
 
 def write_rig_yaml(rig: RigCalibration, path: str | os.PathLike) -> Path:

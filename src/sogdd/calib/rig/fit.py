@@ -16,8 +16,7 @@ from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
-from scipy.optimize import least_squares
-from scipy.sparse import coo_matrix
+from scipy.sparse import csr_matrix
 
 from ..cameras import MODELS, check_size
 from ..cameras.models import distort, fisheye_distorted
@@ -25,11 +24,12 @@ from ..fit import _std_dict, calibrate
 from ..model_selection import ModelChoice, check_model_choice
 from ..rejection import State, _reject_corners, _reject_view, robust_limit
 from ..result import Calibration
-from ..solvers import _rodrigues
+from ..solvers import BlockNormal, _rodrigues
 from ..targets.board import Board
 from ..weighting import corner_weights
 from . import labels as _labels
 from . import uncertainty as _unc
+from .connectivity import Connectivity, rig_connectivity
 from .result import RigCalibration, RigCamera
 
 __all__ = ["calibrate_rig"]
@@ -271,6 +271,11 @@ class _Layout:
     size: int
 
 
+def _n_cameras(lay: _Layout) -> int:
+    """How many parameters are the cameras' (intrinsics and poses): they come first, the frames' after."""
+    return min((s.start for s in lay.frame.values()), default=lay.size)
+
+
 def _layout(nds: list[int], frames: list[int], private: list[bool]) -> _Layout:
     intr, pose, at = [], [], 0
     for c, nd in enumerate(nds):
@@ -321,15 +326,22 @@ def _gather(states, square, take, private) -> _Corners:
                     np.concatenate(w))
 
 
-def _predict(x: np.ndarray, lay: _Layout, models: list[str], co: _Corners) -> np.ndarray:
-    """Projected pixels (N, 2) of the corners: :math:`\\pi_c(R_c (R_f X + t_f) + T_c)`, all at once."""
-    fr = np.zeros((int(co.frame.max()) + 1 if len(co.frame) else 1, 6))
+def _poses(x: np.ndarray, lay: _Layout, n_cams: int, n_frames: int) -> tuple[np.ndarray, np.ndarray]:
+    """Every joint frame's board pose (n_frames, 6) and every camera's pose (n_cams, 6) in ``x`` (zero where
+    fixed or unused): rvec, tvec."""
+    fr = np.zeros((n_frames, 6))
     for f, s in lay.frame.items():
         fr[f] = x[s]
-    cams = np.zeros((len(models), 6))
+    cams = np.zeros((n_cams, 6))
     for c, s in enumerate(lay.pose):
         if s is not None:
             cams[c] = x[s]
+    return fr, cams
+
+
+def _predict(x: np.ndarray, lay: _Layout, models: list[str], co: _Corners) -> np.ndarray:
+    """Projected pixels (N, 2) of the corners: :math:`\\pi_c(R_c (R_f X + t_f) + T_c)`, all at once."""
+    fr, cams = _poses(x, lay, len(models), int(co.frame.max()) + 1 if len(co.frame) else 1)
     p = np.einsum("nij,nj->ni", _rodrigues(fr[:, :3])[co.frame], co.X) + fr[co.frame, 3:]
     p = np.einsum("nij,nj->ni", _rodrigues(cams[:, :3])[co.cam], p) + cams[co.cam, 3:]
     out = np.empty((len(p), 2))
@@ -346,55 +358,118 @@ def _predict(x: np.ndarray, lay: _Layout, models: list[str], co: _Corners) -> np
     return out
 
 
-def _sparsity(lay: _Layout, co: _Corners):
-    """Each residual depends on its camera's intrinsics, its camera's pose, and its frame's pose."""
-    rows, cols = [], []
-    r2 = np.arange(2 * len(co.cam)).reshape(-1, 2)
-    blocks = [(co.cam == c, lay.intr[c]) for c in range(len(lay.intr))]
-    blocks += [(co.cam == c, s) for c, s in enumerate(lay.pose) if s is not None]
-    blocks += [(co.frame == f, s) for f, s in lay.frame.items()]
-    for sel, s in blocks:
-        rr = r2[sel].ravel()
-        cc = np.arange(s.start, s.stop)
-        rows.append(np.repeat(rr, len(cc)))
-        cols.append(np.tile(cc, len(rr)))
-    r, c = np.concatenate(rows), np.concatenate(cols)
-    return coo_matrix((np.ones(len(r), np.int8), (r, c)), shape=(2 * len(co.cam), lay.size)).tocsr()
+def _whitened(x: np.ndarray, lay: _Layout, models: list[str], co: _Corners) -> np.ndarray:
+    """The fit's residuals (2N,): each corner's observed minus projected pixel times its weight, ``u, v``
+    interleaved (the rows of OpenCV's projection Jacobians)."""
+    return ((co.uv - _predict(x, lay, models, co)) * co.w[:, None]).ravel()
 
 
-# below this many Jacobian entries the trust-region steps are solved exactly on a dense Jacobian (a few
-# iterations); above it by LSMR on the sparse one (more, cheaper iterations, bounded memory)
-_DENSE_MAX = 4_000_000
+def _projection_jacobian(X: np.ndarray, rv: np.ndarray, tv: np.ndarray, intr: np.ndarray, model: str):
+    """OpenCV's derivatives of the pixels of board points ``X`` (n, 3) seen from the pose ``rv, tv``:
+    with respect to the pose (2n, 6: rvec, tvec) and to the intrinsics (2n, 4 + nd: fx, fy, cx, cy,
+    distortion), rows ``u, v`` interleaved."""
+    K = np.array([[intr[0], 0.0, intr[2]], [0.0, intr[1], intr[3]], [0.0, 0.0, 1.0]])
+    if model == "fisheye":  # its columns: fx, fy, cx, cy, k1..k4, rvec, tvec, skew
+        J = cv2.fisheye.projectPoints(X[:, None, :], rv, tv, K, intr[4:])[1]
+        return J[:, 8:14], J[:, :8]
+    J = cv2.projectPoints(X, rv, tv, K, intr[4:])[1]  # rvec, tvec, fx, fy, cx, cy, distortion
+    return J[:, :6], J[:, 6:]
 
 
-def _groups(lay: _Layout) -> list[np.ndarray]:
-    """Columns that share no residual, perturbed together: the j-th intrinsic of every camera, the
-    j-th pose term of every camera, the j-th pose term of every frame."""
-    out = [np.array([s.start + j for s in lay.intr if s.stop - s.start > j])
-           for j in range(max(s.stop - s.start for s in lay.intr))]
-    poses = [s for s in lay.pose if s is not None]
-    frames = list(lay.frame.values())
-    out += [np.array([s.start + j for s in poses]) for j in range(6) if poses]
-    out += [np.array([s.start + j for s in frames]) for j in range(6) if frames]
+def _chain(drdr, drdt, dtdr, dtdt) -> np.ndarray:
+    """The 6 x 6 derivative of a composed ``(rvec, tvec)`` with respect to one pose's ``(rvec, tvec)``."""
+    out = np.empty((6, 6))
+    out[:3, :3], out[:3, 3:], out[3:, :3], out[3:, 3:] = drdr, drdt, dtdr, dtdt
     return out
 
 
-def _jacobian(fun, x: np.ndarray, lay: _Layout, S, dense: bool):
-    """Forward differences on the sparsity ``S`` (CSC), one residual evaluation per column group."""
-    f0 = fun(x)
-    rows, cols, vals = [], [], []
-    for g in _groups(lay):
-        h = 1e-7 * np.maximum(np.abs(x[g]), 1.0)
-        x1 = x.copy()
-        x1[g] += h
-        df = fun(x1) - f0
-        for j, hj in zip(g, h):
-            r = S.indices[S.indptr[j]:S.indptr[j + 1]]
-            rows.append(r)
-            cols.append(np.full(len(r), j))
-            vals.append(df[r] / hj)
-    J = coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=S.shape)
-    return J.toarray() if dense else J.tocsr()
+def _jacobian(x: np.ndarray, lay: _Layout, models: list[str], co: _Corners) -> csr_matrix:
+    """The Jacobian (2N, P) of :func:`_whitened`, sparse: view by view, the projection's derivatives
+    (:func:`_projection_jacobian`) with respect to the intrinsics, and to the composed pose
+    :math:`(R_c R_f, R_c t_f + T_c)` chained to the camera's and the frame's pose by ``cv2.composeRT``'s
+    derivatives; times minus each corner's weight. A camera whose pose is fixed (the first, one without
+    a pose) sees its frames' poses directly."""
+    fr, cams = _poses(x, lay, len(models), int(co.frame.max()) + 1 if len(co.frame) else 1)
+    data, indices, counts = [], [], []
+    for c, _, _, s in co.segments:
+        f = int(co.frame[s.start])
+        if lay.pose[c] is None:
+            Jp, Ji = _projection_jacobian(co.X[s], fr[f, :3], fr[f, 3:], x[lay.intr[c]], models[c])
+            blocks, slices = [Ji, Jp], [lay.intr[c], lay.frame[f]]
+        else:
+            rv, tv, *d = cv2.composeRT(fr[f, :3], fr[f, 3:], cams[c, :3], cams[c, 3:])
+            Jp, Ji = _projection_jacobian(co.X[s], rv, tv, x[lay.intr[c]], models[c])
+            # composeRT's d(rv, tv) / d(camera's rvec, tvec), and / d(frame's rvec, tvec)
+            blocks = [Ji, Jp @ _chain(d[2], d[3], d[6], d[7]), Jp @ _chain(d[0], d[1], d[4], d[5])]
+            slices = [lay.intr[c], lay.pose[c], lay.frame[f]]
+        # each row's entries in increasing columns (a camera's intrinsics, its pose, then the frames'): the
+        # CSR arrays directly, row after row
+        data.append((np.hstack(blocks) * -np.repeat(co.w[s], 2)[:, None]).ravel())
+        cols = np.concatenate([np.arange(sl.start, sl.stop) for sl in slices])
+        indices.append(np.tile(cols, 2 * (s.stop - s.start)))
+        counts.append(np.full(2 * (s.stop - s.start), len(cols)))
+    shape = (2 * len(co.cam), lay.size)
+    if not data:
+        return csr_matrix(shape)
+    indptr = np.r_[0, np.cumsum(np.concatenate(counts))]
+    return csr_matrix((np.concatenate(data), np.concatenate(indices), indptr), shape=shape)
+
+
+# up to this many parameters the covariance is the full inverse (P x P, O(P^3)); beyond, the cameras' block
+# alone, by the Schur complement of the frames' poses (:func:`~.uncertainty.camera_covariance`)
+_FULL_COVARIANCE_MAX = 1000
+
+
+def _normal(J: csr_matrix, r: np.ndarray, n: int) -> BlockNormal:
+    """The normal equations :math:`J^T J \\delta = -J^T r` of the whitened fit by blocks
+    (:class:`~sogdd.calib.solvers.BlockNormal`): the first ``n`` parameters (the cameras') against each
+    frame's pose; the frames share no residual, so their part of :math:`J^T J` is block-diagonal."""
+    H = (J.T @ J).tocsr()
+    g = -(J.T @ r)
+    m = (J.shape[1] - n) // 6
+    Hf = H[n:, n:].tocoo()
+    P = np.zeros((m, 6, 6))
+    P[Hf.row // 6, Hf.row % 6, Hf.col % 6] = Hf.data
+    W = H[:n, n:].toarray().reshape(n, m, 6).transpose(1, 0, 2)
+    return BlockNormal(H[:n, :n].toarray(), W, P, g[:n], g[n:].reshape(m, 6))
+
+
+@dataclass
+class _Solution:
+    x: np.ndarray
+    fun: np.ndarray  # the whitened residuals at x
+    jac: csr_matrix  # their Jacobian at x
+
+
+def _levenberg_marquardt(fun, jac, x0: np.ndarray, n: int, max_iterations: int = 100) -> _Solution:
+    """Minimise :math:`\\lVert r(x) \\rVert^2` by Levenberg-Marquardt from ``x0``: each step solves
+    :math:`(N + \\lambda\\,\\mathrm{diag} N) \\delta = -J^T r`, :math:`N = J^T J`, with the frames' poses
+    (every parameter after the first ``n``) eliminated by their Schur complement
+    (:meth:`~sogdd.calib.solvers.BlockNormal.solve`), and is kept when it lowers the cost; it stops when a
+    step lowers the cost by less than 1e-10 of it (``ftol`` of the dense fit) or no damping helps."""
+    x, r, J = x0, fun(x0), jac(x0)
+    cost, lam = float(r @ r), 1e-3
+    for _ in range(max_iterations):
+        ne, improved, done = _normal(J, r, n), False, False
+        while lam < 1e10:
+            try:
+                step = ne.solve(lam)
+            except np.linalg.LinAlgError:
+                lam *= 10
+                continue
+            r2 = fun(x + step)
+            c2 = float(r2 @ r2)
+            if np.isfinite(c2) and c2 < cost:
+                done = cost - c2 <= 1e-10 * cost
+                x, r, cost, lam, improved = x + step, r2, c2, max(lam / 10, 1e-9), True
+                break
+            lam *= 10
+        if not improved:
+            break
+        J = jac(x)
+        if done:
+            break
+    return _Solution(x, r, J)
 
 
 @dataclass
@@ -419,13 +494,9 @@ def _solve(states, par: _Params, models, square, private):
         x0[s] = par.frames[f]
 
     def fun(x):  # whitened: each corner's residual times its weight (each camera's own set's, mono's)
-        return ((used.uv - _predict(x, lay, models, used)) * used.w[:, None]).ravel()
+        return _whitened(x, lay, models, used)
 
-    S = _sparsity(lay, used).tocsc()
-    dense = S.shape[0] * S.shape[1] <= _DENSE_MAX
-    sol = least_squares(fun, x0, jac=lambda x: _jacobian(fun, x, lay, S, dense), method="trf", x_scale="jac",
-                        tr_solver="exact" if dense else "lsmr", xtol=1e-10, ftol=1e-10, gtol=1e-10,
-                        max_nfev=100)
+    sol = _levenberg_marquardt(fun, lambda x: _jacobian(x, lay, models, used), x0, _n_cameras(lay))
     for c in range(len(models)):
         par.intr[c] = sol.x[lay.intr[c]].copy()
         if lay.pose[c] is not None:
@@ -552,8 +623,10 @@ def calibrate_rig(
     .. math::
         \\sum_{c, f, i} \\lVert u_{cfi} - \\pi_c(R_c (R_f X_i + t_f) + T_c) \\rVert^2
 
-    (``scipy.optimize.least_squares``, TRF, the Jacobian's sparsity given: a
-    residual depends on its camera's intrinsics and pose and its frame's pose),
+    (Levenberg-Marquardt on the sparse Jacobian, OpenCV's analytic derivatives: a
+    residual depends on its camera's intrinsics and pose and its frame's pose, so
+    each step eliminates the frames' poses by their Schur complement and solves for
+    the cameras' parameters alone: time and memory grow linearly with the frames),
     each corner's residual whitened by its measured precision where the boards
     carry one: times :func:`~sogdd.calib.weighting.corner_weights` relative to
     its camera's typical corner (``Calibration.typical_precision`` of its own
@@ -565,8 +638,8 @@ def calibrate_rig(
     whole (:func:`~sogdd.calib.rig.labels.consensus`, over the half turns a
     symmetric board allows; without such frames, over the placements of a partial
     board inside the whole one; without any, through a camera already placed; a
-    camera that nothing ties to the first keeps its views in frames of its own,
-    its pose NaN); each frame's labels fixed by one camera (a whole
+    camera whose shared views its own calibration rejected keeps its views in
+    frames of its own, its pose NaN); each frame's labels fixed by one camera (a whole
     board first, the first camera first) and the others' observations relabelled
     against the frame's predicted pose (:func:`~sogdd.calib.rig.labels.resolve`),
     dropped with the reason when no relabelling is clearly best. Rejection
@@ -603,7 +676,9 @@ def calibrate_rig(
     ValueError
         Cameras with different frame counts, an unknown model, a missing image
         size, a camera with fewer than ``min_views`` usable views (its name and
-        the mono error), a bad ``pattern``, or frame or view names that do not match the frames.
+        the mono error), a bad ``pattern``, frame or view names that do not match the frames, or
+        cameras in groups that no frame shows the board to both of
+        (:meth:`~sogdd.calib.rig.connectivity.Connectivity.problem`: the groups named).
 
     Examples
     --------
@@ -623,6 +698,9 @@ def calibrate_rig(
             raise ValueError(f"camera {n!r}: {exc}") from None
     pattern = _check_pattern(pattern)
     frame_names, views = _check_names(frames, view_names, names, F)
+    con = rig_connectivity(blists)  # before any camera's calibration: a rig in pieces cannot be fitted
+    if not con.connected:
+        raise ValueError(con.problem())
     kw = dict(square=square, reject=reject, k=k, floor=floor, min_corners=min_corners, min_views=min_views,
               max_iterations=max_iterations)
     mono = _mono(names, blists, sizes, mods, views, kw)
@@ -653,13 +731,29 @@ def calibrate_rig(
                    (reject, k, floor, min_views, min_corners, max_iterations))
 
 
+def _used_connectivity(names, states, private) -> Connectivity:
+    """Which cameras the joint fit's used views tie together (a camera without a pose: its own frames)."""
+    F = len(states[0].boards)
+    counts = np.zeros((len(names), F * (len(names) + 1)), np.int64)
+    for c, st in enumerate(states):
+        for f in np.flatnonzero(st.view_ok):
+            counts[c, _joint_frame(c, f, F, private[c])] = int(np.sum(st.corner_ok[f]))
+    return Connectivity.from_counts(names, counts[:, counts.any(axis=0)])
+
+
 def _finish(names, states, par, frame_names, square, notes, resolved, private, selections,
             opts) -> RigCalibration:
     models = [st.model for st in states]
     sol, lay, res, thresholds = _iterate(states, par, models, square, [resolved[n] for n in names], private,
                                          opts)
-    JtJ = sol.jac.T @ sol.jac
-    cov, sigma, std_note = _unc.covariance(JtJ.toarray() if hasattr(JtJ, "toarray") else JtJ, sol.fun)
+    full = lay.size <= _FULL_COVARIANCE_MAX
+    if full:
+        cov, sigma, std_note = _unc.covariance((sol.jac.T @ sol.jac).toarray(), sol.fun)
+    else:  # a large fit: the cameras' block alone, without the dense inverse of every frame's pose
+        n_cam = _n_cameras(lay)
+        cov, sigma, std_note = _unc.camera_covariance(_normal(sol.jac, sol.fun, n_cam), sol.fun)
+        notes.append(f"the covariance holds the cameras' {n_cam} parameters alone: the {len(lay.frame)} "
+                     "frames' poses are eliminated (their Schur complement), too many for the full matrix")
     if std_note:
         notes.append(f"no standard deviations: {std_note}")
     cameras = tuple(_camera_result(c, n, st, res[c], par, thresholds[c], cov, lay, std_note, private[c],
@@ -671,7 +765,7 @@ def _finish(names, states, par, frame_names, square, notes, resolved, private, s
         if lay.pose[c] is not None:
             layout[f"{n}.pose"] = lay.pose[c]
     F = len(frame_names)
-    for f, s in lay.frame.items():  # a camera without a pose has frames of its own
+    for f, s in lay.frame.items() if full else ():  # a camera without a pose has frames of its own
         layout[f"frame.{f}.pose" if f < F else f"{names[f // F - 1]}.frame.{f % F}.pose"] = s
     used = np.array([f in lay.frame for f in range(F)])
     fr = np.where(used[:, None], par.frames[:F], np.nan)
@@ -682,4 +776,5 @@ def _finish(names, states, par, frame_names, square, notes, resolved, private, s
         cameras=cameras, frames=tuple(frame_names), rvecs=fr[:, :3].copy(), tvecs=fr[:, 3:].copy(),
         frame_used=used, rms=float(np.sqrt(np.mean(r2))), sigma=sigma, covariance=cov,
         layout=layout, square=square, notes=tuple(notes),
-        model_selection={n: s for n, s in selections.items() if s is not None} or None)
+        model_selection={n: s for n, s in selections.items() if s is not None} or None,
+        connectivity=_used_connectivity(names, states, private))

@@ -25,11 +25,11 @@ from ...formats.safe_write import write_text
 from ..detection import Thumbnail, ViewRecord
 from ..report import _plt, _save, write_report
 from .result import RigCalibration, RigCamera
-from .stereo import rectify_points, stereo_pair
+from .stereo import StereoPair, rectify_points, stereo_pair
 from .uncertainty import projection_uncertainty
 from .verdict import rig_verdict
 
-__all__ = ["write_rig_report"]
+__all__ = ["RectifiedPair", "rectified_pair", "write_rig_report"]
 
 _COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown")
 
@@ -163,10 +163,61 @@ def _rectified(cam: RigCamera, Rr: np.ndarray, P: np.ndarray, thumb: Thumbnail |
     return cv2.remap(thumb.image, m1, m2, cv2.INTER_LINEAR, borderValue=255)
 
 
-def _pair_figure(rig: RigCalibration, other: RigCamera, thumbnails, path: Path) -> float | None:
-    """The reference and ``other`` rectified side by side in the frame they share most corners of; the
-    RMS vertical disparity of the shared corners (px), or None when they share no frame."""
-    first = rig.cameras[0]
+@dataclasses.dataclass(frozen=True)
+class RectifiedPair:
+    """Two cameras, the reference and another, rectified in the frame they share most corners of.
+
+    What :func:`rectified_pair` returns.
+
+    Attributes
+    ----------
+    pair : StereoPair
+        The two cameras' rectification (:func:`~sogdd.calib.rig.stereo.stereo_pair`).
+    frame : int
+        The frame's index in ``rig.frames``.
+    points : (dict, dict)
+        Per camera (the reference, then the other), each corner's label ``(i, j)``
+        -> its rectified pixel ``(x, y)`` (:func:`~sogdd.calib.rig.stereo.rectify_points`).
+    """
+
+    pair: StereoPair
+    frame: int
+    points: tuple[dict, dict]
+
+    @property
+    def shared(self) -> list[tuple[int, int]]:
+        """The labels both cameras saw, sorted."""
+        return sorted(set(self.points[0]) & set(self.points[1]))
+
+    @property
+    def disparity(self) -> float:
+        """The RMS vertical disparity of the shared corners (px): :math:`\\sqrt{\\overline{(y_1 - y_2)^2}}`,
+        0 for a perfect rectification (a point's two images on one row); NaN without a shared corner."""
+        dy = np.array([self.points[0][s][1] - self.points[1][s][1] for s in self.shared])
+        return float(np.sqrt(np.mean(dy ** 2))) if len(dy) else float("nan")
+
+
+def rectified_pair(rig: RigCalibration, name: str) -> RectifiedPair | None:
+    """The reference camera and camera ``name`` rectified, in the used frame where they share most corners.
+
+    What the report draws for each pair, and what ``rig.json`` holds of it
+    (:func:`~sogdd.calib.rig.files.rig_dict`): the corners of both views mapped
+    into the rectified images, whose vertical disparity measures the
+    calibration (a point's two images share one row when it is right).
+
+    Returns
+    -------
+    RectifiedPair or None
+        None when the two cameras share no corner in any used frame.
+
+    Examples
+    --------
+    >>> from sogdd.calib.rig.demo import demo_rig
+    >>> check = rectified_pair(demo_rig(), "right")
+    >>> len(check.shared), bool(check.disparity < 0.2)  # px: the demo's corners carry noise
+    (54, True)
+    """
+    first, other = rig.cameras[0], rig.camera(name)
     best, count = None, 0
     for f in np.flatnonzero(rig.frame_used):
         a, b = first.calibration.boards[f], other.calibration.boards[f]
@@ -174,36 +225,42 @@ def _pair_figure(rig: RigCalibration, other: RigCamera, thumbnails, path: Path) 
             continue
         n = len({tuple(t) for t in a.labels} & {tuple(t) for t in b.labels})
         if n > count:
-            best, count = f, n
+            best, count = int(f), n
     if best is None:
         return None
     pair = stereo_pair(rig, first.name, other.name)
+    points = []
+    for which, cam in enumerate((first, other)):
+        board = cam.calibration.boards[best]
+        q = rectify_points(pair, cam.K, cam.dist, cam.model, board.image_points, which + 1)
+        points.append(dict(zip(map(tuple, board.labels), q)))
+    return RectifiedPair(pair, best, (points[0], points[1]))
+
+
+def _pair_figure(rig: RigCalibration, check: RectifiedPair, thumbnails, path: Path) -> None:
+    """The reference and the other camera of ``check`` rectified side by side, their corners marked."""
+    first, other = rig.cameras[0], rig.camera(check.pair.names[1])
+    pair, best = check.pair, check.frame
     w, h = first.image_size
     scale = 480.0 / max(w, h)
     size = (int(round(w * scale)), int(round(h * scale)))
     A = _thumb_matrix(scale)
     plt = _plt()
     fig, axes = plt.subplots(1, 2, figsize=(10, 10 * size[1] / size[0] / 2 + 0.8))
-    rect = {}
     for ax, cam, Rr, P, which in ((axes[0], first, pair.R1, pair.P1, 0), (axes[1], other, pair.R2, pair.P2, 1)):
         thumb = thumbnails.get(cam.name, [None] * len(rig.frames))[best] if thumbnails else None
         ax.imshow(_rectified(cam, Rr, P, thumb, size, scale), cmap="gray", vmin=0, vmax=255)
-        board = cam.calibration.boards[best]
-        q = rectify_points(pair, cam.K, cam.dist, cam.model, board.image_points, which + 1)
-        rect[which] = dict(zip(map(tuple, board.labels), q))
+        q = np.array(list(check.points[which].values()))
         qt = np.c_[q, np.ones(len(q))] @ A.T
         ax.plot(qt[:, 0], qt[:, 1], "+", ms=4, color=_COLOURS[which])
         for y in np.linspace(0, size[1], 12)[1:-1]:
             ax.axhline(y, color="y", lw=0.6)
         ax.set_title(f"{cam.name}, frame {rig.frames[best]}", fontsize=9)
         ax.set_axis_off()
-    shared = sorted(set(rect[0]) & set(rect[1]))
-    dy = np.array([rect[0][s][1] - rect[1][s][1] for s in shared])
-    disparity = float(np.sqrt(np.mean(dy ** 2))) if len(dy) else float("nan")
     fig.suptitle(f"rectified pair {first.name} / {other.name}: the same corner lies on the same row; "
-                 f"vertical disparity {disparity:.3f} px RMS over {len(dy)} shared corners", fontsize=9)
+                 f"vertical disparity {check.disparity:.3f} px RMS over {len(check.shared)} shared corners",
+                 fontsize=9)
     _save(fig, path)
-    return disparity
 
 
 def _fmt(v: float, digits: int = 4) -> str:
@@ -214,12 +271,11 @@ def _camera_rows(rig: RigCalibration) -> str:
     rows = []
     for cam in rig.cameras:
         K, s = cam.K, cam.std
-        angle = float(np.degrees(np.arccos(np.clip((np.trace(cam.R) - 1) / 2, -1, 1))))
         cells = [html.escape(cam.name), cam.model, f"{cam.image_size[0]}x{cam.image_size[1]}"]
         cells += [f"{_fmt(K[i, j], 6)} ± {_fmt(s.get(n, np.nan), 2)}"
                   for n, (i, j) in (("fx", (0, 0)), ("fy", (1, 1)), ("cx", (0, 2)), ("cy", (1, 2)))]
         cells += [f"{_fmt(cam.baseline)} ± {_fmt(s.get('baseline', np.nan), 2)}",
-                  f"{angle:.3f} ± {_fmt(s.get('rotation_deg', np.nan), 2)}",
+                  f"{cam.rotation_deg:.3f} ± {_fmt(s.get('rotation_deg', np.nan), 2)}",
                   f"{cam.calibration.rms:.4f}", f"{cam.calibration.n_used} of {len(rig.frames)}",
                   f'<a href="{html.escape(cam.name)}/report.html">report</a>']
         rows.append("<tr>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
@@ -301,9 +357,10 @@ def write_rig_report(rig: RigCalibration, out_dir: str | os.PathLike, *,
         write_report(cam.calibration, out / cam.name, images=thumbs,
                      views=views.get(cam.name) if views else None, title=f"{title}: camera {cam.name}")
     for cam in rig.cameras[1:]:
-        d = _pair_figure(rig, cam, thumbnails, figs / f"rectified_{cam.name}.png")
-        if d is not None:
-            pairs.append((cam.name, d))
+        check = rectified_pair(rig, cam.name)
+        if check is not None:
+            _pair_figure(rig, check, thumbnails, figs / f"rectified_{cam.name}.png")
+            pairs.append((cam.name, check.disparity))
     page = out / "report.html"
     write_text(page, _html(rig, title, maps, pairs))
     return page

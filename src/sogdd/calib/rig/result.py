@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..result import Calibration
+from .connectivity import Connectivity
 
 __all__ = ["RigCalibration", "RigCamera"]
 
@@ -75,6 +76,27 @@ class RigCamera:
         """:math:`\\lVert T \\rVert`, the distance to the first camera (the square's unit)."""
         return float(np.linalg.norm(self.T))
 
+    @property
+    def rotation_deg(self) -> float:
+        """The angle of ``R``, the rotation from the first camera's frame, in degrees (NaN without a pose).
+
+        :math:`\\theta = \\operatorname{atan2}\\big(\\tfrac12 \\lVert (R_{32} - R_{23}, R_{13} - R_{31},
+        R_{21} - R_{12}) \\rVert,\\ \\tfrac12 (\\operatorname{tr} R - 1)\\big)`: the norm of the rotation
+        vector, :math:`\\sin\\theta` and :math:`\\cos\\theta` of the same matrix, so that a small angle
+        keeps its digits (``arccos`` of the trace alone loses them near 0).
+
+        Examples
+        --------
+        >>> import cv2
+        >>> from sogdd.calib.rig.demo import demo_rig
+        >>> right = demo_rig().camera("right")
+        >>> bool(np.isclose(right.rotation_deg, np.degrees(np.linalg.norm(cv2.Rodrigues(right.R)[0]))))
+        True
+        """
+        R = np.asarray(self.R, np.float64)
+        sin = 0.5 * np.linalg.norm([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+        return float(np.degrees(np.arctan2(sin, 0.5 * (np.trace(R) - 1.0))))
+
 
 @dataclass(frozen=True)
 class RigCalibration:
@@ -100,7 +122,9 @@ class RigCalibration:
         camera's typical corner, :mod:`~sogdd.calib.weighting`).
     covariance : (P, P) float64
         Of the fit's free parameters, :math:`\\sigma^2 (J^T J)^{-1}`; empty when
-        the fit is degenerate.
+        the fit is degenerate. On a large fit (over 1,000 parameters) the cameras'
+        block alone, the frames' poses eliminated (their Schur complement; a note
+        says so), and ``layout`` has no frame entries.
     layout : dict of str to slice
         Where each block lies in ``covariance``: ``"NAME.intrinsics"`` (``fx, fy,
         cx, cy`` then the distortion coefficients), ``"NAME.pose"`` (rotation
@@ -113,6 +137,10 @@ class RigCalibration:
         What the fit could not do, and what it decided (frames dropped, labels turned).
     model_selection : mapping of str to object, optional
         Per camera, how ``model="auto"`` chose its model.
+    connectivity : Connectivity, optional
+        Which cameras the views the joint fit used tie together: each pair's shared
+        frames and corners, the groups (:mod:`~sogdd.calib.rig.connectivity`; a camera
+        without a pose is a group of its own).
     """
 
     cameras: tuple[RigCamera, ...]
@@ -127,6 +155,7 @@ class RigCalibration:
     square: float = 1.0
     notes: tuple[str, ...] = ()
     model_selection: Mapping[str, object] | None = field(default=None)
+    connectivity: Connectivity | None = None
 
     @property
     def names(self) -> tuple[str, ...]:

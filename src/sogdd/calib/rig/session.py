@@ -11,11 +11,17 @@ writes the output folder: rig.yaml, rig.json, report.html with its figures, and 
 camera's own files in ``NAME/`` (:mod:`sogdd.calib.rig.files`), under the one-camera
 session's contract (:func:`sogdd.calib.session.write_folder`): the folder ends complete
 or as it was, and only a missing or empty folder or a previous output is replaced.
+:func:`calibrate_rig_into` is the two in one, what ``sogdd calibrate --camera ...`` runs.
+
+A rig's own rules are checked at the door, before any image is read, each a one-line
+:class:`~sogdd.calib.session.ParameterError` naming the parameters (the command line
+names its flags instead): two or more cameras with valid names, a board of known size
+(``chessboard:auto`` cannot be a rig's: the cameras' corner labels must agree), and
+one board per image (``boards="best"``: a frame is one pose of one board).
 """
 
 from __future__ import annotations
 
-import numbers
 import os
 import re
 from collections.abc import Iterable, Mapping, Sequence
@@ -24,8 +30,9 @@ from pathlib import Path
 from typing import Literal
 
 from ...collection import expand_inputs, relative_names
-from ...formats.safe_write import TMP_SUFFIX
+from ...formats.safe_write import TMP_SUFFIX, check_input_files
 from ..detection import (
+    BOARD_CHOICES,
     THUMB_WIDTH,
     Thumbnail,
     ViewRecord,
@@ -35,15 +42,23 @@ from ..detection import (
     pick_boards,
 )
 from ..model_selection import ModelChoice, check_model_choice, select_model
-from ..session import _check_results, _image_size, check_output_folder, foreign_entry, write_folder
+from ..session import (
+    ParameterError,
+    check_detections,
+    check_output_folder,
+    check_run_parameters,
+    common_image_size,
+    foreign_entry,
+    write_folder,
+)
 from ..targets.spec import BoardSpec, parse_board
 from .files import RIG_FILES, check_camera_names, write_rig
 from .fit import calibrate_rig
 from .frames import match_frames
 from .result import RigCalibration
 
-__all__ = ["RigImageCalibration", "calibrate_rig_images", "check_rig_output_folder", "foreign_rig_entry",
-           "write_rig_outputs"]
+__all__ = ["RigImageCalibration", "calibrate_rig_images", "calibrate_rig_into", "check_rig_output_folder",
+           "foreign_rig_entry", "write_rig_outputs"]
 
 Inputs = str | os.PathLike | Iterable[str | os.PathLike]
 _FIGURE = re.compile(r"(extrinsics|errors|(uncertainty|rectified)_[A-Za-z0-9_-]+)\.png")
@@ -82,13 +97,21 @@ class RigImageCalibration:
         return tuple(v for views in self.views.values() for v in views if v.status == "unreadable")
 
 
-def _check_spec(board: str | BoardSpec) -> BoardSpec:
+def _check_spec(board: str | BoardSpec, boards: str) -> BoardSpec:
+    """The rig's board: of known size, one per image."""
     spec = parse_board(board) if isinstance(board, str) else board
     if not isinstance(spec, BoardSpec):
         raise TypeError(f"board must be a specification string or a BoardSpec, got {type(board).__name__}")
     if spec.kind == "chessboard" and spec.pattern is None:
-        raise ValueError("board chessboard:auto cannot calibrate a rig: the cameras' corner labels must agree, "
-                         "which needs the board's size; give chessboard:COLSxROWS (inner corners)")
+        # a chessboard's labels are relative to what each image shows: only its size makes them agree
+        raise ParameterError("{board} chessboard:auto cannot calibrate a rig: the cameras' corner labels must "
+                             "agree, which needs the board's size; give {board} chessboard:COLSxROWS (inner "
+                             "corners)", board="board")
+    if boards not in BOARD_CHOICES:
+        raise ValueError(f"boards must be one of {', '.join(BOARD_CHOICES)}, got {boards!r}")
+    if boards != "best":
+        raise ParameterError("{boards} {value} cannot be used with {cameras}: a rig's frame is one pose of one "
+                             "board", boards="boards", value=boards, cameras="a rig")
     return spec
 
 
@@ -104,21 +127,20 @@ def _check_models(model: str | Mapping[str, str], names: tuple[str, ...]) -> dic
     return {n: given[n] for n in names}
 
 
-def _check_parameters(cameras: Mapping[str, Inputs], square: float, jobs: int, min_views: int,
-                      boards: str) -> tuple[str, ...]:
-    """Bad parameters fail before any image is read."""
-    names = check_camera_names(cameras)
+def _check_parameters(cameras: Mapping[str, Inputs], board: str | BoardSpec,
+                      model: ModelChoice | Mapping[str, ModelChoice], boards: str, square: float, jobs: int,
+                      min_views: int) -> tuple[tuple[str, ...], BoardSpec, dict[str, str]]:
+    """Bad parameters fail before any image is read: the cameras' names, the board, each camera's model."""
+    try:
+        names = check_camera_names(cameras)
+    except ValueError as exc:
+        raise ParameterError("{cameras}: {why}", cameras="cameras", why=str(exc)) from None
     if len(names) < 2:
-        raise ValueError(f"a rig needs two or more cameras, got {len(names)}; a single camera is "
-                         "sogdd.calib.calibrate_images")
-    if not (isinstance(square, numbers.Real) and 0 < square < float("inf")):
-        raise ValueError(f"square must be a positive size, got {square}")
-    if boards != "best":
-        raise ValueError(f"boards must be 'best' for a rig (a frame is one pose of one board), got {boards!r}")
-    for name, v in (("jobs", jobs), ("min_views", min_views)):
-        if not isinstance(v, numbers.Integral) or isinstance(v, bool) or v < 1:
-            raise ValueError(f"{name} must be an integer >= 1, got {v!r}")
-    return names
+        raise ParameterError("{cameras}: a rig needs two or more cameras ({single})", cameras="cameras",
+                             single="one camera: sogdd.calib.calibrate_images")
+    spec = _check_spec(board, boards)
+    check_run_parameters(square=square, jobs=jobs, min_views=min_views)
+    return names, spec, _check_models(model, names)
 
 
 def _expand(cameras: Mapping[str, Inputs], recursive: bool) -> dict[str, list[Path]]:
@@ -129,7 +151,7 @@ def _expand(cameras: Mapping[str, Inputs], recursive: bool) -> dict[str, list[Pa
         given = [inputs] if isinstance(inputs, (str, os.PathLike)) else list(inputs)
         paths = expand_inputs([os.fspath(g) for g in given], recursive=recursive)
         if not paths:
-            raise ValueError(f"camera {name}: no input images")
+            raise ParameterError("{camera} {name}: no input images", camera="camera", name=name)
         for p in paths:
             key = os.path.realpath(p)
             if owner.setdefault(key, name) != name:
@@ -174,7 +196,8 @@ def calibrate_rig_images(
         (:func:`~sogdd.calib.rig.frames.match_frames`).
     board : str or BoardSpec
         ``chessboard:COLSxROWS`` (inner corners) or ``charuco:COLSxROWS:MARKER:DICT``;
-        ``chessboard:auto`` cannot be used: the cameras' labels must agree.
+        ``chessboard:auto`` is refused: the cameras' labels must agree, which
+        needs the board's size.
     square : float
         The side of a board square, in the unit the translations should have.
     model : str or mapping of str to str
@@ -183,7 +206,8 @@ def calibrate_rig_images(
         one per camera name.
     boards : {"best"}
         An image's view is its best board (:func:`~sogdd.calib.detection.pick_boards`);
-        the others are records of status ``ignored``.
+        the others are records of status ``ignored``. ``"all"`` is refused: a
+        frame is one pose of one board.
     jobs, scheduler, min_views, reject, recursive, read_options, thumbnails, progress
         As :func:`sogdd.calib.calibrate_images` (``min_views``: per camera).
     allow_missing : bool
@@ -198,10 +222,15 @@ def calibrate_rig_images(
 
     Raises
     ------
+    ParameterError
+        One line naming the parameter (:class:`sogdd.calib.session.ParameterError`):
+        fewer than two cameras, a bad camera name, ``chessboard:auto``,
+        ``boards="all"``, a camera without input, ``square``, ``jobs`` or
+        ``min_views`` out of range.
     ValueError
-        One line: bad parameters or camera names; a camera without input; frames
-        that do not match; a camera none of whose images can be read, or that
-        sees no board; a camera's images of different sizes; too few views.
+        One line: another bad parameter; frames that do not match; a camera
+        none of whose images can be read, or that sees no board; a camera's
+        images of different sizes; too few views.
     sogdd.collection.BatchInterrupted
         On Ctrl-C or ``SIGTERM``.
 
@@ -211,12 +240,15 @@ def calibrate_rig_images(
     >>> calibrate_rig_images({"left": "l/*.png", "right": "r/*.png"})
     Traceback (most recent call last):
     ...
-    ValueError: board chessboard:auto cannot calibrate a rig: the cameras' corner labels must agree, which \
-needs the board's size; give chessboard:COLSxROWS (inner corners)
+    sogdd.calib.session.ParameterError: board chessboard:auto cannot calibrate a rig: the cameras' corner \
+labels must agree, which needs the board's size; give board chessboard:COLSxROWS (inner corners)
+    >>> calibrate_rig_images({"left": "l/*.png", "right": "r/*.png"}, "chessboard:9x6", boards="all")
+    Traceback (most recent call last):
+    ...
+    sogdd.calib.session.ParameterError: boards all cannot be used with a rig: a rig's frame is one pose of \
+one board
     """
-    names = _check_parameters(cameras, square, jobs, min_views, boards)
-    spec = _check_spec(board)
-    models = _check_models(model, names)
+    names, spec, models = _check_parameters(cameras, board, model, boards, square, jobs, min_views)
     opts = check_read_options(read_options)
     frames, per = match_frames(_expand(cameras, recursive), allow_missing=allow_missing)
     files = [p for n in names for p in per[n] if p is not None]
@@ -228,13 +260,13 @@ needs the board's size; give chessboard:COLSxROWS (inner corners)
         mine = [by_file[p] for p in per[n] if p is not None]
         picked = [pick_boards(r.boards, spec, "best") for r in mine]
         mine = [replace(r, boards=kept) for r, (kept, _) in zip(mine, picked)]
-        _camera_says(n, _check_results, mine, spec)
+        _camera_says(n, check_detections, mine, spec)
         it, beside = iter(mine), iter(b for _, b in picked)
         results[n] = [None if p is None else next(it) for p in per[n]]
         ignored[n] = [() if p is None else next(beside) for p in per[n]]
         rel = iter(relative_names([p for p in per[n] if p is not None]))
         labels[n] = [f"(frame {f}: no image)" if p is None else next(rel) for f, p in zip(frames, per[n])]
-    sizes = {n: _camera_says(n, _image_size, [r for r in results[n] if r is not None]) for n in names}
+    sizes = {n: _camera_says(n, common_image_size, [r for r in results[n] if r is not None]) for n in names}
     views = {n: [r.boards[0] if r is not None and r.boards else None for r in results[n]] for n in names}
     chosen, selection = _choose_models(models, views, sizes, float(square), reject, min_views)
     rig = calibrate_rig(views, sizes, square=float(square), models=chosen, frames=frames, view_names=labels,
@@ -370,3 +402,89 @@ def write_rig_outputs(result: RigImageCalibration, out: str | os.PathLike, *, re
 
     return write_folder(out, fill, inputs=inputs, previous=foreign_rig_entry)
 
+
+def calibrate_rig_into(
+    cameras: Mapping[str, Inputs],
+    out: str | os.PathLike,
+    board: str | BoardSpec = "chessboard:auto",
+    *,
+    square: float = 1.0,
+    model: ModelChoice | Mapping[str, ModelChoice] = "auto",
+    boards: Literal["best"] = "best",
+    jobs: int = 1,
+    scheduler: str | None = None,
+    min_views: int = 3,
+    reject: bool = True,
+    recursive: bool = False,
+    allow_missing: bool = False,
+    read_options: dict | None = None,
+    report: bool = True,
+    title: str | None = None,
+    progress: bool = False,
+) -> tuple[RigImageCalibration, dict[str, Path]]:
+    """Calibrate a rig from each camera's image files into an output folder: what ``sogdd calibrate --camera``
+    runs.
+
+    Every check comes before any work: the parameters and the rig's rules
+    (:func:`calibrate_rig_images`), each camera's inputs (at least one, none of
+    them a device or a FIFO: :func:`sogdd.formats.safe_write.check_input_files`) and
+    ``out`` (:func:`check_rig_output_folder`). Then :func:`calibrate_rig_images`
+    and :func:`write_rig_outputs`: the folder ends complete, or as it was.
+
+    Parameters
+    ----------
+    cameras, board, square, model, boards, jobs, scheduler, min_views, reject, recursive, allow_missing
+        As :func:`calibrate_rig_images`.
+    read_options, progress
+        As :func:`calibrate_rig_images`.
+    out : path
+        The output folder: missing (made), empty, or a previous rig output (replaced whole).
+    report : bool
+        Write report.html and its figures (each camera's too); the images'
+        thumbnails are kept for it only then.
+    title : str, optional
+        The report's title (default: the cameras, the frames and the board).
+
+    Returns
+    -------
+    result : RigImageCalibration
+    files : dict of str to Path
+        Name relative to ``out`` -> its final path, as :func:`write_rig_outputs`.
+
+    Raises
+    ------
+    ParameterError, ValueError
+        One line, as :func:`calibrate_rig_images`; also an input that is a device,
+        a FIFO or a socket, and an ``out`` that may not be written.
+    OSError
+        A write failed; ``out`` was left as it was.
+    sogdd.collection.BatchInterrupted
+        On Ctrl-C or ``SIGTERM``; ``out`` was left as it was.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> d = Path(tempfile.mkdtemp())
+    >>> calibrate_rig_into({"left": d, "right": d}, d / "rig", "chessboard:9x6", jobs=0)
+    Traceback (most recent call last):
+    ...
+    sogdd.calib.session.ParameterError: jobs must be >= 1, got 0
+    >>> (d / "left").mkdir(); (d / "right").mkdir()  # two folders without images
+    >>> calibrate_rig_into({"left": d / "left", "right": d / "right"}, d / "rig", "chessboard:9x6")
+    Traceback (most recent call last):
+    ...
+    sogdd.calib.session.ParameterError: camera left: no input images
+    >>> (d / "rig").exists()
+    False
+    """
+    _, spec, _ = _check_parameters(cameras, board, model, boards, square, jobs, min_views)
+    check_read_options(read_options)
+    paths = _expand(cameras, recursive)
+    every = [p for ps in paths.values() for p in ps]
+    check_input_files(every)  # a device or a FIFO would be read for ever
+    check_rig_output_folder(out, every)
+    result = calibrate_rig_images(paths, spec, square=square, model=model, boards=boards, jobs=jobs,
+                                  scheduler=scheduler, min_views=min_views, reject=reject,
+                                  allow_missing=allow_missing, read_options=read_options, thumbnails=report,
+                                  progress=progress)
+    return result, write_rig_outputs(result, out, report=report, inputs=every, title=title)

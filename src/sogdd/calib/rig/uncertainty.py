@@ -9,6 +9,9 @@ the corners' noise measured by the residuals, independent and equal for all
 corners. The inverse is the *full* one, over every camera's intrinsics and pose
 and every frame's board pose, so each block (the intrinsics' marginal
 covariance) carries the uncertainty of the board poses it was estimated with.
+A fit too large for a dense inverse (many cameras and frames) keeps the cameras'
+block alone, the same numbers by the Schur complement of the frames' poses
+(:func:`camera_covariance`).
 
 Projection uncertainty, and the frame it is tied to
 ---------------------------------------------------
@@ -50,9 +53,9 @@ import cv2
 import numpy as np
 
 from ..cameras import MODELS, project, undistort
-from ..solvers import _COND_MAX
+from ..solvers import COND_MAX, BlockNormal
 
-__all__ = ["covariance", "parameter_std", "projection_uncertainty", "ray_uncertainty"]
+__all__ = ["camera_covariance", "covariance", "parameter_std", "projection_uncertainty", "ray_uncertainty"]
 
 _DEGENERATE = ("the joint fit is degenerate (no more residuals than parameters, or parameters the views "
                "cannot tell apart), so the standard deviations are undefined")
@@ -86,9 +89,59 @@ def covariance(JtJ: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, float, str]:
     if dof <= 0 or not np.all(d > 0):
         return np.zeros((0, 0)), sigma, _DEGENERATE
     S = JtJ / np.outer(d, d)
-    if not np.isfinite(S).all() or np.linalg.cond(S) > _COND_MAX:
+    if not np.isfinite(S).all() or np.linalg.cond(S) > COND_MAX:
         return np.zeros((0, 0)), sigma, _DEGENERATE
     return np.linalg.inv(S) / np.outer(d, d) * sigma ** 2, sigma, ""
+
+
+def camera_covariance(ne: BlockNormal, r: np.ndarray) -> tuple[np.ndarray, float, str]:
+    """The cameras' block of :math:`\\sigma^2 (J^T J)^{-1}`, the frames' poses eliminated: for a fit too
+    large for :func:`covariance`'s dense inverse.
+
+    With :math:`J^T J = \\begin{pmatrix} U & W \\\\ W^T & P \\end{pmatrix}` (``U`` the cameras'
+    intrinsics and poses, ``P`` block-diagonal: a 6 x 6 block per frame's pose, as
+    :class:`~sogdd.calib.solvers.BlockNormal` holds them), the cameras' block of the inverse is the
+    inverse of the Schur complement :math:`S = U - W P^{-1} W^T`
+    (:meth:`~sogdd.calib.solvers.BlockNormal.intrinsic_inverse`): the same numbers as the block of the
+    full inverse, at the cost of the frames' 6 x 6 inverses and one inverse of the cameras' size.
+    :math:`\\sigma^2 = \\lVert r \\rVert^2 / (2N - P)` counts every parameter, the frames' too.
+    Degenerate when :math:`S` with unit columns has a condition number beyond 1e12 (or a frame's block
+    is singular).
+
+    Returns
+    -------
+    cov : (n, n) float64, or (0, 0) when degenerate
+        ``n`` the cameras' parameters, in the fit's order.
+    sigma : float
+    note : str
+        Why there is no covariance ("" when there is).
+
+    Examples
+    --------
+    >>> from sogdd.calib.solvers import BlockNormal
+    >>> rng = np.random.default_rng(0)
+    >>> J = np.zeros((40, 2 + 12))  # 2 shared parameters, then 2 frames of 6 that share no row
+    >>> J[:, :2] = rng.normal(size=(40, 2))
+    >>> J[:20, 2:8], J[20:, 8:] = rng.normal(size=(20, 6)), rng.normal(size=(20, 6))
+    >>> N = J.T @ J
+    >>> ne = BlockNormal(N[:2, :2], np.stack([N[:2, 2:8], N[:2, 8:]]), np.stack([N[2:8, 2:8], N[8:, 8:]]),
+    ...              np.zeros(2), np.zeros((2, 6)))
+    >>> r = rng.normal(0, 0.1, 40)
+    >>> bool(np.allclose(camera_covariance(ne, r)[0], covariance(N, r)[0][:2, :2]))
+    True
+    """
+    P = len(ne.gi) + ne.gp.size
+    dof = len(r) - P
+    sigma = float(np.sqrt(r @ r / dof)) if dof > 0 else float("nan")
+    if dof <= 0:
+        return np.zeros((0, 0)), sigma, _DEGENERATE
+    try:
+        C = ne.intrinsic_inverse()
+    except np.linalg.LinAlgError:
+        return np.zeros((0, 0)), sigma, _DEGENERATE
+    if not np.isfinite(C).all():
+        return np.zeros((0, 0)), sigma, _DEGENERATE
+    return C * sigma ** 2, sigma, ""
 
 
 def _rotation_error_jacobian(rvec: np.ndarray) -> np.ndarray:

@@ -48,6 +48,27 @@ def uncertainty_summary(rig: RigCalibration, name: str,
     return float(sigma[centre]), float(np.nanmax(sigma))
 
 
+def _pose_findings(cam, first: str, n: int) -> list[tuple[str, str]]:
+    """A camera's pose against the reference ``first``: how well known, and how it is tied (``n`` frames
+    seen by both)."""
+    out: list[tuple[str, str]] = []
+    b, sb = cam.baseline, cam.std.get("baseline", float("nan"))
+    rot = cam.std.get("rotation_deg", float("nan"))
+    good = np.isfinite(sb) and sb < 0.01 * b
+    out.append(("ok" if good else "warn",
+                f"{cam.name}: the baseline to {first} is {b:.4g} ± {sb:.2g} (the square's unit) and "
+                f"the rotation {cam.rotation_deg:.2f} ± {rot:.2g} degrees"
+                + ("" if good else "; the pose is loosely known: more frames seen by both cameras, "
+                                   "the board tilted and spread over both frames")))
+    if not np.isfinite(cam.T).all():
+        out.append(("bad", f"{cam.name}: no frame in which it and another camera both used a board; "
+                           "its pose is not measured"))
+    elif 0 < n < _FEW_SHARED:  # n = 0: tied through the cameras between them (a ring), its std says how well
+        out.append(("warn", f"{cam.name}: only {n} frame(s) seen by it and {first} together tie "
+                            "its pose; take 10 or more"))
+    return out
+
+
 def rig_verdict(rig: RigCalibration) -> list[tuple[str, str]]:
     """Plain-words findings on a rig, each ``(level, text)`` with level "ok", "warn" or "bad".
 
@@ -87,22 +108,7 @@ def rig_verdict(rig: RigCalibration) -> list[tuple[str, str]]:
             if not text.startswith(("the calibration looks sound", "no cross-validation")):
                 out.append((level, f"{cam.name}: {text}"))
         if cam.name != first:
-            b, sb = cam.baseline, cam.std.get("baseline", float("nan"))
-            rot = cam.std.get("rotation_deg", float("nan"))
-            angle = float(np.degrees(np.arccos(np.clip((np.trace(cam.R) - 1) / 2, -1, 1))))
-            good = np.isfinite(sb) and sb < 0.01 * b
-            out.append(("ok" if good else "warn",
-                        f"{cam.name}: the baseline to {first} is {b:.4g} ± {sb:.2g} (the square's unit) and "
-                        f"the rotation {angle:.2f} ± {rot:.2g} degrees"
-                        + ("" if good else "; the pose is loosely known: more frames seen by both cameras, "
-                                           "the board tilted and spread over both frames")))
-            n = shared[cam.name]
-            if n == 0:
-                out.append(("bad", f"{cam.name}: no frame in which it and {first} both used a board; "
-                                   "its pose is not measured"))
-            elif n < _FEW_SHARED:
-                out.append(("warn", f"{cam.name}: only {n} frame(s) seen by it and {first} together tie "
-                                    "its pose; take 10 or more"))
+            out += _pose_findings(cam, first, shared[cam.name])
         if typical > 0 and cam.calibration.rms > _RMS_APART * typical and len(rig.cameras) > 2:
             out.append(("warn", f"{cam.name}: RMS {cam.calibration.rms:.3f} px, more than twice the rig's "
                                 f"median ({typical:.3f}): check its focus, blur or lens model"))
