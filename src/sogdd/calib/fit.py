@@ -18,7 +18,7 @@ from dataclasses import replace
 import numpy as np
 
 from . import cross_validation as _cv
-from .cameras import MODELS, check_size
+from .cameras import MODELS, check_size, lens
 from .model_selection import ModelChoice, check_model_choice, select_model
 from .rejection import State, check_boards, fit_with_rejection
 from .result import Calibration
@@ -97,11 +97,13 @@ def calibrate(
         Of every view.
     square : float
         Board square size (any unit; the poses are in it).
-    model : {"pinhole", "pinhole4", "rational", "fisheye", "auto"}
+    model : {"pinhole", "pinhole4", "rational", "fisheye", "omnidir", "auto"}
         ``k1, k2, p1, p2, k3``; ``k1, k2, p1, p2`` (k3 held at 0,
         ``CALIB_FIX_K3``: OpenCV's four-coefficient vector); OpenCV's rational
         model (``CALIB_RATIONAL_MODEL``, ``k1..k6, p1, p2``); OpenCV's fisheye
-        model (``k1..k4``); or ``"auto"``: the model
+        model (``k1..k4``); the unified omnidirectional model (``cv2.omnidir``,
+        ``xi, k1, k2, p1, p2``); each the record of
+        :data:`~sogdd.calib.cameras.LENSES`; or ``"auto"``: the model
         :func:`~sogdd.calib.model_selection.select_model` chooses by
         cross-validation over the views (with the same rejection parameters),
         then calibrated as if it had been given; the selection is
@@ -181,10 +183,12 @@ def _stds(st: State, idx: np.ndarray, fit) -> tuple[np.ndarray | None, str]:
     if len(idx) < 2:
         # OpenCV still reports finite ones here, even for a focal length of a sixth of the truth
         return None, _ONE_VIEW
-    if st.model == "fisheye":  # cv2.fisheye.calibrate gives none: the same estimate, computed here
+    start = lens(st.model).start
+    if start != "calibrateCamera":  # cv2.fisheye / cv2.omnidir give none: the same estimate, computed here
         obj = [st.boards[v].object_points(st.square)[st.corner_ok[v]] for v in idx]
         img = [st.boards[v].image_points[st.corner_ok[v]] for v in idx]
-        std = jacobian_std(obj, img, K, D, rv, tv, st.model, fisheye_fixed(st.flags), st.weights(idx))
+        fixed = fisheye_fixed(st.flags) if start == "fisheye.calibrate" else None
+        std = jacobian_std(obj, img, K, D, rv, tv, st.model, fixed, st.weights(idx))
     if std is None or not np.all(np.isfinite(std)):
         return None, _DEGENERATE
     return std, ""

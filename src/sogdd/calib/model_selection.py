@@ -17,7 +17,7 @@ from typing import Literal
 import cv2
 import numpy as np
 
-from .cameras import MODELS, check_model, check_size, project, undistort
+from .cameras import LENSES, MODELS, check_model, check_size, lens, project, undistort
 from .rejection import check_boards, fit_with_rejection, usable_reason
 from .solvers import fit_camera, fit_fisheye_from, solve_pose
 from .targets.board import Board
@@ -26,14 +26,16 @@ __all__ = ["DEFAULT_CANDIDATES", "CandidateScore", "ModelChoice", "ModelSelectio
            "select_model"]
 
 #: a model, or "auto": the one :func:`select_model` chooses
-ModelChoice = Literal["auto", "pinhole4", "pinhole", "rational", "fisheye"]
+ModelChoice = Literal[("auto", *LENSES)]  # type: ignore[valid-type]
 
-#: the candidates for any lens, simplest first; "fisheye" joins them for a wide lens (see select_model)
-DEFAULT_CANDIDATES: tuple[str, ...] = ("pinhole4", "pinhole", "rational")
+#: the candidates for any lens, simplest first: the registered models whose rule (``auto_fov``) is 0;
+#: the others join them for a lens that sees more than their ``auto_fov`` (see select_model)
+DEFAULT_CANDIDATES: tuple[str, ...] = tuple(n for n, m in LENSES.items() if m.auto_fov == 0.0)
 
 # a lens is wide when a preliminary fit sees more than this across the frame's diagonal
-# (degrees): beyond it a rectilinear projection stretches the edges without bound (tan 60 = 1.7)
-_WIDE_FOV = 120.0
+# (degrees): beyond it a rectilinear projection stretches the edges without bound (tan 60 = 1.7);
+# the narrowest field any registered wide model asks for (the fisheye's 120)
+_WIDE_FOV = min((m.auto_fov for m in LENSES.values() if m.auto_fov), default=np.inf)
 # the held-out score must exceed the best one by more than this many standard errors of the
 # paired difference before a simpler model is given up (the one-standard-error rule of
 # Breiman et al. 1984; Hastie, Tibshirani & Friedman, "Elements of Statistical Learning" 7.10) ...
@@ -153,21 +155,35 @@ def _diagonal_fov(K: np.ndarray, dist: np.ndarray, size: tuple[int, int], model:
     return float(max(np.degrees(np.arccos(np.clip(rays[a] @ rays[b], -1, 1))) for a, b in ((0, 1), (2, 3))))
 
 
-def _is_wide(obj, img, size) -> tuple[bool, str]:
-    """Whether the lens is wide (fisheye joins the candidates), and what showed it: a preliminary
-    pinhole4 or rational fit that sees more than 120 degrees across the frame's diagonal, or fails.
-    Both: a pinhole4 fit of a fisheye puts its focal length near twice the truth and sees only
-    110 degrees where the lens sees 180; the rational model follows the lens further out."""
+def _wide_models(fov: float) -> tuple[str, ...]:
+    """The registered models that join the candidates of a lens seen to span ``fov`` degrees: those
+    whose rule (``auto_fov > 0``) it exceeds, narrowest rule first."""
+    wide = [n for n, m in LENSES.items() if m.auto_fov and fov > m.auto_fov]
+    return tuple(sorted(wide, key=lambda n: LENSES[n].auto_fov))
+
+
+def _is_wide(obj, img, size) -> tuple[tuple[str, ...], str]:
+    """The wide models that join the candidates (:func:`_wide_models`), and what showed the lens wide: a
+    preliminary pinhole4 or rational fit that sees more than 120 degrees across the frame's diagonal, or
+    fails (then the lens is taken to see 180). Both: a pinhole4 fit of a fisheye puts its focal length
+    near twice the truth and sees only 110 degrees where the lens sees 180; the rational model follows
+    the lens further out. The largest field either fit sees decides."""
+    seen, why = 0.0, ""
     for model in ("pinhole4", "rational"):
         try:
             K, D, _, _, _ = fit_camera(obj, img, size, model, 0)
         except cv2.error:
-            return True, f"the preliminary {model} fit failed: fisheye added to the candidates"
+            seen, why = 180.0, why or f"the preliminary {model} fit failed"
+            break
         fov = _diagonal_fov(K, D, size, model)
-        if fov > _WIDE_FOV:
-            return True, (f"the preliminary {model} fit sees {fov:.0f} deg across the frame's diagonal "
-                          f"(> {_WIDE_FOV:.0f}): fisheye added to the candidates")
-    return False, ""
+        if fov > _WIDE_FOV and not why:
+            why = (f"the preliminary {model} fit sees {fov:.0f} deg across the frame's diagonal "
+                   f"(> {_WIDE_FOV:.0f})")
+        seen = max(seen, fov)
+        if why and not _wide_models(180.0)[len(_wide_models(seen)):]:
+            break  # every wide model has joined: no need to look further
+    added = _wide_models(seen)
+    return (added, f"{why}: {', '.join(added)} added to the candidates") if added else ((), "")
 
 
 def _check_numbers(square, folds, noise_se, min_views, min_corners) -> None:
@@ -182,13 +198,13 @@ def _check_numbers(square, folds, noise_se, min_views, min_corners) -> None:
 
 
 def _default_candidates(boards, size, square, min_corners, min_views) -> tuple[tuple[str, ...], str]:
-    """:data:`DEFAULT_CANDIDATES`, and fisheye for a wide lens (:func:`_is_wide`), with why."""
+    """:data:`DEFAULT_CANDIDATES`, and the wide models for a wide lens (:func:`_is_wide`), with why."""
     ok = [v for v, b in enumerate(boards) if usable_reason(b, min_corners) == ""]
     if len(ok) < min_views:
         return DEFAULT_CANDIDATES, ""
     wide, why = _is_wide([boards[v].object_points(square) for v in ok], [boards[v].image_points for v in ok],
                          size)
-    return ((*DEFAULT_CANDIDATES, "fisheye"), why) if wide else (DEFAULT_CANDIDATES, "")
+    return (*DEFAULT_CANDIDATES, *wide), why
 
 
 def _fold_sizes(n: int, folds: int, min_views: int) -> int:
@@ -283,6 +299,9 @@ def select_model(
     (or its distortion has no ray for a frame corner), or fails (the rendered
     sequences' lenses: 76-78 degrees; fisheyes of 180 degrees and more and a
     rectilinear lens of 106 degrees with strong barrel distortion: 134-180).
+    In general each registered model whose rule (``auto_fov`` of its record) the
+    largest field either preliminary fit sees exceeds joins (a failed fit: 180 degrees):
+    fisheye beyond 120, omnidir beyond 150.
     In the folds a fisheye is refitted from its fit to all views. With fewer views than leave-one-out
     needs (``min_views + 1``), nothing is cross-validated: the simplest
     candidate is chosen, with a note.
@@ -392,7 +411,7 @@ def _fit(model: str, obj: list, img: list, size: tuple[int, int], start=None):
     camera (the fit of all views) is refitted from it (:func:`fit_fisheye_from`: its multi-start fit
     takes seconds, and a fold's views are most of the views)."""
     try:
-        if model == "fisheye" and start is not None:
+        if lens(model).start == "fisheye.calibrate" and start is not None:
             K, D, rv, tv = fit_fisheye_from(obj, img, start[0], start[1])
         else:
             K, D, rv, tv, _ = fit_camera(obj, img, size, model, 0)
@@ -410,8 +429,8 @@ def _cleaned(boards, names, size, cands, reject: bool, common: dict) -> tuple[np
     candidate's rejection keeps: the richest of the pinhole family; where fisheye is a candidate and
     that fails or rejects more than a tenth of the corners, the fisheye's too, the one keeping more
     corners kept (the fisheye's rejection rounds cost seconds each, so only when needed)."""
-    family = [c for c in cands if c != "fisheye"]
-    cleaners = ([max(family, key=_order)] if family else []) + (["fisheye"] if "fisheye" in cands else [])
+    family = [c for c in cands if lens(c).start == "calibrateCamera"]
+    cleaners = ([max(family, key=_order)] if family else []) + [c for c in cands if c not in family]
     best, err = None, None
     total = sum(len(b) for v, b in enumerate(boards) if usable_reason(b, common["min_corners"]) == "")
     for c in cleaners:

@@ -213,7 +213,7 @@ def calibrate_images(
         image.
     square : float
         The side of a board square, in the unit the poses should have.
-    model : {"auto", "pinhole4", "pinhole", "rational", "fisheye"}
+    model : {"auto", "pinhole4", "pinhole", "rational", "fisheye", "omnidir"}
         The camera model (:func:`sogdd.calib.calibrate`); ``"auto"``: the one
         cross-validation over the views chooses
         (:func:`~sogdd.calib.model_selection.select_model`, its table in

@@ -9,7 +9,7 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.sparse import coo_matrix
 
-from .cameras import MODELS, project
+from .cameras import MODELS, lens, project
 from .cameras.models import fisheye_distorted, fisheye_theta
 from .targets.board import Board
 
@@ -25,8 +25,10 @@ def fit_camera(obj: list[np.ndarray], img: list[np.ndarray], size: tuple[int, in
                weights: list[np.ndarray] | None = None):
     """One calibration: ``(K, dist, rvecs (V, 3), tvecs (V, 3), std (array or None))``.
 
-    Pinhole and rational: ``cv2.calibrateCameraExtended`` (``pinhole4`` with ``CALIB_FIX_K3``: k3
-    held at 0, four coefficients returned). Fisheye: :func:`fit_fisheye`,
+    By the model's record (:mod:`~sogdd.calib.cameras.registry`): its own ``calibrate`` where it has
+    one (a view that fit left out gets its pose from its rays); else by its ``start``.
+    Pinhole and rational: ``cv2.calibrateCameraExtended`` with the record's flags (``pinhole4`` with
+    ``CALIB_FIX_K3``: k3 held at 0, four coefficients returned). Fisheye: :func:`fit_fisheye`,
     which also starts from ``cv2.fisheye.calibrate``'s answer where OpenCV gives one,
     so it is never worse than OpenCV's where OpenCV works, and works where OpenCV's
     initialisation fails (rays near and beyond 90 degrees); its standard deviations
@@ -38,16 +40,25 @@ def fit_camera(obj: list[np.ndarray], img: list[np.ndarray], size: tuple[int, in
     :func:`refine_weighted`, whose standard deviations replace OpenCV's; the
     fisheye fit weighs its final least squares. Equal weights change nothing.
     """
+    record = lens(model)
     crit = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 100, 1e-12)
     w = None if weights is None or np.ptp(np.concatenate([np.ravel(x) for x in weights])) == 0 else weights
-    if model == "fisheye":
+    if record.calibrate is not None:  # a model that brings its own fit (its record's)
+        K, D, rv, tv, std = record.calibrate(obj, img, size, flags, w)
+        for v in np.flatnonzero(~np.all(np.isfinite(np.c_[rv, tv]), axis=1)):
+            # a view its OpenCV fit left out still needs its pose (rejection scores every view)
+            pose = _pose_by_rays(np.asarray(obj[v], np.float64), np.asarray(img[v], np.float64), K, D, model)
+            if pose is None:
+                raise cv2.error(f"no pose for view {v} under the fitted {model} camera")
+            rv[v], tv[v] = pose
+        return K, D, rv, tv, std
+    if record.start == "fisheye.calibrate":
         K, D, rv, tv = fit_fisheye(obj, img, size, flags, start=_opencv_fisheye(obj, img, size, flags, crit),
                                    weights=w)
         std = None
     else:
-        f = flags | (cv2.CALIB_RATIONAL_MODEL if model == "rational" else 0)
-        f |= cv2.CALIB_FIX_K3 if model == "pinhole4" else 0
-        nd = len(MODELS[model])
+        f = flags | record.cv_flags
+        nd = len(record.params)
         o = [p.astype(np.float64).reshape(-1, 1, 3) for p in obj]
         i = [p.astype(np.float64).reshape(-1, 1, 2) for p in img]
         _, K, D, rv, tv, std, _, _ = cv2.calibrateCameraExtended(
@@ -56,7 +67,7 @@ def fit_camera(obj: list[np.ndarray], img: list[np.ndarray], size: tuple[int, in
         std = std.ravel()
     rv = np.array([np.asarray(r, dtype=np.float64).ravel() for r in rv])
     tv = np.array([np.asarray(t, dtype=np.float64).ravel() for t in tv])
-    if w is not None and model != "fisheye":
+    if w is not None and record.start == "calibrateCamera":
         return refine_weighted(obj, img, w, K, D, rv, tv, model, flags)
     return K, np.asarray(D, dtype=np.float64).ravel(), rv, tv, std
 
@@ -253,7 +264,8 @@ def solve_pose(board: Board, square: float, K, dist, model):
     """A view's pose given the intrinsics (solvePnP), or None."""
     obj = board.object_points(square)
     img = board.image_points
-    if model == "fisheye":
+    record = lens(model)
+    if record.start == "fisheye.calibrate":
         # from the rays, as the fisheye fit starts: cv2.fisheye.solvePnP fails beyond 90 degrees
         intr = np.r_[K[0, 0], K[1, 1], K[0, 2], K[1, 2], np.ravel(dist)[:4]].astype(np.float64)
         X, uv = np.asarray(obj, np.float64), np.asarray(img, np.float64)
@@ -262,11 +274,28 @@ def solve_pose(board: Board, square: float, K, dist, model):
             return None
         _, p, _ = _fisheye_lsq(intr, pose[None], X, uv, np.zeros(len(X), int), np.zeros(8, bool), 50, False)
         return (p[0, :3], p[0, 3:]) if np.all(np.isfinite(p)) else None
+    if record.start != "calibrateCamera":
+        return _pose_by_rays(np.asarray(obj, np.float64), np.asarray(img, np.float64), K, dist, model)
     try:
         ok, rv, tv = cv2.solvePnP(obj, img, K, dist, flags=cv2.SOLVEPNP_ITERATIVE)
     except cv2.error:
         return None
     return (rv.ravel(), tv.ravel()) if ok else None
+
+
+def _pose_by_rays(X: np.ndarray, uv: np.ndarray, K, dist, model: str):
+    """A view's pose under any registered model: from its corners' rays (the record's ``unproject``,
+    :func:`_pose_from_rays`), refined by least squares on the record's projection; None if none."""
+    pose = _pose_from_rays(X, lens(model).unproject(uv, K, dist))
+    if pose is None:
+        return None
+
+    def fun(x):
+        return (project(X, K, dist, model, x[:3], x[3:]) - uv).ravel()
+
+    with np.errstate(all="ignore"):
+        sol = least_squares(fun, pose, method="lm", max_nfev=200)
+    return (sol.x[:3], sol.x[3:]) if np.all(np.isfinite(sol.x)) and np.all(np.isfinite(sol.fun)) else None
 
 
 def fisheye_fixed(flags: int) -> np.ndarray:

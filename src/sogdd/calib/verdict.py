@@ -8,7 +8,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from .cameras import MODELS
+from .cameras import MODELS, lens, project
 from .result import Calibration
 
 __all__ = ["coverage", "cv_inside", "radial_map", "used_points", "verdict"]
@@ -25,8 +25,6 @@ _ASPECT_REL = 0.01         # fx and fy may differ by 1 % (see verdict) ...
 _ASPECT_SIGMAS = 3.0       # ... and by 3 standard deviations of their difference
 _CANCEL_RATIO = 8.0        # distortion terms whose magnitudes add up to 8 times their net ...
 _CANCEL_PX = 20.0          # ... and to more than 20 px at the frame's corner are fitted noise
-_SERIES = {"pinhole4": ((0, 3), (1, 5)), "pinhole": ((0, 3), (1, 5), (4, 7)),
-           "fisheye": ((0, 3), (1, 5), (2, 7), (3, 9))}
 
 
 def used_points(cal: Calibration) -> np.ndarray:
@@ -284,7 +282,9 @@ def radial_map(cal: Calibration, theta: np.ndarray) -> tuple[np.ndarray, np.ndar
 
     Pinhole and rational: :math:`\\rho = r \\frac{1 + k_1 r^2 + k_2 r^4 + k_3 r^6}{1 + k_4 r^2 + k_5 r^4
     + k_6 r^6}` with :math:`r = \\tan\\theta`; fisheye:
-    :math:`\\rho = \\theta_d = \\theta (1 + k_1 \\theta^2 + \\dots + k_4 \\theta^8)` (denominator 1).
+    :math:`\\rho = \\theta_d = \\theta (1 + k_1 \\theta^2 + \\dots + k_4 \\theta^8)` (denominator 1);
+    any other registered model: :math:`\\rho = x_d` of its projection of the ray
+    :math:`(\\sin\\theta, 0, \\cos\\theta)` (denominator 1).
     Tangential terms are left out: they shift points, they do not fold the map.
 
     Examples
@@ -295,7 +295,13 @@ def radial_map(cal: Calibration, theta: np.ndarray) -> tuple[np.ndarray, np.ndar
     ([0.0, 0.48], [1.0, 1.0])
     """
     d = dict(zip(MODELS[cal.model], np.asarray(cal.dist, float)))
-    if cal.model == "fisheye":
+    start = lens(cal.model).start
+    if start not in ("calibrateCamera", "fisheye.calibrate"):
+        # any other model: the radius its projection gives a ray at theta, tangential terms left out
+        dist = np.array([0.0 if n in ("p1", "p2") else v for n, v in d.items()])
+        rays = np.c_[np.sin(theta), np.zeros(len(theta)), np.cos(theta)]
+        return project(rays, np.eye(3), dist, cal.model)[:, 0], np.ones(len(theta))
+    if start == "fisheye.calibrate":
         t2 = theta * theta
         rho = theta * (1 + t2 * (d["k1"] + t2 * (d["k2"] + t2 * (d["k3"] + t2 * d["k4"]))))
         return rho, np.ones(len(theta))
@@ -347,9 +353,10 @@ def _distortion_findings(cal: Calibration) -> list[tuple[str, str]]:
                     f"the distortion folds over {rho_max * f:.0f} px from the principal point, {where} "
                     f"(the frame reaches {rho_frame * f:.0f} px): pixels farther out have no ray; the "
                     "distortion coefficients are not those of a lens (try a simpler model or more views)"))
-    if cal.model in _SERIES:
-        x = theta_f if cal.model == "fisheye" else float(np.tan(theta_f))
-        terms = np.array([cal.dist[i] * x ** p for i, p in _SERIES[cal.model]]) * f
+    series = lens(cal.model).radial_terms  # (coefficient, power) of each radial term; () skips the check
+    if series:
+        x = theta_f if lens(cal.model).fisheye else float(np.tan(theta_f))
+        terms = np.array([cal.dist[i] * x ** p for i, p in series]) * f
         total, net = float(np.sum(np.abs(terms))), abs(float(np.sum(terms)))
         if total > _CANCEL_PX and total > _CANCEL_RATIO * net:
             coef = ", ".join(f"{n} = {v:.3g}" for n, v in cal.coefficients().items() if not n.startswith("p"))

@@ -38,6 +38,7 @@ import argparse
 import sys
 from typing import TYPE_CHECKING
 
+from ..calib.cameras import LENSES
 from ._common import print_json, run_calibration
 from .calibrate_rig import RIG_HELP, RIG_WORDS, add_rig_arguments, run_rig
 from .params import add_read_arguments, read_options
@@ -62,11 +63,10 @@ def configure(p: argparse.ArgumentParser) -> None:
                    help="boards per image: the best match of --board (the others ignored, in views.csv), or "
                         "all of them (several targets; small copies of the board are still ignored)")
     p.add_argument("--square", type=float, default=1.0, help="side of a board square, in your unit (e.g. mm)")
-    p.add_argument("--model", choices=("auto", "pinhole4", "pinhole", "rational", "fisheye"), default="auto",
+    p.add_argument("--model", choices=("auto", *LENSES), default="auto",
                    help="camera model: auto (chosen by cross-validation over the views: the simplest that "
                         "predicts unseen views as well as the best; the table in camera.json and the report); "
-                        "k1,k2,p1,p2; k1,k2,p1,p2,k3; OpenCV's rational k1..k6,p1,p2; or OpenCV's fisheye "
-                        "k1..k4")
+                        + "; ".join(f"{n}: {m.summary} ({', '.join(m.params)})" for n, m in LENSES.items()))
     p.add_argument("--out", required=True, metavar="DIR", help="output folder (created if needed; a previous "
                    "output is replaced)")
     p.add_argument("--jobs", type=int, default=1, help="images detected in parallel (processes)")

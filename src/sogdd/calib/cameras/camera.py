@@ -14,7 +14,8 @@ from typing import Literal
 import cv2
 import numpy as np
 
-from .models import distort, fisheye_distorted, fisheye_theta, to_pixels, undistort
+from .models import distort, to_pixels, undistort
+from .registry import lens
 
 __all__ = ["Camera", "pose_matrix"]
 
@@ -118,9 +119,10 @@ class Camera:
         if rvec is not None or tvec is not None:
             R, t = pose_matrix(np.zeros(3) if rvec is None else rvec, np.zeros(3) if tvec is None else tvec)
             P = P @ R.T + t
-        if self.model == "fisheye":
-            xd = fisheye_distorted(P, self.dist)
-            xd[(P[:, 0] == 0) & (P[:, 1] == 0) & (P[:, 2] <= 0)] = np.nan  # straight behind: no direction
+        record = lens(self.model)
+        if record.fisheye:  # it sees behind its centre plane: only a point straight behind has no direction
+            xd = record.project(P, np.asarray(self.dist))
+            xd[(P[:, 0] == 0) & (P[:, 1] == 0) & (P[:, 2] <= 0)] = np.nan
             return to_pixels(xd, self.K)
         with np.errstate(divide="ignore", invalid="ignore"):
             z = np.where(P[:, 2] > 0, P[:, 2], np.nan)
@@ -135,9 +137,10 @@ class Camera:
     def rays(self, pixels: np.ndarray) -> np.ndarray:
         """Unit ray directions (N, 3) in the camera frame of pixels (N, 2), the inverse of :meth:`project`.
 
-        A fisheye's ray is :math:`(\\sin\\theta\\, x_d / \\theta_d, \\sin\\theta\\, y_d / \\theta_d,
-        \\cos\\theta)` with :math:`\\theta` from :func:`~.models.fisheye_theta`, exact at any angle;
-        a pinhole's is :math:`(x', y', 1)` normalised. NaN where the model cannot be inverted.
+        The model's record's ``unproject`` (:mod:`.registry`). A fisheye's ray is
+        :math:`(\\sin\\theta\\, x_d / \\theta_d, \\sin\\theta\\, y_d / \\theta_d, \\cos\\theta)` with
+        :math:`\\theta` from :func:`~.models.fisheye_theta`, exact at any angle; a pinhole's is
+        :math:`(x', y', 1)` normalised. NaN where the model cannot be inverted.
 
         Examples
         --------
@@ -147,18 +150,8 @@ class Camera:
         >>> np.round(d, 12).tolist()  # 90 degrees off the axis: along x
         [1.0, 0.0, -0.0]
         """
-        px = np.asarray(pixels, dtype=np.float64).reshape(-1, 2)
-        if self.model == "pinhole":
-            xy = self.undistort(px)
-            d = np.concatenate([xy, np.ones((len(xy), 1))], axis=1)
-            return d / np.linalg.norm(d, axis=1, keepdims=True)
-        yd = (px[:, 1] - self.K[1, 2]) / self.K[1, 1]
-        xd = (px[:, 0] - self.K[0, 2] - self.K[0, 1] * yd) / self.K[0, 0]
-        td = np.hypot(xd, yd)
-        th = fisheye_theta(td, self.dist)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            s = np.where(td > 0, np.sin(th) / td, 1.0)
-        return np.stack([xd * s, yd * s, np.cos(th)], axis=1)
+        return lens(self.model).unproject(np.asarray(pixels, dtype=np.float64).reshape(-1, 2), self.K,
+                                          np.asarray(self.dist))
 
 
 def pose_matrix(rvec: np.ndarray, tvec: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -18,8 +18,7 @@ import cv2
 import numpy as np
 from scipy.sparse import csr_matrix
 
-from ..cameras import MODELS, check_size
-from ..cameras.models import distort, fisheye_distorted
+from ..cameras import LENSES, MODELS, check_size, lens
 from ..fit import _std_dict, calibrate
 from ..model_selection import ModelChoice, check_model_choice
 from ..rejection import State, _reject_corners, _reject_view, robust_limit
@@ -350,11 +349,7 @@ def _predict(x: np.ndarray, lay: _Layout, models: list[str], co: _Corners) -> np
         if not sel.any():
             continue
         intr = x[lay.intr[c]]
-        if model == "fisheye":
-            xyd = fisheye_distorted(p[sel], intr[4:])
-        else:
-            xyd = distort(p[sel, :2] / p[sel, 2:3], intr[4:], model)  # type: ignore[arg-type]
-        out[sel] = xyd * intr[:2] + intr[2:4]
+        out[sel] = lens(model).project(p[sel], intr[4:]) * intr[:2] + intr[2:4]
     return out
 
 
@@ -364,12 +359,38 @@ def _whitened(x: np.ndarray, lay: _Layout, models: list[str], co: _Corners) -> n
     return ((co.uv - _predict(x, lay, models, co)) * co.w[:, None]).ravel()
 
 
+#: the OpenCV calibrations whose models the joint fit has analytic projection Jacobians for
+#: (``cv2.projectPoints``, ``cv2.fisheye.projectPoints``)
+_JACOBIANS = ("calibrateCamera", "fisheye.calibrate")
+
+
+def _no_jacobian(model: str) -> str:
+    """The one-line refusal of a model the joint fit cannot take."""
+    ok = ", ".join(n for n, m in LENSES.items() if m.start in _JACOBIANS)
+    return (f"the joint rig fit cannot take the {model} model: it needs OpenCV's analytic projection "
+            f"Jacobians, which only {ok} have; choose one of those, or calibrate that camera alone")
+
+
+def _check_models(mods: Mapping[str, str]) -> None:
+    """A one-line ``ValueError`` naming the camera if a model is unknown or the joint fit cannot take it."""
+    for n, m in mods.items():
+        try:
+            check_model_choice(m)
+        except ValueError as exc:
+            raise ValueError(f"camera {n!r}: {exc}") from None
+        if m != "auto" and lens(m).start not in _JACOBIANS:
+            raise ValueError(f"camera {n!r}: {_no_jacobian(m)}")
+
+
 def _projection_jacobian(X: np.ndarray, rv: np.ndarray, tv: np.ndarray, intr: np.ndarray, model: str):
     """OpenCV's derivatives of the pixels of board points ``X`` (n, 3) seen from the pose ``rv, tv``:
     with respect to the pose (2n, 6: rvec, tvec) and to the intrinsics (2n, 4 + nd: fx, fy, cx, cy,
     distortion), rows ``u, v`` interleaved."""
     K = np.array([[intr[0], 0.0, intr[2]], [0.0, intr[1], intr[3]], [0.0, 0.0, 1.0]])
-    if model == "fisheye":  # its columns: fx, fy, cx, cy, k1..k4, rvec, tvec, skew
+    start = lens(model).start
+    if start not in _JACOBIANS:
+        raise ValueError(_no_jacobian(model))
+    if start == "fisheye.calibrate":  # its columns: fx, fy, cx, cy, k1..k4, rvec, tvec, skew
         J = cv2.fisheye.projectPoints(X[:, None, :], rv, tv, K, intr[4:])[1]
         return J[:, 8:14], J[:, :8]
     J = cv2.projectPoints(X, rv, tv, K, intr[4:])[1]  # rvec, tvec, fx, fy, cx, cy, distortion
@@ -691,11 +712,7 @@ def calibrate_rig(
     names, blists, F = _check_boards(boards)
     sizes = {n: check_size(s) for n, s in _per_camera(image_sizes, names, "image size").items()}
     mods = _per_camera(models, names, "model")
-    for n, m in mods.items():
-        try:
-            check_model_choice(m)
-        except ValueError as exc:
-            raise ValueError(f"camera {n!r}: {exc}") from None
+    _check_models(mods)
     pattern = _check_pattern(pattern)
     frame_names, views = _check_names(frames, view_names, names, F)
     con = rig_connectivity(blists)  # before any camera's calibration: a rig in pieces cannot be fitted
@@ -704,6 +721,7 @@ def calibrate_rig(
     kw = dict(square=square, reject=reject, k=k, floor=floor, min_corners=min_corners, min_views=min_views,
               max_iterations=max_iterations)
     mono = _mono(names, blists, sizes, mods, views, kw)
+    _check_models({n: mono[n].model for n in names})  # "auto" may have chosen a model the fit cannot take
     notes: list[str] = []
     poses = _relative_poses(names, mono, blists, pattern, float(square), notes)
     start = _align(names, mono, blists, poses, pattern, float(square))

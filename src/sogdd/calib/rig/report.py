@@ -22,6 +22,7 @@ import cv2
 import numpy as np
 
 from ...formats.safe_write import write_text
+from ..cameras import lens
 from ..detection import Thumbnail, ViewRecord
 from ..report import _plt, _save, write_report
 from .result import RigCalibration, RigCamera
@@ -156,7 +157,7 @@ def _rectified(cam: RigCamera, Rr: np.ndarray, P: np.ndarray, thumb: Thumbnail |
         return np.full((size[1], size[0]), 200, np.uint8)
     At = _thumb_matrix(thumb.scale)
     K = At @ cam.K
-    if cam.model == "fisheye":
+    if lens(cam.model).start == "fisheye.calibrate":
         m1, m2 = cv2.fisheye.initUndistortRectifyMap(K, cam.dist[:4], Rr, A @ P[:, :3], size, cv2.CV_32FC1)
     else:
         m1, m2 = cv2.initUndistortRectifyMap(K, cam.dist, Rr, A @ P[:, :3], size, cv2.CV_32FC1)

@@ -17,7 +17,7 @@ from typing import Literal
 import cv2
 import numpy as np
 
-from ..cameras import undistort
+from ..cameras import lens, undistort
 from .result import RigCalibration
 
 __all__ = ["StereoPair", "rectify_points", "stereo_pair"]
@@ -104,12 +104,13 @@ def stereo_pair(rig: RigCalibration, first: str | None = None, second: str | Non
     E = _cross(T) @ R
     F = np.linalg.inv(b.K).T @ E @ np.linalg.inv(a.K)
     size = tuple(int(v) for v in a.image_size)
-    if a.model == "fisheye" and b.model == "fisheye":
+    start = {lens(a.model).start, lens(b.model).start}
+    if start == {"fisheye.calibrate"}:  # both: OpenCV's fisheye rectification
         R1, R2, P1, P2, Q = cv2.fisheye.stereoRectify(
             a.K, np.ravel(a.dist)[:4].reshape(4, 1), b.K, np.ravel(b.dist)[:4].reshape(4, 1), size, R,
             T.reshape(3, 1), flags=cv2.CALIB_ZERO_DISPARITY, balance=0.0)
     else:
-        mixed = "fisheye" in (a.model, b.model)
+        mixed = start != {"calibrateCamera"}  # OpenCV's pinhole rectification, without the other's distortion
         d1 = np.zeros(5) if mixed else np.asarray(a.dist, np.float64)
         d2 = np.zeros(5) if mixed else np.asarray(b.dist, np.float64)
         R1, R2, P1, P2, Q, _, _ = cv2.stereoRectify(a.K, d1, b.K, d2, size, R, T.reshape(3, 1),
