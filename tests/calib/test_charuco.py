@@ -4,23 +4,23 @@ import cv2
 import numpy as np
 import pytest
 
+from sogdd.calib.cameras import Camera
 from sogdd.calib.targets.charuco import detect_charuco
-from sogdd.evaluation.calibration.render import Camera, render_charuco
 
 DICT = cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_4X4_50)
 BOARD = cv2.aruco.CharucoBoard((7, 5), 0.04, 0.02, DICT)
 CAM = Camera(np.array([[700.0, 0, 319.5], [0, 700.0, 239.5], [0, 0, 1]]), (0.0, 0, 0, 0), (640, 480))
 
 
-def view(blur=1.0, roll=0.2):
+def view(render, blur=1.0, roll=0.2):
     R = np.array([0.3, -0.2, roll])
     Rm, _ = cv2.Rodrigues(R)
     t = np.array([0.0, 0.0, 0.5]) - Rm @ np.array([0.14, 0.10, 0.0])
-    return render_charuco(CAM, BOARD, R, t, blur=blur, noise=2.0, rng=3)
+    return render.render_charuco(CAM, BOARD, R, t, blur=blur, noise=2.0, rng=3)
 
 
-def test_ids_labels_and_accuracy_better_than_opencvs():
-    v = view()
+def test_ids_labels_and_accuracy_better_than_opencvs(render):
+    v = view(render)
     b = detect_charuco(v.image, BOARD)
     assert b is not None and len(b) >= 20 and set(b.ids.tolist()) <= set(range(24))
     assert (b.size == (6, 4)) == (len(b) == 24)
@@ -41,9 +41,9 @@ def test_no_board_and_bad_arguments():
         detect_charuco(np.zeros((20, 20), np.uint8), BOARD, min_corners=0)
 
 
-def test_float_images_follow_the_cores_contract():
+def test_float_images_follow_the_cores_contract(render):
     # floats on [0, 1], else value_range (OpenCV's float images of grey levels: (0, 255)), as the detector
-    v = view()
+    v = view(render)
     ref = detect_charuco(v.image, BOARD)
     levels = v.image.astype(np.float64)
     with pytest.raises(ValueError, match=r"float images must be on \[0, 1\].*value_range"):

@@ -4,17 +4,17 @@ import cv2
 import numpy as np
 import pytest
 
+from sogdd.calib.cameras import Camera
 from sogdd.calib.targets.chessboard import detect_board
 from sogdd.calib.targets.chessboard.checks import EDGE_SHARE, edge_links
-from sogdd.evaluation.calibration.render import Camera, ChessboardTarget, render_view
 
 
-def _smeared(length: float, angle_deg: float):
+def _smeared(render, length: float, angle_deg: float):
     """A 12 x 7 board, fronto-parallel, cells of about 25 px, smeared by a motion of ``length`` px."""
     cam = Camera(np.array([[800.0, 0, 399.5], [0, 800.0, 299.5], [0, 0, 1]]), (0.0, 0.0, 0.0, 0.0), (800, 600))
-    target = ChessboardTarget(12, 7, 0.03)
+    target = render.Board(12, 7, 0.03)
     t = np.array([-0.03 * 5.5, -0.03 * 3.0, 0.96])
-    v = render_view(cam, target, np.zeros(3), t, blur=0.8, noise=1.0, rng=0)
+    v = render.render_view(cam, target, np.zeros(3), t, blur=0.8, noise=1.0, rng=0)
     n = int(np.ceil(length)) | 1
     kernel = np.zeros((n, n), np.float32)
     c = n // 2
@@ -27,10 +27,10 @@ def _smeared(length: float, angle_deg: float):
 
 
 @pytest.mark.parametrize("angle", [0.0, 90.0])
-def test_a_board_smeared_across_one_axis_keeps_its_edge_links(angle):
+def test_a_board_smeared_across_one_axis_keeps_its_edge_links(render, angle):
     # a motion of 18 px along one axis smears the edges across that axis's links (their contrast falls
     # to about a quarter) and not the other axis's: each axis is compared with its own links
-    img, v = _smeared(18.0, angle)
+    img, v = _smeared(render, 18.0, angle)
     share, linked = edge_links(img.astype(np.float64), v.corners, v.labels)
     assert share >= EDGE_SHARE and linked.all()
     b = detect_board(img, (12, 7), proposals=False)
@@ -39,10 +39,10 @@ def test_a_board_smeared_across_one_axis_keeps_its_edge_links(angle):
     assert d.max() < 1.0
 
 
-def test_links_across_squares_fail_the_edge_test():
+def test_links_across_squares_fail_the_edge_test(render):
     # the same corners linked two steps along an axis (a lattice of wrong steps): each link crosses a
     # square of the other colour half-way, so its side differences change sign
-    img, v = _smeared(0.0, 0.0)
+    img, v = _smeared(render, 0.0, 0.0)
     take = (v.labels[:, 0] % 2 == 0)
     labels = v.labels[take] // np.array([2, 1])
     share, _ = edge_links(img.astype(np.float64), v.corners[take], labels)

@@ -8,16 +8,16 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
+from sogdd.calib.cameras import Camera
 from sogdd.calib.targets.board import view_board
 from sogdd.calib.targets.chessboard import detect_board, detect_boards, find_boards
 from sogdd.calib.targets.chessboard.xcorners import default_scale
-from sogdd.evaluation.calibration.render import Camera, ChessboardTarget, render_view
 
 CAM = Camera(np.array([[500.0, 0, 239.5], [0, 500.0, 179.5], [0, 0, 1]]), (0.0, 0, 0, 0), (480, 360))
 
 
 @cache
-def view(cols=9, rows=6, square=0.03, roll=0.1, tilt=(0.3, -0.2), shift=(0.0, 0.0), dist=0.8, blur=1.0,
+def view(render, cols=9, rows=6, square=0.03, roll=0.1, tilt=(0.3, -0.2), shift=(0.0, 0.0), dist=0.8, blur=1.0,
          noise=2.0, cam=CAM):
     R = np.array([tilt[0], tilt[1], roll])
     import cv2
@@ -25,7 +25,7 @@ def view(cols=9, rows=6, square=0.03, roll=0.1, tilt=(0.3, -0.2), shift=(0.0, 0.
     Rm, _ = cv2.Rodrigues(R)
     centre = np.array([(cols - 1) * square / 2, (rows - 1) * square / 2, 0.0])
     t = np.array([shift[0], shift[1], dist]) - Rm @ centre
-    return render_view(cam, ChessboardTarget(cols, rows, square), R, t, blur=blur, noise=noise, rng=1)
+    return render.render_view(cam, render.Board(cols, rows, square), R, t, blur=blur, noise=noise, rng=1)
 
 
 def match(board, v):
@@ -47,9 +47,9 @@ def handed(board):
 
 
 @pytest.mark.parametrize("roll", [0.1, 0.1 + np.pi / 2, 0.1 + np.pi])
-def test_full_board_labels_are_the_boards_own_at_any_roll(roll):
+def test_full_board_labels_are_the_boards_own_at_any_roll(render, roll):
     # 9 x 6: cols + rows odd, so the dark outer square fixes (0, 0) on the same physical corner
-    v = view(roll=roll)
+    v = view(render, roll=roll)
     b = detect_board(v.image, (9, 6))
     assert b is not None and b.size == (9, 6) and len(b) == 54
     d, A, t, wrong = match(b, v)
@@ -59,9 +59,9 @@ def test_full_board_labels_are_the_boards_own_at_any_roll(roll):
     assert handed(b) == 1
 
 
-def test_symmetric_board_turned_half_keeps_i_left_to_right():
+def test_symmetric_board_turned_half_keeps_i_left_to_right(render):
     # 8 x 6: a half turn maps the board onto itself; (0, 0) goes to the end that puts +i to the right
-    v = view(cols=8, rows=6, roll=np.pi + 0.1)
+    v = view(render, cols=8, rows=6, roll=np.pi + 0.1)
     b = detect_board(v.image, (8, 6))
     assert b is not None and b.size == (8, 6)
     d, A, t, wrong = match(b, v)
@@ -72,8 +72,8 @@ def test_symmetric_board_turned_half_keeps_i_left_to_right():
     assert first[0] < last[0]
 
 
-def test_unknown_size_gives_relative_right_handed_labels():
-    v = view(roll=0.1 + np.pi / 2)
+def test_unknown_size_gives_relative_right_handed_labels(render):
+    v = view(render, roll=0.1 + np.pi / 2)
     b = detect_board(v.image)
     assert b is not None and b.size is None and len(b) == 54
     assert b.labels.min(axis=0).tolist() == [0, 0]
@@ -82,8 +82,8 @@ def test_unknown_size_gives_relative_right_handed_labels():
     assert handed(b) == 1
 
 
-def test_partial_board_cut_by_the_frame():
-    v = view(cols=11, rows=8, square=0.03, shift=(0.3, 0.1), tilt=(0.2, 0.3))
+def test_partial_board_cut_by_the_frame(render):
+    v = view(render, cols=11, rows=8, square=0.03, shift=(0.3, 0.1), tilt=(0.2, 0.3))
     inside = int(v.inside.sum())
     assert 20 < inside < 88  # the view really is cut
     b = detect_board(v.image, (11, 8))
@@ -94,10 +94,10 @@ def test_partial_board_cut_by_the_frame():
 
 
 @pytest.mark.parametrize("small_first", [False, True])
-def test_two_boards_in_one_image_largest_first(small_first):
+def test_two_boards_in_one_image_largest_first(render, small_first):
     # either board on the left, and the larger one blurred more (its corners weaker, so the search
     # reaches the smaller board first): the result is ordered by size, not by where or how strongly found
-    a, c = view(roll=0.2, blur=1.6), view(cols=7, rows=5, roll=-0.4, tilt=(-0.3, 0.2))
+    a, c = view(render, roll=0.2, blur=1.6), view(render, cols=7, rows=5, roll=-0.4, tilt=(-0.3, 0.2))
     left, right = (c, a) if small_first else (a, c)
     img = np.concatenate([left.image, right.image], axis=1)
     boards = detect_boards(img)
@@ -110,12 +110,12 @@ def test_two_boards_in_one_image_largest_first(small_first):
 
 
 @pytest.mark.parametrize("pattern", [(9, 6), None])
-def test_upright_board_labels_i_along_columns_left_to_right_in_object_point_order(pattern):
+def test_upright_board_labels_i_along_columns_left_to_right_in_object_point_order(render, pattern):
     # upright and nearly face on: label (i, j) is the target's inner corner (i, j), i = column (along x),
     # j = row (along y), listed row by row like the target's object points (OpenCV's order)
-    v = view(roll=0.0, tilt=(0.15, -0.1))
+    v = view(render, roll=0.0, tilt=(0.15, -0.1))
     b = detect_board(v.image, pattern)
-    target = ChessboardTarget(9, 6, 0.03)
+    target = render.Board(9, 6, 0.03)
     assert b is not None and len(b) == 54 and b.size == pattern
     assert b.labels.tolist() == target.labels().tolist()
     assert np.array_equal(b.object_points(0.03), target.object_points())
@@ -127,10 +127,10 @@ def test_upright_board_labels_i_along_columns_left_to_right_in_object_point_orde
     assert np.all(np.diff(grid[:, :, 1], axis=0) > 10)  # j increases with y down every column
 
 
-def test_unrefined_corners_at_a_reduced_scale_are_not_shifted():
+def test_unrefined_corners_at_a_reduced_scale_are_not_shifted(render):
     # refine=False returns the saddle points, found at a reduced scale and mapped back to full scale:
     # coarse, but a mapping off by half a pixel of the reduced image would shift them all
-    v = view()
+    v = view(render)
     big = np.full((1800, 2400), 110, np.uint8)  # the renderer's background level, above the pixel budget
     big[687 : 687 + 360, 1013 : 1013 + 480] = v.image
     assert default_scale(big.shape) < 0.7
@@ -143,12 +143,12 @@ def test_unrefined_corners_at_a_reduced_scale_are_not_shifted():
         assert d.max() < 0.25 and np.all(np.abs(err.mean(axis=0)) < 0.1), scale
 
 
-def test_detect_board_takes_the_keywords_of_detect_boards():
+def test_detect_board_takes_the_keywords_of_detect_boards(render):
     def keywords(f):
         return [(p.name, p.kind, p.default) for p in inspect.signature(f).parameters.values()]
 
     assert keywords(detect_board) == keywords(detect_boards)
-    v = view()
+    v = view(render)
     b = detect_board(v.image, (9, 6), refine=False)  # passed through: the unrefined saddle points
     (raw,) = detect_boards(v.image, (9, 6), refine=False)
     assert np.array_equal(b.image_points, raw.image_points)
@@ -156,9 +156,9 @@ def test_detect_board_takes_the_keywords_of_detect_boards():
         detect_board(v.image, min_corners=4)
 
 
-def test_float_images_follow_the_cores_contract():
+def test_float_images_follow_the_cores_contract(render):
     # floats on [0, 1], else value_range (OpenCV's float images of grey levels: (0, 255)), as the detector
-    v = view()
+    v = view(render)
     ref = detect_board(v.image, (9, 6))
     levels = v.image.astype(np.float64)
     for f in (detect_boards, detect_board):
@@ -172,8 +172,8 @@ def test_float_images_follow_the_cores_contract():
         assert np.abs(b.image_points - ref.image_points).max() < 1e-3
 
 
-def test_occluded_corners_are_dropped_not_mislabelled():
-    v = view()
+def test_occluded_corners_are_dropped_not_mislabelled(render):
+    v = view(render)
     img = v.image.copy()
     x, y = v.corners[22]
     img[int(y) - 12 : int(y) + 13, int(x) - 12 : int(x) + 13] = 128  # a blob over a few corners
@@ -184,8 +184,8 @@ def test_occluded_corners_are_dropped_not_mislabelled():
     assert 40 <= len(b) < 54
 
 
-def test_strong_blur_keeps_every_corner_near():
-    v = view(blur=2.5, noise=4.0, dist=0.55)  # cells of about 27 px, blurred over 5 px
+def test_strong_blur_keeps_every_corner_near(render):
+    v = view(render, blur=2.5, noise=4.0, dist=0.55)  # cells of about 27 px, blurred over 5 px
     b = detect_board(v.image, (9, 6))
     assert b is not None and len(b) >= 50
     d, A, t, wrong = match(b, v)
@@ -193,8 +193,8 @@ def test_strong_blur_keeps_every_corner_near():
     assert d.mean() < 0.05 and d.max() < 0.5
 
 
-def test_tiny_cells():
-    v = view(dist=2.5, blur=0.8)  # cells of about 6 px
+def test_tiny_cells(render):
+    v = view(render, dist=2.5, blur=0.8)  # cells of about 6 px
     cell = np.median(np.hypot(*np.diff(v.corners[:9], axis=0).T))
     assert cell < 6.5
     b = detect_board(v.image, (9, 6))
@@ -203,8 +203,18 @@ def test_tiny_cells():
     assert wrong == 0 and d.mean() < 0.06
 
 
-def test_pattern_that_does_not_fit_gives_no_board():
-    v = view()
+def test_a_board_of_fewer_corners_than_min_corners_is_found_whole(render):
+    # 3 x 3 inner corners: 9, under the default min_corners of 12, which must not ask more of a board
+    # than its pattern has
+    v = view(render, cols=3, rows=3, square=0.06, dist=0.7)
+    b = detect_board(v.image, (3, 3))
+    assert b is not None and len(b) == 9 and tuple(b.size) == (3, 3)
+    d, A, _, wrong = match(b, v)
+    assert d.max() < 0.3 and wrong == 0
+
+
+def test_pattern_that_does_not_fit_gives_no_board(render):
+    v = view(render)
     assert detect_boards(v.image, (5, 4)) == []
 
 
@@ -221,7 +231,7 @@ def _small_board(cols, rows, cell=24):
     return cv2.GaussianBlur(np.pad(sq, 40, constant_values=215.0), (0, 0), 1.0).astype(np.uint8)
 
 
-def test_detect_board_gives_none_where_there_is_no_board():
+def test_detect_board_gives_none_where_there_is_no_board(render):
     """The view's board (detect_board, not only the list of detect_boards) is None: on a flat image, on noise,
     on a grid of fewer corners than min_corners, and on a board that is not the pattern asked for."""
     rng = np.random.default_rng(3)
@@ -235,7 +245,7 @@ def test_detect_board_gives_none_where_there_is_no_board():
             assert b is None, f"image {k}, pattern {pattern}: a board of {len(b)} corners"
         assert find_boards(img).boards == []
     # a whole 9 x 6 board is found, but it is no 5 x 4 board: none of the pattern in the view
-    v = view()
+    v = view(render)
     assert find_boards(v.image, (5, 4)).others  # the premise: the search saw the 9 x 6 grid
     b = detect_board(v.image, (5, 4))
     assert b is None, f"pattern (5, 4): a board of {len(b)} corners, size {b.size}"
@@ -272,17 +282,15 @@ def test_not_an_array_is_a_type_error():
         detect_boards([[0, 1], [1, 0]])
 
 
-def test_dense_board_blurred_beyond_recognition_gives_no_wrong_labels():
+def test_dense_board_blurred_beyond_recognition_gives_no_wrong_labels(render):
     # cells of 6-8 px under a blur of 2.5 px: the edge lines blur away, and a lattice of knight's
     # moves over the true corners once passed every local check
-    from sogdd.evaluation.calibration.render import random_sequence
-
     cam = Camera(np.array([[700.0, 0, 319.5], [0, 700.0, 239.5], [0, 0, 1]]), (-0.12, 0.03, 0.001, -0.001),
                  (640, 480))
-    target = ChessboardTarget(20, 14, 0.01)
+    target = render.Board(20, 14, 0.01)
     # (here a blur of 2 px leaves part of the board to find: a loop over nothing would prove nothing)
-    r, t = random_sequence(cam, target, 3, seed=1, cell_px=(6, 8), tilt_max=40.0)[2]
-    v = render_view(cam, target, r, t, blur=2.0, noise=4.0, rng=2)
+    r, t = render.random_poses(cam, target, 3, seed=1, cell_px=(6, 8), tilt_max=40.0)[2]
+    v = render.render_view(cam, target, r, t, blur=2.0, noise=4.0, rng=2)
     boards = detect_boards(v.image, (20, 14))
     assert boards
     for b in boards:

@@ -9,18 +9,18 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
+from sogdd.calib.cameras import Camera
 from sogdd.calib.targets.chessboard import detect_board
 from sogdd.calib.targets.chessboard.xcorners import NOISE_FACTOR, noise_strength, search, search_levels
-from sogdd.evaluation.calibration.render import Camera, ChessboardTarget, render_view
 
 CAM = Camera(np.array([[900.0, 0, 479.5], [0, 900.0, 359.5], [0, 0, 1]]), (0.0, 0, 0, 0), (960, 720))
 
 
-def board_view(square=0.03, tilt=(0.25, -0.15), noise=1.0, blur=0.8, seed=3):
+def board_view(render, square=0.03, tilt=(0.25, -0.15), noise=1.0, blur=0.8, seed=3):
     R = np.array([tilt[0], tilt[1], 0.1])
     Rm, _ = cv2.Rodrigues(R)
     t = np.array([0.0, 0.0, 1.0]) - Rm @ np.array([4 * square, 2.5 * square, 0.0])
-    return render_view(CAM, ChessboardTarget(9, 6, square), R, t, blur=blur, noise=0.0, rng=seed), noise
+    return render.render_view(CAM, render.Board(9, 6, square), R, t, blur=blur, noise=0.0, rng=seed), noise
 
 
 def smear(img: np.ndarray, length: int, angle_deg: float) -> np.ndarray:
@@ -40,8 +40,8 @@ def assert_exact(board, view, tol):
     assert d.max() < tol
 
 
-def test_a_smeared_board_is_found_at_a_coarser_level_and_measured_at_full_resolution():
-    v, _ = board_view()
+def test_a_smeared_board_is_found_at_a_coarser_level_and_measured_at_full_resolution(render):
+    v, _ = board_view(render)
     img = np.clip(smear(v.image, 17, 30.0) + np.random.default_rng(0).normal(0, 1.0, v.image.shape), 0, 255)
     img = img.astype(np.uint8)
     # at full resolution the smear leaves too little saddle strength for a board to be grown there
@@ -51,8 +51,8 @@ def test_a_smeared_board_is_found_at_a_coarser_level_and_measured_at_full_resolu
     assert_exact(b, v, 0.35)  # a symmetric smear keeps each corner point-symmetric
 
 
-def test_a_noisy_board_of_large_cells_is_found_without_opencv():
-    v, _ = board_view(square=0.06, tilt=(0.1, -0.05))
+def test_a_noisy_board_of_large_cells_is_found_without_opencv(render):
+    v, _ = board_view(render, square=0.06, tilt=(0.1, -0.05))
     img = np.clip(v.image + np.random.default_rng(1).normal(0, 12.0, v.image.shape), 0, 255).astype(np.uint8)
     b = detect_board(img, (9, 6), proposals=False)
     assert_exact(b, v, 0.5)
@@ -92,9 +92,9 @@ def test_opencv_sample_boards_are_complete_by_the_own_search(side):
     assert complete == len(files) == 13
 
 
-def test_a_dim_board_is_searched_as_a_bright_one():
+def test_a_dim_board_is_searched_as_a_bright_one(render):
     # the floor follows the image's range: a board at a quarter of the light gives the same corners
-    v, _ = board_view()
+    v, _ = board_view(render)
     bright = v.image.astype(np.float64)
     dim = 0.05 * bright + 20.0  # contrast under 10 grey levels
     # one level, so that the pyramid's reduced blur cannot make up for a threshold in grey levels
@@ -104,10 +104,10 @@ def test_a_dim_board_is_searched_as_a_bright_one():
     assert np.abs(b1.image_points - b2.image_points).max() < 0.05
 
 
-def test_a_small_board_found_first_does_not_hide_the_view_board():
+def test_a_small_board_found_first_does_not_hide_the_view_board(render):
     # a screen in the background shows the same pattern, small and sharp: it is complete at the finest
     # level, where the view's own board, smeared, is not; the coarser levels find the view's board
-    v, _ = board_view()
+    v, _ = board_view(render)
     img = smear(v.image, 17, 30.0)
     small = np.kron((np.indices((7, 10)).sum(axis=0) % 2) * 180.0 + 40, np.ones((6, 6)))  # 9 x 6, 6 px cells
     img[8:8 + 54, 8:8 + 72] = cv2.GaussianBlur(np.pad(small, 6, constant_values=220.0), (0, 0), 0.7)[:54, :72]
@@ -117,7 +117,7 @@ def test_a_small_board_found_first_does_not_hide_the_view_board():
 
 
 @pytest.mark.parametrize("seed", range(6))
-def test_a_column_just_outside_the_frame_gets_no_label(seed):
+def test_a_column_just_outside_the_frame_gets_no_label(render, seed):
     # the board's first column of corners lies 0.5-6 px beyond the left edge: nothing near the edge may take
     # its label (a saddle where the squares' edges meet the frame), and every point returned is a corner
     rng = np.random.default_rng(seed)
@@ -125,7 +125,7 @@ def test_a_column_just_outside_the_frame_gets_no_label(seed):
     square, out = rng.uniform(0.02, 0.08), rng.uniform(0.5, 6.0)
     y0 = rng.uniform(20, 460 - 5 * square * 800)
     t = np.array([(-out - 319.5) / 800.0, (y0 - 239.5) / 800.0, 1.0])
-    v = render_view(cam, ChessboardTarget(9, 6, square), np.array([0.0, 0.0, rng.uniform(-0.05, 0.05)]), t,
+    v = render.render_view(cam, render.Board(9, 6, square), np.array([0.0, 0.0, rng.uniform(-0.05, 0.05)]), t,
                     blur=rng.uniform(0.5, 3.0), noise=rng.uniform(0, 4), rng=seed, border=0.0)
     b = detect_board(v.image, (9, 6))
     assert b is not None and len(b) >= 40

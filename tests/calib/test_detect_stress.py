@@ -3,7 +3,7 @@
 The boards with narrow outer squares and dots are drawn on a texture and warped by
 a homography (supersampled 4 x 4, then area-averaged), so their true corners are
 the homography's images of the texture's; the frame-edge views come from the
-calibration renderer. Every case must give the complete board with no wrong label.
+tests' renderer (the ``render`` fixture). Every case must give the complete board with no wrong label.
 """
 
 import cv2
@@ -11,12 +11,11 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
+from sogdd.calib.cameras import Camera
 from sogdd.calib.targets.chessboard import detect_boards
 from sogdd.calib.targets.chessboard.windows import edge_halves
 from sogdd.calib.targets.grey import to_grey
 from sogdd.calib.targets.refine import half_widths
-from sogdd.evaluation.calibration.render import Camera, ChessboardTarget, render_view
-from sogdd.evaluation.calibration.stress import stress_scene
 
 DARK, LIGHT = 35.0, 215.0
 
@@ -131,9 +130,9 @@ def test_jpeg_with_small_cells_and_narrow_outer_squares(seed):
     assert d.mean() < 0.06
 
 
-def _cut_view(rng, seed, f=600.0, size=(640, 480)):
+def _cut_view(render, rng, seed, f=600.0, size=(640, 480)):
     """A 9 x 6 board whose extreme corner on one side lies 0.5-6 px outside the frame."""
-    tgt = ChessboardTarget(9, 6, 0.03)
+    tgt = render.Board(9, 6, 0.03)
     R = np.r_[rng.uniform(-0.5, 0.5, 2), rng.uniform(-np.pi, np.pi)]
     t = np.array([0, 0, rng.uniform(0.35, 0.6)]) - cv2.Rodrigues(R)[0] @ np.array([0.12, 0.075, 0.0])
     p = Camera(np.array([[f, 0, 0], [0, f, 0], [0, 0, 1]]), (-0.1, 0, 0, 0), size).project(
@@ -144,16 +143,16 @@ def _cut_view(rng, seed, f=600.0, size=(640, 480)):
     cx, cy = [(-u - p[:, 0].min(), my), (W - 1 + u - p[:, 0].max(), my), (mx, -u - p[:, 1].min()),
               (mx, H - 1 + u - p[:, 1].max())][int(rng.integers(4))]
     cam = Camera(np.array([[f, 0, cx], [0, f, cy], [0, 0, 1]]), (-0.1, 0, 0, 0), size)
-    return render_view(cam, tgt, R, t, blur=rng.uniform(0.6, 1.5), noise=2.0, rng=seed)
+    return render.render_view(cam, tgt, R, t, blur=rng.uniform(0.6, 1.5), noise=2.0, rng=seed)
 
 
-def test_boards_cut_by_the_frame_get_no_wrong_label():
+def test_boards_cut_by_the_frame_get_no_wrong_label(render):
     # the corners next to the cut: the lattice predicts the next label just outside the frame, where a
     # saddle of the frame's edge may lie; it must be measured on what is inside and kept right, or dropped
     rng = np.random.default_rng(11)
     found = 0
     for seed in range(12):
-        v = _cut_view(rng, seed)
+        v = _cut_view(render, rng, seed)
         for b in detect_boards(v.image, (9, 6)):
             found += 1
             n_wrong, _ = wrong(b, v.corners, v.labels)
@@ -161,11 +160,22 @@ def test_boards_cut_by_the_frame_get_no_wrong_label():
     assert found >= 10
 
 
+def dots_scene(render, seed):
+    """A 7 x 5 board with 3 x 3 matrices of dots 0.12 of a cell wide in its inner white squares, cells of
+    30-40 px, tilted up to 35 degrees, through a 60-degree 640 x 480 camera with distortion; blur 0.7 px,
+    falloff 0.2, noise 2 (the evaluation's "dots" stress scene, drawn from ``seed`` as it draws it)."""
+    gen = np.random.default_rng(seed)
+    cam, target = render.camera_for(640, 480), render.Board(7, 5, 0.02, dots=3, dot=0.12)
+    rv, tv = render.random_poses(cam, target, 1, seed=int(gen.integers(2**31)), cell_px=(30.0, 40.0),
+                                 tilt_max=35.0)[0]
+    return render.render_view(cam, target, rv, tv, blur=0.7, falloff=0.2, noise=2.0, rng=gen)
+
+
 @pytest.mark.parametrize("seed", [0, 4, 31])
-def test_dot_matrices_clear_of_the_corners_by_a_fifth_of_a_cell(seed):
+def test_dot_matrices_clear_of_the_corners_by_a_fifth_of_a_cell(render, seed):
     # the rendered stress scene: dots 0.2 of a cell clear of the squares' corners, inside a 0.65-cell window;
     # they differ between the two white squares mirrored through an inner corner, which must be refined on
     # the plain squares close around it, not dropped (and its board with it)
-    sc = stress_scene("dots", rng=seed)
-    d = complete(sc.image, sc.corners, sc.labels, sc.pattern)
+    v = dots_scene(render, seed)
+    d = complete(v.image, v.corners, v.labels, (7, 5))
     assert d.mean() < 0.04

@@ -7,9 +7,9 @@ import cv2
 import numpy as np
 import pytest
 
+from sogdd.calib.cameras import Camera
 from sogdd.calib.targets.chessboard.fill import _fill, _fill_labels, _frame
 from sogdd.calib.targets.chessboard.windows import refine_board
-from sogdd.evaluation.calibration.render import Camera, ChessboardTarget, add_noise, render_scene
 
 
 def reference_fill_labels(labels, pattern):
@@ -92,7 +92,9 @@ def test_frame_reads_the_steps_to_the_neighbours_to_the_bit(seed):
 
 CAM = Camera(np.array([[500.0, 0, 239.5], [0, 500.0, 179.5], [0, 0, 1]]), (0.0, 0, 0, 0), (480, 360))
 SQ = 0.03
-TARGET = ChessboardTarget(9, 6, SQ)
+#: the 9 x 6 board's labels and its inner corners' board coordinates (OpenCV's order)
+LABELS = np.array([(i, j) for j in range(6) for i in range(9)])
+OBJ = np.c_[LABELS * SQ, np.zeros(len(LABELS))]
 POSE = (np.array([0.15, -0.1, 0.05]), np.array([0.0, 0.0, 0.62]))
 H, G = (2, 2), (6, 3)
 #: the label offset of the lattice's second copy of the board (the island tests)
@@ -108,29 +110,30 @@ def _pose(shift=(0.0, 0.0)):
 
 
 def _truth():
-    return TARGET.labels(), CAM.project(TARGET.object_points(), *_pose())
+    return LABELS, CAM.project(OBJ, *_pose())
 
 
 def _index(label) -> int:
-    return int(np.flatnonzero((TARGET.labels() == label).all(axis=1))[0])
+    return int(np.flatnonzero((LABELS == label).all(axis=1))[0])
 
 
 @cache
-def _view(alter: str = "", shift: float = 0.0) -> np.ndarray:
+def _view(render, alter: str = "", shift: float = 0.0) -> np.ndarray:
     """The rendered view, the four squares around H replaced by ``alter``'s: "parity" (the board moved one
     square along i: its squares the other way round), "faint" (a third of the contrast), "shift" (the board
     moved ``shift`` of a square along i: its X-junction there off the lattice)."""
-    img = render_scene(CAM, TARGET, *_pose())
+    target = render.Board(9, 6, SQ)
+    img = render.render_scene(CAM, target, *_pose())
     if alter:
-        other = {"parity": lambda: render_scene(CAM, TARGET, *_pose((1.0, 0.0))),
-                 "faint": lambda: render_scene(CAM, TARGET, *_pose(), levels=(95.0, 155.0, 110.0)),
-                 "shift": lambda: render_scene(CAM, TARGET, *_pose((shift, 0.0)))}[alter]()
+        other = {"parity": lambda: render.render_scene(CAM, target, *_pose((1.0, 0.0))),
+                 "faint": lambda: render.render_scene(CAM, target, *_pose(), levels=(95.0, 155.0, 110.0)),
+                 "shift": lambda: render.render_scene(CAM, target, *_pose((shift, 0.0)))}[alter]()
         i, j = H
         quad = np.array([[i - 1, j - 1, 0], [i + 1, j - 1, 0], [i + 1, j + 1, 0], [i - 1, j + 1, 0]]) * SQ
         mask = np.zeros(img.shape, np.uint8)
         cv2.fillPoly(mask, [np.rint(CAM.project(quad, *_pose()) * 16).astype(np.int32)], 1, shift=4)
         img = np.where(mask.astype(bool), other, img)
-    return add_noise(cv2.GaussianBlur(img, (0, 0), 0.8), 2.0, 7)
+    return render.add_noise(cv2.GaussianBlur(img, (0, 0), 0.8), 2.0, 7)
 
 
 def _filled(img: np.ndarray, free=(H, G), island_free=None) -> dict:
@@ -154,45 +157,45 @@ def _at_truth(new: dict, label) -> bool:
     return label in new and float(np.hypot(*(new[label] - _truth()[1][_index(label)]))) < 0.05
 
 
-def test_the_fill_measures_the_free_labels_at_their_true_corners():
+def test_the_fill_measures_the_free_labels_at_their_true_corners(render):
     """The premise of the tests below: unaltered, both free labels are filled, each at its true corner."""
-    new = _filled(_view())
+    new = _filled(_view(render))
     assert set(new) == {H, G} and _at_truth(new, H) and _at_truth(new, G)
 
 
-def test_a_candidate_whose_light_squares_lie_the_wrong_way_round_is_not_filled():
+def test_a_candidate_whose_light_squares_lie_the_wrong_way_round_is_not_filled(render):
     """H's squares the other way round: a perfect X-junction at H, symmetric, of the board's contrast and on
     the lattice, but its light diagonal is not where H's parity puts it."""
-    new = _filled(_view("parity"))
+    new = _filled(_view(render, "parity"))
     assert H not in new, new[H]
     assert set(new) == {G} and _at_truth(new, G)
 
 
-def test_a_candidate_of_a_faint_x_junction_is_not_filled():
+def test_a_candidate_of_a_faint_x_junction_is_not_filled(render):
     """H's squares at a third of the board's contrast (under FILL_CONTRAST of the board's median): the right
     parity, symmetric and on the lattice, but too faint to be one of the board's corners."""
-    new = _filled(_view("faint"))
+    new = _filled(_view(render, "faint"))
     assert H not in new, new[H]
     assert set(new) == {G} and _at_truth(new, G)
 
 
-def test_a_candidate_off_the_lattice_is_not_filled_by_the_check_of_its_neighbours():
+def test_a_candidate_off_the_lattice_is_not_filled_by_the_check_of_its_neighbours(render):
     """H's X-junction moved 0.35 of a square along i: symmetric, of the right parity and contrast and more
     than half a cell from every corner, but its neighbours' map puts H 0.35 of a cell away (FILL_TOL: 0.2)."""
-    new = _filled(_view("shift", 0.35))
+    new = _filled(_view(render, "shift", 0.35))
     assert H not in new, new[H]
     assert set(new) == {G} and _at_truth(new, G)
 
 
-def test_a_candidate_on_a_corner_the_board_already_holds_is_not_filled():
+def test_a_candidate_on_a_corner_the_board_already_holds_is_not_filled(render):
     """The lattice holds every corner a second time, ISLAND further along i; H is free in the first copy only,
     so its candidate, H's true corner, is already the board's corner H + ISLAND: not half a cell away."""
-    new = _filled(_view(), free=(H,), island_free=())
+    new = _filled(_view(render), free=(H,), island_free=())
     assert new == {}
 
 
-def test_two_candidates_on_one_point_are_neither_filled():
+def test_two_candidates_on_one_point_are_neither_filled(render):
     """The lattice holds every corner twice, H free in both copies: H and H + ISLAND, of one parity, each on
     its copy's lattice, both converge on H's true corner; one point cannot take two labels."""
-    new = _filled(_view(), free=(H,), island_free=(H,))
+    new = _filled(_view(render), free=(H,), island_free=(H,))
     assert new == {}

@@ -1,6 +1,6 @@
 """Chessboards through an equidistant fisheye: curved rows and columns, cells shrinking towards the rim.
 
-The views are rendered here (the evaluation's renderer has a pinhole camera):
+The views are rendered here (the tests' renderer, the ``render`` fixture, has a pinhole camera):
 each pixel is the mean of ``3 x 3`` point samples whose rays ``r = f theta``
 meet the board's plane, then a blur of 0.7 px and noise of 2 grey levels; the
 ground truth is the equidistant projection of the inner corners, exact. Point

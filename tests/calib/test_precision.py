@@ -11,16 +11,9 @@ from sogdd.calib.targets.board import Board
 from sogdd.calib.targets.precision import lattice_cells, measure_precision, windows, with_precision
 from sogdd.calib.targets.refine import corner_covariance, refine_grey
 from sogdd.calib.targets.spec import parse_board
-from sogdd.evaluation.calibration.render import (
-    ChessboardTarget,
-    add_noise,
-    camera_for,
-    random_sequence,
-    render_scene,
-)
 
-CAM = camera_for(640, 480)
-TARGET = ChessboardTarget(9, 6, 1.0)
+#: the rendered 9 x 6 board's labels (OpenCV's order)
+LABELS = np.array([(i, j) for j in range(6) for i in range(9)])
 
 
 def motion_blur(img: np.ndarray, length: int, angle: float) -> np.ndarray:
@@ -33,22 +26,23 @@ def motion_blur(img: np.ndarray, length: int, angle: float) -> np.ndarray:
 
 
 @cache
-def scene(seed=3, blur=1.2, motion=0):
-    rv, tv = random_sequence(CAM, TARGET, 1, seed=seed)[0]
-    clean = render_scene(CAM, TARGET, rv, tv, blur=blur)
+def scene(render, seed=3, blur=1.2, motion=0):
+    cam, target = render.camera_for(640, 480), render.Board(9, 6, 1.0)
+    rv, tv = render.random_poses(cam, target, 1, seed=seed)[0]
+    clean = render.render_scene(cam, target, rv, tv, blur=blur)
     if motion:
         clean = motion_blur(clean, motion, 0.4)
-    truth = CAM.project(TARGET.object_points(), rv, tv)
+    truth = cam.project(target.object_points(), rv, tv)
     return clean, truth
 
 
-def scatter_and_prediction(clean, truth, noise, draws, half=None):
+def scatter_and_prediction(render, clean, truth, noise, draws, half=None):
     """Per corner: the covariance of the refined positions over ``draws`` noise draws, and the mean of
     the predicted covariances."""
-    h = windows(Board(truth, TARGET.labels())) if half is None else np.full(len(truth), half)
+    h = windows(Board(truth, LABELS)) if half is None else np.full(len(truth), half)
     xs, cs = [], []
     for k in range(draws):
-        img = add_noise(clean, noise, np.random.default_rng(k)).astype(np.float64)
+        img = render.add_noise(clean, noise, np.random.default_rng(k)).astype(np.float64)
         xy, q = refine_grey(img, truth, h, h.astype(np.float64))
         assert np.all(q > 0)
         xs.append(xy)
@@ -62,12 +56,12 @@ def ratio(emp, pred):
     return np.sqrt(np.trace(emp, axis1=1, axis2=2) / np.trace(pred, axis1=1, axis2=2))
 
 
-def test_predicted_sigma_matches_the_scatter_over_noise_draws():
+def test_predicted_sigma_matches_the_scatter_over_noise_draws(render):
     """Over 60 noise draws of a rendered board (blur 1.2 px, noise 3 grey levels), the refined corners
     scatter as predicted: 0.93 in the median, measured; the naive ``E / (n - 2) A^-1``, which takes the
     window's weights for inverse variances and the interpolated samples for independent ones, was 1.39
     here, and from 0.98 to 1.67 corner by corner, with the corner's fraction of a pixel."""
-    emp, pred = scatter_and_prediction(*scene(), noise=3.0, draws=60)
+    emp, pred = scatter_and_prediction(render, *scene(render), noise=3.0, draws=60)
     r = ratio(emp, pred)
     assert 0.8 < np.median(r) < 1.2, np.median(r)
     assert 0.7 < np.percentile(r, 10) and np.percentile(r, 90) < 1.4, np.percentile(r, [10, 90])
@@ -90,17 +84,17 @@ def test_the_interpolation_shares_pixels_and_the_prediction_counts_them(at):
     assert 0.85 < r < 1.15, r
 
 
-def refined(clean, truth, noise=3.0):
-    img = add_noise(clean, noise, 0).astype(np.float64)
-    h = windows(Board(truth, TARGET.labels()))
-    return img, Board(refine_grey(img, truth, h, h.astype(np.float64))[0], TARGET.labels()), h
+def refined(render, clean, truth, noise=3.0):
+    img = render.add_noise(clean, noise, 0).astype(np.float64)
+    h = windows(Board(truth, LABELS))
+    return img, Board(refine_grey(img, truth, h, h.astype(np.float64))[0], LABELS), h
 
 
 @pytest.mark.parametrize("length, factor", [(11, 1.4), (21, 2.2)])
-def test_motion_blur_makes_corners_less_precise_along_the_motion(length, factor):
-    img, sharp, _ = refined(*scene())
+def test_motion_blur_makes_corners_less_precise_along_the_motion(render, length, factor):
+    img, sharp, _ = refined(render, *scene(render))
     sharp = with_precision(img, sharp)
-    img, board, h = refined(*scene(motion=length))
+    img, board, h = refined(render, *scene(render, motion=length))
     smeared = with_precision(img, board)
     assert np.median(smeared.precision) > factor * np.median(sharp.precision)
     # the least precise direction is the motion's (0.4 rad)
@@ -109,8 +103,8 @@ def test_motion_blur_makes_corners_less_precise_along_the_motion(length, factor)
     assert np.median(along) > 0.9
 
 
-def test_the_scatter_of_a_smeared_board_is_predicted_too():
-    emp, pred = scatter_and_prediction(*scene(motion=11), noise=3.0, draws=40)
+def test_the_scatter_of_a_smeared_board_is_predicted_too(render):
+    emp, pred = scatter_and_prediction(render, *scene(render, motion=11), noise=3.0, draws=40)
     assert 0.75 < np.median(ratio(emp, pred)) < 1.3
 
 

@@ -5,23 +5,23 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
+from sogdd.calib.cameras import Camera
 from sogdd.calib.targets.board import grid_dims
 from sogdd.calib.targets.chessboard import detect_board, find_boards
 from sogdd.calib.targets.chessboard.proposals import propose
-from sogdd.evaluation.calibration.render import Camera, ChessboardTarget, render_view
 
 CAM = Camera(np.array([[700.0, 0, 319.5], [0, 700.0, 239.5], [0, 0, 1]]), (-0.05, 0.0, 0, 0), (640, 480))
 
 
-def view(cols=9, rows=6, square=0.03):
+def view(render, cols=9, rows=6, square=0.03):
     R = np.array([0.3, -0.2, 0.1])
     Rm, _ = cv2.Rodrigues(R)
     t = np.array([0.0, 0.0, 1.0]) - Rm @ np.array([(cols - 1) * square / 2, (rows - 1) * square / 2, 0.0])
-    return render_view(CAM, ChessboardTarget(cols, rows, square), R, t, blur=1.0, noise=2.0, rng=0)
+    return render.render_view(CAM, render.Board(cols, rows, square), R, t, blur=1.0, noise=2.0, rng=0)
 
 
-def test_a_proposal_is_measured_by_sogdd_and_says_where_it_came_from():
-    v = view()
+def test_a_proposal_is_measured_by_sogdd_and_says_where_it_came_from(render):
+    v = view(render)
     # a threshold no X-corner reaches: the own search finds nothing, OpenCV's board is all there is
     b = detect_board(v.image, (9, 6), min_strength=1e6)
     assert b is not None and b.source == "opencv" and b.size == (9, 6) and len(b) == 54
@@ -33,8 +33,8 @@ def test_a_proposal_is_measured_by_sogdd_and_says_where_it_came_from():
 
 
 @pytest.mark.parametrize("part", [(8, 6), (4, 3)])
-def test_a_proposal_that_is_part_of_a_larger_board_is_no_board_of_the_pattern(part):
-    v = view(cols=9, rows=6)
+def test_a_proposal_that_is_part_of_a_larger_board_is_no_board_of_the_pattern(render, part):
+    v = view(render, cols=9, rows=6)
     # on this view OpenCV's classic detector finds an 8 x 6 block of the 9 x 6 board and SB a 4 x 3 one
     assert propose(v.image.astype(float), part)
     # the grid goes on beyond the block, so it is not the board
@@ -43,18 +43,18 @@ def test_a_proposal_that_is_part_of_a_larger_board_is_no_board_of_the_pattern(pa
     assert (9, 6) in [grid_dims(b) or () for b in found.others]
 
 
-def test_the_own_search_carries_the_load():
-    v = view()
+def test_the_own_search_carries_the_load(render):
+    v = view(render)
     b = detect_board(v.image, (9, 6))
     assert b is not None and b.source == "sogdd" and len(b) == 54
 
 
-def test_a_complete_screen_of_the_pattern_does_not_stop_the_proposals(monkeypatch):
+def test_a_complete_screen_of_the_pattern_does_not_stop_the_proposals(render, monkeypatch):
     from sogdd.calib.targets.board import Board
     from sogdd.calib.targets.chessboard import search
     from sogdd.calib.targets.chessboard.proposals import Proposal
 
-    v = view()
+    v = view(render)
     k = np.arange(54)
     grid = np.stack([k % 9, k // 9], axis=1)
     # the own search's boards: the view's board with a column missing, and a complete copy of the pattern

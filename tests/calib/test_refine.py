@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from scipy.ndimage import map_coordinates
 
+from sogdd.calib.cameras import Camera
 from sogdd.calib.targets.refine import cell_sizes, half_widths, refine_corners
-from sogdd.evaluation.calibration.render import Camera, ChessboardTarget, render_view
 
 CAM = Camera(np.array([[500.0, 0, 239.5], [0, 500.0, 179.5], [0, 0, 1]]), (-0.1, 0.02, 0.0, 0.0), (480, 360))
 CRIT = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 0.001)  # OpenCV's tutorial's
@@ -16,11 +16,11 @@ TIGHT = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 100, 1e-7)  # itera
 
 
 @cache
-def view(dist=0.8, blur=1.0, noise=2.0, roll=0.3):
+def view(render, dist=0.8, blur=1.0, noise=2.0, roll=0.3):
     R = np.array([0.35, -0.25, roll])
     Rm, _ = cv2.Rodrigues(R)
     t = np.array([0.0, 0.0, dist]) - Rm @ np.array([0.12, 0.075, 0.0])
-    return render_view(CAM, ChessboardTarget(9, 6, 0.03), R, t, blur=blur, noise=noise, rng=7)
+    return render.render_view(CAM, render.Board(9, 6, 0.03), R, t, blur=blur, noise=noise, rng=7)
 
 
 def starts(v, spread=1.0, seed=0):
@@ -70,14 +70,14 @@ def gauss_newton_step(image, xy, h, gaussian=True):
 # accuracy
 
 
-def test_accurate_from_a_pixel_off():
-    v = view()
+def test_accurate_from_a_pixel_off(render):
+    v = view(render)
     e = errors(refine_corners(v.image, starts(v)), v)
     assert e.mean() < 0.02 and e.max() < 0.06
 
 
-def test_beats_cornersubpix_on_find_chessboard_corners_output():
-    v = view()
+def test_beats_cornersubpix_on_find_chessboard_corners_output(render):
+    v = view(render)
     ok, found = cv2.findChessboardCorners(v.image, (9, 6))
     assert ok
     order = np.argmin(np.hypot(*(found.reshape(-1, 2)[:, None] - v.corners[None]).transpose(2, 0, 1)), axis=1)
@@ -89,14 +89,14 @@ def test_beats_cornersubpix_on_find_chessboard_corners_output():
     assert ours.max() < theirs.max()
 
 
-def test_strong_blur_sends_no_point_away():
-    v = view(dist=0.55, blur=2.5, noise=4.0)  # cells of about 27 px blurred over 5 px
+def test_strong_blur_sends_no_point_away(render):
+    v = view(render, dist=0.55, blur=2.5, noise=4.0)  # cells of about 27 px blurred over 5 px
     e = errors(refine_corners(v.image, starts(v)), v)
     assert e.mean() < 0.05 and e.max() < 0.5
 
 
-def test_tiny_cells():
-    v = view(dist=2.4, blur=0.8)
+def test_tiny_cells(render):
+    v = view(render, dist=2.4, blur=0.8)
     assert np.median(cell_sizes(v.corners)) < 6.5
     e = errors(refine_corners(v.image, starts(v, 0.5)), v)
     assert e.mean() < 0.05 and e.max() < 0.15
@@ -105,20 +105,20 @@ def test_tiny_cells():
 # the fit: which objective the refined point minimises
 
 
-def test_the_weights_are_gaussian():
+def test_the_weights_are_gaussian(render):
     # tiny cells, where the weights matter most: the window (4 px) reaches the perspective-bent edges
-    v = view(dist=2.4, blur=0.8)
+    v = view(render, dist=2.4, blur=0.8)
     xy = refine_corners(v.image, starts(v, 0.5), (4, 4), (-1, -1), TIGHT)
     assert np.median(gauss_newton_step(v.image, xy, 4, gaussian=False)) > 1e-3  # the weightings differ here
     assert gauss_newton_step(v.image, xy, 4).max() < 1e-6
 
 
-def test_the_default_window_is_065_of_the_cell():
+def test_the_default_window_is_065_of_the_cell(render):
     # the module doc's examples: a 6 px cell takes a 4 px half-width, a 31 px cell 20 px (the most)
     assert half_widths(np.zeros((4, 2)), None, np.array([6.0, 20.0, 31.0, 100.0])).tolist() == [4, 13, 20, 20]
     assert half_widths(np.zeros((1, 2)), None, None).tolist() == [5]  # a point alone: cornerSubPix's (5, 5)
     for dist, cell, half, other in ((2.4, 6.0, 4, 3), (1.6, 9.0, 6, 4)):  # other: 0.5 of the cell
-        v = view(dist=dist, blur=0.8)
+        v = view(render, dist=dist, blur=0.8)
         xy = refine_corners(v.image, starts(v, 0.5), None, None, TIGHT, cell=cell)
         assert np.median(gauss_newton_step(v.image, xy, other)) > 1e-3  # the two windows' fixed points differ
         assert gauss_newton_step(v.image, xy, half).max() < 1e-6
@@ -152,8 +152,8 @@ def test_a_point_without_a_corner_keeps_its_start():
 # cornerSubPix's contract
 
 
-def test_opencv_tutorial_code_gets_the_refined_corners_in_place():
-    v = view()
+def test_opencv_tutorial_code_gets_the_refined_corners_in_place(render):
+    v = view(render)
     ok, corners = cv2.findChessboardCorners(v.image, (9, 6))
     assert ok
     before = corners.copy()
@@ -172,8 +172,8 @@ def test_opencv_tutorial_code_gets_the_refined_corners_in_place():
 
 @pytest.mark.parametrize("shape, dtype", [((54, 1, 2), np.float32), ((54, 2), np.float32),
                                           ((54, 2), np.float64), ((1, 54, 2), np.float64)])
-def test_the_given_array_is_refined_in_place_in_its_shape_and_dtype(shape, dtype):
-    v = view()
+def test_the_given_array_is_refined_in_place_in_its_shape_and_dtype(render, shape, dtype):
+    v = view(render)
     p = starts(v).astype(dtype).reshape(shape)
     out = refine_corners(v.image, p, (7, 7))
     assert out is p and out.shape == shape and out.dtype == dtype
@@ -183,8 +183,8 @@ def test_the_given_array_is_refined_in_place_in_its_shape_and_dtype(shape, dtype
         assert np.array_equal(p, q.astype(np.float32))
 
 
-def test_other_inputs_are_left_as_they_are():
-    v = view()
+def test_other_inputs_are_left_as_they_are(render):
+    v = view(render)
     pts = starts(v)
     listed = pts.tolist()
     out = refine_corners(v.image, listed, (7, 7))
@@ -209,8 +209,8 @@ def test_a_point_that_cannot_be_refined_keeps_its_float32_start_exactly():
     assert np.array_equal(p[:2], start[:2]) and np.abs(p[2] - 30.3).max() < 0.05
 
 
-def test_positional_and_keyword_arguments_as_cornersubpix():
-    v = view()
+def test_positional_and_keyword_arguments_as_cornersubpix(render):
+    v = view(render)
     a = refine_corners(v.image, starts(v), (5, 5), (-1, -1), CRIT)
     b = refine_corners(image=v.image, corners=starts(v), winSize=(5, 5), zeroZone=(-1, -1), criteria=CRIT)
     c = refine_corners(v.image, starts(v), 5, (2, 2), CRIT)  # zeroZone is accepted and ignored
@@ -234,8 +234,8 @@ def test_criteria_map_as_cornersubpix_maps_them():
     assert np.abs(refine_corners(img, start, 6, None, (cv2.TERM_CRITERIA_COUNT, 5, 0.0)) - 30.3).max() > 0.5
 
 
-def test_colour_and_float_images():
-    v = view()
+def test_colour_and_float_images(render):
+    v = view(render)
     colour = np.repeat(v.image[:, :, None], 3, axis=2)
     a = refine_corners(colour, starts(v))
     b = refine_corners(v.image.astype(np.float32) / 255.0, starts(v))

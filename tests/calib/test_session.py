@@ -336,19 +336,18 @@ SCENE_K = np.array([[560.0, 0, 322.0], [0, 560.0, 236.0], [0, 0, 1]])
 
 
 @pytest.fixture(scope="module")
-def scenes(tmp_path_factory):
+def scenes(render, tmp_path_factory):
     """Four rendered views of a 9x6 board, one with a small copy of it (cells of 5 px, complete: a screen in
     the background) pasted in the frame's corner farthest from the board, and one with two boards side by
     side and a small copy below them."""
-    render = pytest.importorskip("sogdd.evaluation.calibration.render")
     cam = render.Camera(SCENE_K, (-0.2, 0.06, 0.001, -0.0005, 0.0), (640, 480))
-    target = render.ChessboardTarget(9, 6, 1.0)
+    target = render.Board(9, 6, 1.0)
     # face on, 112 units away: cells of 560 / 112 = 5 px round the image centre
     screen = render.render_scene(cam, target, np.zeros(3), np.array([-4.0, -2.5, 112.0]), blur=0.6)[191:281,
                                                                                                         262:382]
     rng = np.random.default_rng(0)
     folder = tmp_path_factory.mktemp("scenes")
-    for k, (rv, tv) in enumerate(render.random_sequence(cam, target, 4, seed=3)):
+    for k, (rv, tv) in enumerate(render.random_poses(cam, target, 4, seed=3)):
         view = render.render_view(cam, target, rv, tv, blur=0.8, noise=2.0, rng=k)
         img = view.image
         if k == 0:

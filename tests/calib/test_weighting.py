@@ -13,13 +13,6 @@ from sogdd.calib.session import calibrate_images, write_outputs
 from sogdd.calib.solvers import fit_camera
 from sogdd.calib.targets.board import Board
 from sogdd.calib.weighting import SMEARED, corner_weights, smeared_views, typical_precision
-from sogdd.evaluation.calibration.render import (
-    ChessboardTarget,
-    add_noise,
-    camera_for,
-    random_sequence,
-    render_scene,
-)
 
 SMEARED_VIEWS = (1, 5, 9)
 
@@ -39,17 +32,17 @@ def smear(img: np.ndarray, length: int, angle: float, skew: float) -> np.ndarray
 
 
 @pytest.fixture(scope="module")
-def smeared_set(tmp_path_factory):
+def smeared_set(render, tmp_path_factory):
     """Twelve rendered views (blur 0.8 px, noise 2), three of them taken moving: smeared over 17 px and
     skewed by 0.3 % (a rolling shutter)."""
-    cam = camera_for(640, 480)
-    target = ChessboardTarget(9, 6, 1.0)
+    cam = render.camera_for(640, 480)
+    target = render.Board(9, 6, 1.0)
     folder = tmp_path_factory.mktemp("smeared")
-    for k, (rv, tv) in enumerate(random_sequence(cam, target, 12, seed=1)):
-        clean = render_scene(cam, target, rv, tv, blur=0.8)
+    for k, (rv, tv) in enumerate(render.random_poses(cam, target, 12, seed=1)):
+        clean = render.render_scene(cam, target, rv, tv, blur=0.8)
         if k in SMEARED_VIEWS:
             clean = smear(clean, 17, 0.3 + k, 0.003)
-        cv2.imwrite(str(folder / f"v{k:02d}.png"), add_noise(clean, 2.0, np.random.default_rng(100 + k)))
+        cv2.imwrite(str(folder / f"v{k:02d}.png"), render.add_noise(clean, 2.0, np.random.default_rng(100 + k)))
     return cam, folder
 
 

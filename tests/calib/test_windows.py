@@ -8,21 +8,21 @@ from functools import cache
 import cv2
 import numpy as np
 
+from sogdd.calib.cameras import Camera
 from sogdd.calib.targets.board import lattice_cells
 from sogdd.calib.targets.chessboard.windows import edge_halves, inner_corners, recut
 from sogdd.calib.targets.refine import MIN_HALF, half_widths, refine_grey
-from sogdd.evaluation.calibration.render import Camera, ChessboardTarget, render_view
 
 CAM = Camera(np.array([[500.0, 0, 239.5], [0, 500.0, 179.5], [0, 0, 1]]), (0.0, 0, 0, 0), (480, 360))
 
 
 @cache
-def _view(edge: float):
+def _view(render, edge: float):
     """A 9 x 6 board (cells of about 18 px; outer squares ``edge`` of a cell), blur 1 px, noise 2 grey levels:
     the grey image, the true corners and labels, starts 0.3 px off them, and their full-window fits."""
     R = np.array([0.3, -0.2, 0.1])
     t = np.array([0.0, 0.0, 0.8]) - cv2.Rodrigues(R)[0] @ np.array([4 * 0.03, 2.5 * 0.03, 0.0])
-    v = render_view(CAM, ChessboardTarget(9, 6, 0.03, edge=edge), R, t, blur=1.0, noise=2.0, rng=1)
+    v = render.render_view(CAM, render.Board(9, 6, 0.03, edge=edge), R, t, blur=1.0, noise=2.0, rng=1)
     grey = v.image.astype(np.float64)
     start = v.corners + np.random.default_rng(0).normal(0, 0.3, v.corners.shape)
     cells = lattice_cells(start, v.labels)
@@ -48,11 +48,11 @@ def _assert_the_better_fit_is_kept(out, q, half, cut, out2, q2, xc, qc):
     np.testing.assert_array_equal(out2, np.where(take[:, None], xc, out))
 
 
-def test_a_corner_whose_full_window_fits_better_keeps_that_fit():
+def test_a_corner_whose_full_window_fits_better_keeps_that_fit(render):
     """Every window of a whole board cut to half (as a noisy measure of the squares' extent may cut a border
     corner's): the full windows stay on the squares and fit most corners more symmetrically, and more
     accurately; those corners keep the full fit."""
-    grey, truth, labels, start, cells, half, out, q = _view(1.0)
+    grey, truth, labels, start, cells, half, out, q = _view(render, 1.0)
     cut = np.maximum(half // 2, MIN_HALF)
     assert (cut < half).all()
     out2, q2, xc, qc = _recut(grey, start, out, q, half, cut)
@@ -64,10 +64,10 @@ def test_a_corner_whose_full_window_fits_better_keeps_that_fit():
     assert err["kept"] < err["cut"], err
 
 
-def test_a_border_corner_beyond_narrow_outer_squares_takes_its_cut_window():
+def test_a_border_corner_beyond_narrow_outer_squares_takes_its_cut_window(render):
     """Outer squares of 0.3 cell: a border corner's full window reaches the background, its cut window
     (:func:`edge_halves`) stays on the squares, fits more symmetrically and far more accurately."""
-    grey, truth, labels, start, cells, half, out, q = _view(0.3)
+    grey, truth, labels, start, cells, half, out, q = _view(render, 0.3)
     at = np.where(q[:, None] > 0, out, start)
     cut = edge_halves(grey, at, labels, half, cells)
     border = ~inner_corners(labels)

@@ -5,19 +5,19 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
+from sogdd.calib.cameras import Camera
 from sogdd.calib.targets.chessboard import xcorners
 from sogdd.calib.targets.chessboard.xcorners import default_scale, find_xcorners
-from sogdd.evaluation.calibration.render import Camera, ChessboardTarget, render_view
 from sogdd.params import Params
 
 CAM = Camera(np.array([[500.0, 0, 239.5], [0, 500.0, 179.5], [0, 0, 1]]), (0.0, 0, 0, 0), (480, 360))
 
 
-def board(roll=0.4):
+def board(render, roll=0.4):
     R = np.array([0.0, 0.0, roll])
     Rm, _ = cv2.Rodrigues(R)
     t = np.array([0.0, 0.0, 0.8]) - Rm @ np.array([0.12, 0.075, 0.0])
-    return render_view(CAM, ChessboardTarget(9, 6, 0.03), R, t, blur=1.0, noise=2.0, rng=2), roll
+    return render.render_view(CAM, render.Board(9, 6, 0.03), R, t, blur=1.0, noise=2.0, rng=2), roll
 
 
 def pasted(v, size=(2400, 1800), at=(1013, 687)):
@@ -31,8 +31,8 @@ def pasted(v, size=(2400, 1800), at=(1013, 687)):
     return img, v.corners + np.asarray(at, float)
 
 
-def test_every_corner_with_its_edge_lines_and_alternating_light_axis():
-    v, roll = board()
+def test_every_corner_with_its_edge_lines_and_alternating_light_axis(render):
+    v, roll = board(render)
     xc = find_xcorners(v.image)
     d, k = cKDTree(xc.xy).query(v.corners)
     assert d.max() < 0.3  # every inner corner is a candidate
@@ -48,18 +48,18 @@ def test_every_corner_with_its_edge_lines_and_alternating_light_axis():
     assert np.all(np.abs(xc.strength[k] - 108) < 15)
 
 
-def test_mask():
-    v, _ = board()
+def test_mask(render):
+    v, _ = board(render)
     mask = np.zeros(v.image.shape, bool)
     mask[:, :240] = True
     xy = find_xcorners(v.image, mask=mask).xy
     assert len(xy) >= 20 and np.all(xy[:, 0] < 240.5)
 
 
-def test_a_reduced_scale_maps_the_points_back_without_a_shift():
+def test_a_reduced_scale_maps_the_points_back_without_a_shift(render):
     # a point x' at scale s is x = (x' + 1/2) / s - 1/2 at full scale (pixel centres at integers);
     # x' / s instead moves every point by 1/2 (1/s - 1) px, 0.5 at s = 1/2, 0.24 at the default 0.68
-    v, _ = board()
+    v, _ = board(render)
     big, truth = pasted(v)
     assert default_scale(big.shape) < 0.7  # the default really searches at a reduced scale
     for img, at, scale in ((v.image, v.corners, 0.5), (big, truth, None)):
@@ -74,9 +74,9 @@ def test_search_scale_is_the_hr_presets():
     assert xcorners.SIGMA2 == Params.preset("hr").sigma2
 
 
-def test_float_images_follow_the_cores_contract():
+def test_float_images_follow_the_cores_contract(render):
     # floats on [0, 1], else value_range, as sogdd.image.to_gray255: the same candidates as the uint8 image
-    v, _ = board()
+    v, _ = board(render)
     ref = find_xcorners(v.image)
     levels = v.image.astype(np.float32)
     with pytest.raises(ValueError, match=r"float images must be on \[0, 1\].*value_range"):

@@ -183,7 +183,9 @@ def detect_boards(image: np.ndarray, pattern: tuple[int, int] | None = None, *, 
         ``size=None``.
     min_corners : int
         Fewest corners a board may have (at least 9; three rows and three
-        columns and a complete 3 x 3 block are needed too).
+        columns and a complete 3 x 3 block are needed too); at most the
+        pattern's own, so that a small board (3 x 3 inner corners) is found
+        whole.
     min_strength : float or None
         Weakest X-corner considered, in grey levels of contrast (0-255 scale);
         None: a share of the image's range. Each level of the search raises it
@@ -296,6 +298,8 @@ def _search(grey: np.ndarray, pat: tuple[int, int] | None, min_corners: int, min
             scale: float | None, refine: bool, max_boards: int, mask: np.ndarray | None,
             proposals: bool) -> BoardSearch:
     """The search of :func:`find_boards` on a validated grey image."""
+    if pat is not None:  # a whole board of the pattern is always a board
+        min_corners = max(9, min(min_corners, pat[0] * pat[1]))
     best: list[Board] = []
     others: list[Board] = []
     g32 = grey.astype(np.float32)  # the X-corner search's maps are float32
