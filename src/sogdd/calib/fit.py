@@ -25,10 +25,10 @@ from .result import Calibration
 from .solvers import fisheye_fixed, jacobian_std
 from .targets.board import Board
 
-__all__ = ["calibrate"]
+__all__ = ["calibrate", "std_dict"]
 
 
-def _std_dict(std, model: str) -> dict:
+def std_dict(std, model: str) -> dict:
     """Name the standard deviations: OpenCV's ``stdDeviationsIntrinsics`` (and :func:`jacobian_std`)
     run fx, fy, cx, cy, then the distortion in OpenCV's order, which is ``MODELS[model]``'s."""
     names = ("fx", "fy", "cx", "cy") + MODELS[model]
@@ -223,7 +223,7 @@ def _result(st: State, idx, fit, res, thresholds, min_views: int, cross_validate
         None if b is None else (st.corner_ok[v] & bool(st.view_ok[v])) for v, b in enumerate(st.boards))
     return Calibration(
         model=st.model, image_size=st.size, K=K, dist=D, rms=float(np.sqrt(used_r2.mean())),
-        std=_std_dict(std, st.model), std_note=std_note, names=tuple(st.names), boards=tuple(st.boards),
+        std=std_dict(std, st.model), std_note=std_note, names=tuple(st.names), boards=tuple(st.boards),
         residuals=tuple(res), corner_used=corner_used, view_used=st.view_ok.copy(), view_rms=view_rms,
         reasons=tuple(st.reasons), corner_reasons=tuple(st.corner_reasons), rvecs=rvecs, tvecs=tvecs,
         cross_validation=cv, thresholds=thresholds, notes=tuple(notes), square=st.square,

@@ -21,7 +21,8 @@ from .solvers import fit_camera_checked, solve_pose
 from .targets.board import Board
 from .weighting import corner_weights, smeared_views, typical_precision
 
-__all__ = ["State", "check_boards", "fit_with_rejection", "robust_limit", "usable_reason"]
+__all__ = ["State", "check_boards", "fit_with_rejection", "reject_corners", "reject_view", "robust_limit",
+           "usable_reason"]
 
 # a robust standard deviation from the median absolute deviation (exact for a normal distribution)
 _MAD_SCALE = 1.4826
@@ -121,7 +122,7 @@ def _all_residuals(st: State, idx, fit) -> list:
     return out
 
 
-def _reject_view(st: State, res, limit_c: float, k: float, floor: float, min_views: int,
+def reject_view(st: State, res, limit_c: float, k: float, floor: float, min_views: int,
                  min_corners: int) -> float:
     """Reject the worst view beyond the view rule (one per iteration); return the view threshold."""
     idx = np.flatnonzero(st.view_ok)
@@ -148,7 +149,7 @@ def _reject_view(st: State, res, limit_c: float, k: float, floor: float, min_vie
     return limit_v
 
 
-def _reject_corners(st: State, res, limit_c: float, min_views: int, min_corners: int) -> int:
+def reject_corners(st: State, res, limit_c: float, min_views: int, min_corners: int) -> int:
     """Mark the used views' corners beyond ``limit_c`` rejected and re-admit those back within it
     (a gross outlier drags its view's pose, and with it its neighbours, until it is gone);
     return how many changed. A view left with fewer than ``min_corners`` goes as a whole
@@ -182,11 +183,11 @@ def _iterate(st: State, k: float, floor: float, min_views: int, min_corners: int
         used = np.concatenate([np.hypot(*res[v].T)[st.corner_ok[v]] for v in idx])
         limit_c = robust_limit(used, k, floor)
         n_views = int(st.view_ok.sum())
-        limit_v = _reject_view(st, res, limit_c, k, floor, min_views, min_corners)
+        limit_v = reject_view(st, res, limit_c, k, floor, min_views, min_corners)
         thresholds = {"corner": limit_c, "view_rms": limit_v}
         if st.view_ok.sum() < n_views:
             continue
-        if _reject_corners(st, res, limit_c, min_views, min_corners) == 0:
+        if reject_corners(st, res, limit_c, min_views, min_corners) == 0:
             return idx, fit, res, thresholds
     idx, fit = _solve(st)
     return idx, fit, _all_residuals(st, idx, fit), thresholds

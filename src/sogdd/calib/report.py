@@ -26,13 +26,14 @@ from .detection import THUMB_WIDTH, Thumbnail, ViewRecord, make_thumbnail, view_
 from .result import Calibration
 from .verdict import coverage, cv_inside, used_points, verdict
 
-__all__ = ["write_report"]
+__all__ = ["pyplot", "save_figure", "write_report"]
 
 # --------------------------------------------------------------------------------------------------
 # figures
 
 
-def _plt():
+def pyplot():
+    """``matplotlib.pyplot`` on the Agg backend (no display needed), imported when a figure is drawn."""
     import matplotlib
 
     matplotlib.use("Agg", force=False)
@@ -41,13 +42,14 @@ def _plt():
     return plt
 
 
-def _save(fig, path: Path) -> None:
+def save_figure(fig, path: Path) -> None:
+    """Write a figure as a PNG (100 dpi), atomically, and close it."""
     atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=100, format="png"))
-    _plt().close(fig)
+    pyplot().close(fig)
 
 
 def _residual_figure(cal: Calibration, path: Path) -> None:
-    plt = _plt()
+    plt = pyplot()
     w, h = cal.image_size
     fig, ax = plt.subplots(figsize=(8, 8 * h / w + 0.6))
     used, bad = [], []
@@ -69,11 +71,11 @@ def _residual_figure(cal: Calibration, path: Path) -> None:
     ax.set_aspect("equal")
     ax.set_title(f"residuals (observed - projected) x{gain:.0f}; RMS {cal.rms:.3f} px")
     ax.legend(loc="upper right", fontsize=8)
-    _save(fig, path)
+    save_figure(fig, path)
 
 
 def _coverage_figure(cal: Calibration, path: Path) -> None:
-    plt = _plt()
+    plt = pyplot()
     w, h = cal.image_size
     counts, covered, edge = coverage(cal)
     fig, ax = plt.subplots(figsize=(8, 8 * h / w + 0.6))
@@ -83,14 +85,14 @@ def _coverage_figure(cal: Calibration, path: Path) -> None:
     ax.set_xlim(0, w)
     ax.set_ylim(h, 0)
     ax.set_title(f"coverage: {len(p)} used corners; {covered:.0%} of cells, {edge:.0%} of border cells")
-    _save(fig, path)
+    save_figure(fig, path)
 
 
 def _cross_validation_figure(cal: Calibration, path: Path) -> bool:
     cv = cal.cross_validation
     if cv is None:
         return False
-    plt = _plt()
+    plt = pyplot()
     d = cv.difference
     w, h = cal.image_size
     fig, ax = plt.subplots(figsize=(8, 8 * h / w + 0.6))
@@ -103,7 +105,7 @@ def _cross_validation_figure(cal: Calibration, path: Path) -> bool:
     mean, mx = cv_inside(cv)
     ax.set_title(f"cross-validation: {mean:.3f} px mean, {mx:.3f} max inside the corners' hull (white);\n"
                  f"whole frame {d.mean:.3f} mean, {d.max:.3g} max", fontsize=9)
-    _save(fig, path)
+    save_figure(fig, path)
     return True
 
 

@@ -14,7 +14,8 @@ from .cameras.models import fisheye_distorted, fisheye_theta
 from .targets.board import Board
 
 __all__ = ["COND_MAX", "FISHEYE_FOVS", "BlockNormal", "fisheye_fixed", "fit_camera", "fit_fisheye",
-           "fit_fisheye_from", "fit_camera_checked", "jacobian_std", "refine_weighted", "solve_pose"]
+           "fit_fisheye_from", "fit_camera_checked", "jacobian_std", "refine_weighted", "rotation_matrices",
+           "solve_pose"]
 
 #: (JᵀJ with unit columns) beyond this condition number leaves some parameters undetermined: its
 #: inverse would carry the rounding of the other parameters, about 1e-16 times this, into them
@@ -431,7 +432,7 @@ def _opencv_fisheye(obj, img, size, flags, crit):
     return (intr, poses) if ok else None
 
 
-def _rodrigues(rv: np.ndarray) -> np.ndarray:
+def rotation_matrices(rv: np.ndarray) -> np.ndarray:
     """Rotation matrices (V, 3, 3) of rotation vectors (V, 3): :math:`R = I + \\sin\\alpha\\,[k]_\\times
     + (1 - \\cos\\alpha)[k]_\\times^2`, :math:`\\alpha = \\lVert r \\rVert`, :math:`k = r / \\alpha`."""
     a = np.linalg.norm(rv, axis=1)
@@ -447,7 +448,7 @@ def _fisheye_residuals(intr: np.ndarray, poses: np.ndarray, X: np.ndarray, uv: n
                        view: np.ndarray) -> np.ndarray:
     """Projected minus observed pixels (2N,) of all views at once: :func:`~sogdd.calib.cameras.project`'s
     fisheye (:math:`\\theta = \\operatorname{atan2}(r, Z)`), vectorised over the views."""
-    R = _rodrigues(poses[:, :3])[view]
+    R = rotation_matrices(poses[:, :3])[view]
     xd = fisheye_distorted(np.einsum("nij,nj->ni", R, X) + poses[view, 3:], intr[4:8])
     u = intr[0] * xd[:, 0] + intr[2] - uv[:, 0]
     v = intr[1] * xd[:, 1] + intr[3] - uv[:, 1]

@@ -19,11 +19,11 @@ import numpy as np
 from scipy.sparse import csr_matrix
 
 from ..cameras import LENSES, MODELS, check_size, lens
-from ..fit import _std_dict, calibrate
+from ..fit import calibrate, std_dict
 from ..model_selection import ModelChoice, check_model_choice
-from ..rejection import State, _reject_corners, _reject_view, robust_limit
+from ..rejection import State, reject_corners, reject_view, robust_limit
 from ..result import Calibration
-from ..solvers import BlockNormal, _rodrigues
+from ..solvers import BlockNormal, rotation_matrices
 from ..targets.board import Board
 from ..weighting import corner_weights
 from . import labels as _labels
@@ -341,8 +341,8 @@ def _poses(x: np.ndarray, lay: _Layout, n_cams: int, n_frames: int) -> tuple[np.
 def _predict(x: np.ndarray, lay: _Layout, models: list[str], co: _Corners) -> np.ndarray:
     """Projected pixels (N, 2) of the corners: :math:`\\pi_c(R_c (R_f X + t_f) + T_c)`, all at once."""
     fr, cams = _poses(x, lay, len(models), int(co.frame.max()) + 1 if len(co.frame) else 1)
-    p = np.einsum("nij,nj->ni", _rodrigues(fr[:, :3])[co.frame], co.X) + fr[co.frame, 3:]
-    p = np.einsum("nij,nj->ni", _rodrigues(cams[:, :3])[co.cam], p) + cams[co.cam, 3:]
+    p = np.einsum("nij,nj->ni", rotation_matrices(fr[:, :3])[co.frame], co.X) + fr[co.frame, 3:]
+    p = np.einsum("nij,nj->ni", rotation_matrices(cams[:, :3])[co.cam], p) + cams[co.cam, 3:]
     out = np.empty((len(p), 2))
     for c, model in enumerate(models):
         sel = co.cam == c
@@ -553,11 +553,11 @@ def _reject(states, res, k, floor, min_views, min_corners, thresholds) -> bool:
         limits.append(robust_limit(r, k, floor))
         n = int(st.view_ok.sum())
         thresholds[c] = {"corner": limits[c],
-                         "view_rms": _reject_view(st, res[c], limits[c], k, floor, min_views, min_corners)}
+                         "view_rms": reject_view(st, res[c], limits[c], k, floor, min_views, min_corners)}
         dropped |= int(st.view_ok.sum()) < n
     if dropped:
         return False
-    changed = sum(_reject_corners(st, res[c], limits[c], min_views, min_corners) for c, st in enumerate(states))
+    changed = sum(reject_corners(st, res[c], limits[c], min_views, min_corners) for c, st in enumerate(states))
     return changed == 0
 
 
@@ -603,7 +603,7 @@ def _camera_result(c, name, st, res, par, thresholds, cov, lay, std_note, privat
     cal = Calibration(
         model=st.model, image_size=st.size, K=K, dist=intr[4:].copy(),
         rms=float(np.sqrt(np.concatenate(used).mean())),
-        std=_std_dict(None if cov.size == 0 else [std[n] for n in ("fx", "fy", "cx", "cy") + MODELS[st.model]],
+        std=std_dict(None if cov.size == 0 else [std[n] for n in ("fx", "fy", "cx", "cy") + MODELS[st.model]],
                       st.model),
         names=tuple(st.names), boards=tuple(st.boards), residuals=tuple(res), corner_used=corner_used,
         view_used=st.view_ok.copy(), view_rms=_view_rms(res, st), reasons=tuple(st.reasons),

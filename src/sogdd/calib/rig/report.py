@@ -24,7 +24,7 @@ import numpy as np
 from ...formats.safe_write import write_text
 from ..cameras import lens
 from ..detection import Thumbnail, ViewRecord
-from ..report import _plt, _save, write_report
+from ..report import pyplot, save_figure, write_report
 from .result import RigCalibration, RigCamera
 from .stereo import StereoPair, rectify_points, stereo_pair
 from .uncertainty import projection_uncertainty
@@ -47,7 +47,7 @@ def _board_outline(cam_board, rvec, tvec, square: float) -> np.ndarray | None:
 
 
 def _extrinsics_figure(rig: RigCalibration, path: Path) -> None:
-    plt = _plt()
+    plt = pyplot()
     fig = plt.figure(figsize=(8, 6))
     ax = fig.add_subplot(projection="3d")
     # shown with x right, z (depth) into the page and y down, as the cameras see it
@@ -85,11 +85,11 @@ def _extrinsics_figure(rig: RigCalibration, path: Path) -> None:
     ax.set_ylabel("z (depth)")
     ax.set_zlabel("-y")
     ax.set_title(f"cameras and {int(np.sum(rig.frame_used))} board poses, in {rig.cameras[0].name}'s frame")
-    _save(fig, path)
+    save_figure(fig, path)
 
 
 def _errors_figure(rig: RigCalibration, path: Path) -> None:
-    plt = _plt()
+    plt = pyplot()
     F = len(rig.frames)
     n = len(rig.cameras)
     fig, ax = plt.subplots(figsize=(max(6, 0.3 * F * n / 2 + 2), 3.5))
@@ -109,7 +109,7 @@ def _errors_figure(rig: RigCalibration, path: Path) -> None:
     ax.set_title("each frame's RMS per camera (hatched red: rejected)")
     ax.legend(fontsize=8)
     fig.tight_layout()
-    _save(fig, path)
+    save_figure(fig, path)
 
 
 def _uncertainty_figure(rig: RigCalibration, cam: RigCamera, path: Path) -> bool:
@@ -120,7 +120,7 @@ def _uncertainty_figure(rig: RigCalibration, cam: RigCamera, path: Path) -> bool
     sigma = np.asarray(sigma, float)
     if not np.isfinite(sigma).any():
         return False
-    plt = _plt()
+    plt = pyplot()
     w, h = cam.image_size
     xs, ys = np.unique(pixels[:, 0]), np.unique(pixels[:, 1])
     grid = np.full((len(ys), len(xs)), np.nan)
@@ -139,7 +139,7 @@ def _uncertainty_figure(rig: RigCalibration, cam: RigCamera, path: Path) -> bool
     ax.set_xlim(0, w)
     ax.set_ylim(h, 0)
     ax.set_title(f"{cam.name}: projection uncertainty of a far point (cyan: the corners used)", fontsize=9)
-    _save(fig, path)
+    save_figure(fig, path)
     return True
 
 
@@ -246,7 +246,7 @@ def _pair_figure(rig: RigCalibration, check: RectifiedPair, thumbnails, path: Pa
     scale = 480.0 / max(w, h)
     size = (int(round(w * scale)), int(round(h * scale)))
     A = _thumb_matrix(scale)
-    plt = _plt()
+    plt = pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(10, 10 * size[1] / size[0] / 2 + 0.8))
     for ax, cam, Rr, P, which in ((axes[0], first, pair.R1, pair.P1, 0), (axes[1], other, pair.R2, pair.P2, 1)):
         thumb = thumbnails.get(cam.name, [None] * len(rig.frames))[best] if thumbnails else None
@@ -261,7 +261,7 @@ def _pair_figure(rig: RigCalibration, check: RectifiedPair, thumbnails, path: Pa
     fig.suptitle(f"rectified pair {first.name} / {other.name}: the same corner lies on the same row; "
                  f"vertical disparity {check.disparity:.3f} px RMS over {len(check.shared)} shared corners",
                  fontsize=9)
-    _save(fig, path)
+    save_figure(fig, path)
 
 
 def _fmt(v: float, digits: int = 4) -> str:

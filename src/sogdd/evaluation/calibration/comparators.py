@@ -39,7 +39,7 @@ import numpy as np
 
 from ...calib import detect_board, refine_corners
 
-__all__ = ["Detection", "Method", "METHODS", "available", "method_names"]
+__all__ = ["Detection", "Method", "METHODS", "available", "method_names", "opencv_classic"]
 
 
 @dataclass(frozen=True)
@@ -67,7 +67,8 @@ def _board(points, pattern) -> Detection:
     return Detection(pts, _grid_labels(len(pts), pattern[0]))
 
 
-def _opencv(image: np.ndarray, pattern: tuple[int, int]) -> Detection:
+def opencv_classic(image: np.ndarray, pattern: tuple[int, int]) -> Detection:
+    """OpenCV's classic detector (adaptive threshold, normalised image) and ``cornerSubPix`` 11 x 11."""
     flags = cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE
     ok, pts = cv2.findChessboardCorners(image, pattern, flags=flags)
     if not ok:
@@ -186,7 +187,7 @@ METHODS: dict[str, Method] = {m.name: m for m in (
     Method("sogdd", "board", _sogdd, "sogdd.calib.detect_board"),
     Method("opencv-refine", "board", _opencv_refine, "sogdd.calib.refine_corners"),
     Method("hr-grid", "board", _hr_grid),
-    Method("opencv", "board", _opencv),
+    Method("opencv", "board", opencv_classic),
     Method("opencv-sb", "board", _opencv_sb),
     Method("calib-targets", "board", _calib_targets, "pip install calib-targets"),
     Method("mrgingham", "board", _mrgingham, "apt-get install mrgingham", square_only=True),

@@ -17,7 +17,7 @@ mrcal               ``mrcal-calibrate-cameras`` (Debian package ``mrcal``) on Op
 ==================  ===================================================================================
 
 Every OpenCV and mrcal method reads OpenCV's corners (``cv2.findChessboardCorners`` +
-``cv2.cornerSubPix`` 11 x 11, :func:`.comparators._opencv`), complete boards only (it
+``cv2.cornerSubPix`` 11 x 11, :func:`.comparators.opencv_classic`), complete boards only (it
 finds no other), put in one orientation (:func:`orient_grid`) so that a corner's
 label is the same physical corner in every camera. The lens model is OpenCV's
 ``k1, k2, p1, p2, k3`` for every method (:data:`MODEL`): sogdd's ``"pinhole"``, which
@@ -44,7 +44,7 @@ import numpy as np
 
 from ...calib import detect_board
 from ...calib.targets.board import Board
-from .comparators import _opencv
+from .comparators import opencv_classic
 
 __all__ = ["RigEstimate", "RIG_METHODS", "MODEL", "rig_available", "rig_method_names", "orient_grid",
            "opencv_corners", "sogdd_boards", "run_rig_method", "from_rig_calibration"]
@@ -139,7 +139,7 @@ def opencv_corners(images: Mapping[str, Sequence[np.ndarray]],
         found = []
         for img in imgs:
             grey = img if img.ndim == 2 else cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
-            det = _opencv(grey, pattern)
+            det = opencv_classic(grey, pattern)
             found.append(orient_grid(grey, det.points, pattern) if det.found else None)
         out[name] = found
     return out, time.perf_counter() - t0

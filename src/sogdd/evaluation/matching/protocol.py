@@ -54,6 +54,7 @@ __all__ = [
     "match_errors",
     "mma_of_errors",
     "mutual_nn",
+    "safe_label",
     "project",
 ]
 
@@ -229,7 +230,7 @@ def evaluate_features(
 def _evaluate_one(spec: DetectorSpec, sequences, thresholds, feature_dir, method_names, progress
                   ) -> MatchingResult:
     det = build_detector(spec)
-    method = (method_names or {}).get(spec.label) or _safe(spec.label)
+    method = (method_names or {}).get(spec.label) or safe_label(spec.label)
 
     def feats(seq: HomographySequence, path: Path) -> FeatureSet:
         fs = extract_features(read_image(path), spec, det)
@@ -284,7 +285,14 @@ def _shape(fs: FeatureSet, path: Path) -> tuple[int, int]:
     return img.shape[:2]
 
 
-def _safe(label: str) -> str:
+def safe_label(label: str) -> str:
+    """A method's label as a file or folder name: letters, digits and ``-_=`` kept, the rest ``_``.
+
+    Examples
+    --------
+    >>> safe_label("sogdd hr (k=8)")
+    'sogdd_hr__k=8_'
+    """
     return "".join(ch if ch.isalnum() or ch in "-_=" else "_" for ch in label)
 
 

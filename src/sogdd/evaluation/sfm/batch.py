@@ -12,15 +12,16 @@ from functools import partial
 from pathlib import Path
 
 from ..matching.budget import map_specs, with_budget
+from ..matching.protocol import safe_label
 from ..specs import DetectorSpec
-from .pipeline import _safe, run_sfm
+from .pipeline import run_sfm
 from .seeds import run_sfm_seeds
 
 __all__ = ["evaluate_sfm"]
 
 
 def _run_one(spec: DetectorSpec, image_dir, work_root, dataset: str, seeds, options: dict) -> dict:
-    work = Path(work_root) / f"{dataset}-{_safe(spec.label)}"
+    work = Path(work_root) / f"{dataset}-{safe_label(spec.label)}"
     if seeds is None:
         return run_sfm(image_dir, spec, work, **options)
     opts = {k: v for k, v in options.items() if k not in ("dense", "seed")}

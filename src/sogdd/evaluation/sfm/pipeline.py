@@ -45,8 +45,8 @@ from ..specs import NATIVE, DetectorSpec, build_detector
 from .cameras import camera_errors, read_strecha_cameras
 from .dense import dense_points
 
-__all__ = ["feature_stage", "import_stage", "map_stage", "match_stage", "matcher_for", "model_stats",
-           "run_sfm"]
+__all__ = ["feature_stage", "fresh_dir", "import_stage", "map_stage", "match_stage", "matcher_for",
+           "model_stats", "pose_errors", "run_sfm", "verified_stats"]
 
 
 def matcher_for(spec: DetectorSpec, matcher: str) -> str:
@@ -104,7 +104,8 @@ def _match_mnn(db, ids: list[int], descs: dict[int, np.ndarray]) -> int:
     return total
 
 
-def _verified_stats(db_path: str) -> tuple[int, int]:
+def verified_stats(db_path: str) -> tuple[int, int]:
+    """The database's geometrically verified image pairs and their inlier matches: ``(pairs, matches)``."""
     pycolmap = require_pycolmap()
     with pycolmap.Database.open(db_path) as db:
         pairs = db.read_two_view_geometries()
@@ -156,7 +157,8 @@ def model_stats(rec) -> dict:
             "observations": int(rec.compute_num_observations())}
 
 
-def _pose_errors(rec, gt_cameras: str | Path) -> dict:
+def pose_errors(rec, gt_cameras: str | Path) -> dict:
+    """The reconstruction's posed cameras compared with the ground truth's (:func:`camera_errors`)."""
     est = {}
     for im in rec.images.values():
         if im.has_pose:
@@ -165,7 +167,8 @@ def _pose_errors(rec, gt_cameras: str | Path) -> dict:
     return camera_errors(est, read_strecha_cameras(gt_cameras))
 
 
-def _fresh_dir(work_dir: str | Path) -> Path:
+def fresh_dir(work_dir: str | Path) -> Path:
+    """``work_dir`` made empty (removed first if it exists) and returned."""
     work = Path(work_dir)
     if work.exists():
         shutil.rmtree(work)
@@ -238,7 +241,7 @@ def run_sfm(
     matcher = matcher_for(spec, matcher)
     image_dir = Path(image_dir)
     names = chosen_images(image_dir, image_names)
-    work = _fresh_dir(work_dir)
+    work = fresh_dir(work_dir)
     db_path = str(work / "database.db")
     say = progress or (lambda _m: None)
     pycolmap.set_random_seed(seed)
@@ -253,7 +256,7 @@ def run_sfm(
     t0 = time.perf_counter()
     n_raw = match_stage(db_path, matcher, counts, descs, num_threads)
     timing["matching"] = time.perf_counter() - t0
-    verified_pairs, inliers = _verified_stats(db_path)
+    verified_pairs, inliers = verified_stats(db_path)
     say(f"{spec.label}: {verified_pairs} verified pairs, {inliers} inlier matches")
     t0 = time.perf_counter()
     sparse = work / "sparse"
@@ -282,7 +285,7 @@ def run_sfm(
         rec = recs[key]
         result.update(model_stats(rec), model_dir=str(sparse / str(key)))
         if gt_cameras is not None:
-            result["pose_errors"] = pe = _pose_errors(rec, gt_cameras)
+            result["pose_errors"] = pe = pose_errors(rec, gt_cameras)
             if pe.get("aligned"):
                 result.update(rotation_deg_median=pe["rotation_deg_median"],
                               position_median=pe["position_median"])
@@ -299,7 +302,3 @@ def run_sfm(
     result["timing"] = {k: round(v, 2) for k, v in timing.items()}
     (work / "result.json").write_text(json.dumps(result, indent=1))
     return result
-
-
-def _safe(label: str) -> str:
-    return "".join(ch if ch.isalnum() or ch in "-_=" else "_" for ch in label)

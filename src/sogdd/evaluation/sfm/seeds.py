@@ -22,16 +22,16 @@ import numpy as np
 from ...formats.colmap import require_pycolmap
 from ..specs import DetectorSpec
 from .pipeline import (
-    _fresh_dir,
-    _pose_errors,
-    _verified_stats,
     chosen_images,
     feature_stage,
+    fresh_dir,
     import_stage,
     map_stage,
     match_stage,
     matcher_for,
     model_stats,
+    pose_errors,
+    verified_stats,
 )
 
 __all__ = ["SUMMARISED", "run_sfm_seeds", "seed_summary", "seed_values"]
@@ -94,14 +94,14 @@ def seed_values(runs: Sequence[dict]) -> dict:
 def _one_seed(db_feat: Path, work: Path, image_dir: Path, seed: int, matcher: str, counts: dict,
               descs: dict, num_threads: int, max_runtime_seconds: float, gt_cameras) -> dict:
     pycolmap = require_pycolmap()
-    run_dir = _fresh_dir(work / f"seed{seed}")
+    run_dir = fresh_dir(work / f"seed{seed}")
     db_path = str(run_dir / "database.db")
     shutil.copyfile(db_feat, db_path)
     pycolmap.set_random_seed(seed)
     t0 = time.perf_counter()
     n_raw = match_stage(db_path, matcher, counts, descs, num_threads)
     t_match = time.perf_counter() - t0
-    pairs, inliers = _verified_stats(db_path)
+    pairs, inliers = verified_stats(db_path)
     t0 = time.perf_counter()
     sparse = run_dir / "sparse"
     recs = map_stage(db_path, image_dir, sparse, seed=seed, num_threads=num_threads,
@@ -115,7 +115,7 @@ def _one_seed(db_feat: Path, work: Path, image_dir: Path, seed: int, matcher: st
     key = max(recs, key=lambda k: (recs[k].num_reg_images(), recs[k].num_points3D()))
     r.update(model_stats(recs[key]), model_dir=str(sparse / str(key)))
     if gt_cameras is not None:
-        r["pose_errors"] = _pose_errors(recs[key], gt_cameras)
+        r["pose_errors"] = pose_errors(recs[key], gt_cameras)
     return r
 
 
@@ -155,7 +155,7 @@ def run_sfm_seeds(
         raise ValueError(f"seeds must be distinct integers, got {seeds!r}")
     image_dir = Path(image_dir)
     names = chosen_images(image_dir, image_names)
-    work = _fresh_dir(work_dir)
+    work = fresh_dir(work_dir)
     say = progress or (lambda _m: None)
     t_start = time.perf_counter()
     db_feat = work / "features.db"
