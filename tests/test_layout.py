@@ -147,3 +147,14 @@ def test_the_evaluations_hold_no_camera_model_of_their_own():
     found = [p.relative_to(PKG).parts for p in PKG.rglob("*.py") if polynomial.search(p.read_text())]
     assert any("cameras" in f for f in found), "the search finds the model where it lives"
     assert [f for f in found if "cameras" not in f] == []
+
+
+def test_no_private_name_is_imported_from_another_module():
+    """A module's private names (``_x``) are its own: what another module needs is public there."""
+    found = []
+    for p in PKG.rglob("*.py"):
+        for node in ast.walk(ast.parse(p.read_text())):
+            if isinstance(node, ast.ImportFrom):
+                found += [f"{p.relative_to(PKG)}: {node.module}.{a.name}" for a in node.names
+                          if a.name.startswith("_") and not a.name.startswith("__")]
+    assert found == []
