@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import cv2
@@ -14,8 +15,8 @@ from .cameras.models import fisheye_distorted, fisheye_theta
 from .targets.board import Board
 
 __all__ = ["COND_MAX", "FISHEYE_FOVS", "BlockNormal", "fisheye_fixed", "fit_camera", "fit_fisheye",
-           "fit_fisheye_from", "fit_camera_checked", "jacobian_std", "refine_weighted", "rotation_matrices",
-           "solve_pose"]
+           "fit_fisheye_from", "fit_camera_checked", "jacobian_std", "levenberg_marquardt", "refine_weighted",
+           "rotation_matrices", "solve_pose"]
 
 #: (JᵀJ with unit columns) beyond this condition number leaves some parameters undetermined: its
 #: inverse would carry the rounding of the other parameters, about 1e-16 times this, into them
@@ -212,7 +213,43 @@ def refine_weighted(obj: list[np.ndarray], img: list[np.ndarray], weights: list[
                  np.zeros(max(0, nd - len(np.ravel(dist))))]
     poses = np.c_[np.asarray(rvecs, np.float64), np.asarray(tvecs, np.float64)]
     z = T.shape[1]
-    r, ne = _weighted_system(obj, img, weights, intr, poses, T, nd)
+    (intr, poses), r, ne = levenberg_marquardt(
+        (intr, poses),
+        lambda x: _weighted_system(obj, img, weights, x[0], x[1], T, nd),
+        lambda x: _weighted_system(obj, img, weights, x[0], x[1], T, nd, jacobian=False)[0],
+        lambda x, step: (x[0] + T @ step[:z], x[1] + step[z:].reshape(-1, 6)),
+        ftol=1e-12, max_iterations=int(max_iterations))
+    Kw = np.array([[intr[0], 0.0, intr[2]], [0.0, intr[1], intr[3]], [0.0, 0.0, 1.0]])
+    return Kw, intr[4:].copy(), poses[:, :3].copy(), poses[:, 3:].copy(), _whitened_std(ne, r, T)
+
+
+def levenberg_marquardt(x0, system: Callable, residuals: Callable, step_to: Callable, *, ftol: float = 1e-10,
+                        max_iterations: int = 100) -> tuple:
+    """Minimise :math:`\\lVert r(x) \\rVert^2` by Levenberg-Marquardt from ``x0``: ``(x, r, ne)`` at the end.
+
+    ``system(x)`` gives the residuals and their normal equations by blocks, ``(r, ne)``
+    (:class:`BlockNormal`: the shared parameters against each view's or frame's pose, the poses
+    eliminated by their Schur complement when solved); ``residuals(x)`` the residuals alone;
+    ``step_to(x, step)`` the parameters moved by a step. Each iteration solves
+    :math:`(N + \\lambda\\,\\mathrm{diag} N) \\delta = -J^T r` and keeps the step when it lowers the cost
+    (then :math:`\\lambda` falls tenfold, else it rises tenfold and the step is solved again); it stops
+    when a kept step lowers the cost by at most ``ftol`` of it, when no damping up to 1e10 lowers it,
+    or after ``max_iterations``. One camera's weighted fit (:func:`refine_weighted`) and the rig's
+    joint fit (:func:`sogdd.calib.rig.calibrate_rig`) both run it.
+
+    Examples
+    --------
+    >>> a, b = np.array([[2.0], [1.0]]), np.array([4.0, 1.0])  # least squares of 2 x = 4, x = 1
+    >>> none = np.zeros((0, 1, 6)), np.zeros((0, 6, 6))  # no poses
+    >>> def system(x):
+    ...     r = a @ x - b
+    ...     return r, BlockNormal(a.T @ a, *none, -(a.T @ r), np.zeros((0, 6)))
+    >>> x, r, _ = levenberg_marquardt(np.zeros(1), system, lambda x: a @ x - b, lambda x, s: x + s)
+    >>> round(float(x[0]), 6)  # (2 * 4 + 1 * 1) / (2^2 + 1^2)
+    1.8
+    """
+    x = x0
+    r, ne = system(x)
     cost, lam = float(r @ r), 1e-3
     for _ in range(int(max_iterations)):
         improved = done = False
@@ -222,20 +259,20 @@ def refine_weighted(obj: list[np.ndarray], img: list[np.ndarray], weights: list[
             except np.linalg.LinAlgError:
                 lam *= 10
                 continue
-            i2, p2 = intr + T @ step[:z], poses + step[z:].reshape(-1, 6)
-            r2, _ = _weighted_system(obj, img, weights, i2, p2, T, nd, jacobian=False)
+            x2 = step_to(x, step)
+            r2 = residuals(x2)
             c2 = float(r2 @ r2)
             if np.isfinite(c2) and c2 < cost:
-                done = cost - c2 <= 1e-12 * cost
-                intr, poses, cost, lam, improved = i2, p2, c2, max(lam / 10, 1e-9), True
+                done = cost - c2 <= ftol * cost
+                x, cost, lam, improved = x2, c2, max(lam / 10, 1e-9), True
                 break
             lam *= 10
-        if not improved or done:
+        if not improved:
             break
-        r, ne = _weighted_system(obj, img, weights, intr, poses, T, nd)
-    r, ne = _weighted_system(obj, img, weights, intr, poses, T, nd)
-    Kw = np.array([[intr[0], 0.0, intr[2]], [0.0, intr[1], intr[3]], [0.0, 0.0, 1.0]])
-    return Kw, intr[4:].copy(), poses[:, :3].copy(), poses[:, 3:].copy(), _whitened_std(ne, r, T)
+        r, ne = system(x)
+        if done:
+            break
+    return x, r, ne
 
 
 def _whitened_std(ne: BlockNormal, r: np.ndarray, T: np.ndarray) -> np.ndarray | None:

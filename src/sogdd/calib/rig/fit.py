@@ -23,7 +23,7 @@ from ..fit import calibrate, std_dict
 from ..model_selection import ModelChoice, check_model_choice
 from ..rejection import State, reject_corners, reject_view, robust_limit
 from ..result import Calibration
-from ..solvers import BlockNormal, rotation_matrices
+from ..solvers import BlockNormal, levenberg_marquardt, rotation_matrices
 from ..targets.board import Board
 from ..weighting import corner_weights
 from . import labels as _labels
@@ -462,35 +462,19 @@ class _Solution:
     jac: csr_matrix  # their Jacobian at x
 
 
-def _levenberg_marquardt(fun, jac, x0: np.ndarray, n: int, max_iterations: int = 100) -> _Solution:
-    """Minimise :math:`\\lVert r(x) \\rVert^2` by Levenberg-Marquardt from ``x0``: each step solves
-    :math:`(N + \\lambda\\,\\mathrm{diag} N) \\delta = -J^T r`, :math:`N = J^T J`, with the frames' poses
-    (every parameter after the first ``n``) eliminated by their Schur complement
-    (:meth:`~sogdd.calib.solvers.BlockNormal.solve`), and is kept when it lowers the cost; it stops when a
-    step lowers the cost by less than 1e-10 of it (``ftol`` of the dense fit) or no damping helps."""
-    x, r, J = x0, fun(x0), jac(x0)
-    cost, lam = float(r @ r), 1e-3
-    for _ in range(max_iterations):
-        ne, improved, done = _normal(J, r, n), False, False
-        while lam < 1e10:
-            try:
-                step = ne.solve(lam)
-            except np.linalg.LinAlgError:
-                lam *= 10
-                continue
-            r2 = fun(x + step)
-            c2 = float(r2 @ r2)
-            if np.isfinite(c2) and c2 < cost:
-                done = cost - c2 <= 1e-10 * cost
-                x, r, cost, lam, improved = x + step, r2, c2, max(lam / 10, 1e-9), True
-                break
-            lam *= 10
-        if not improved:
-            break
-        J = jac(x)
-        if done:
-            break
-    return _Solution(x, r, J)
+def _fit(fun, jac, x0: np.ndarray, n: int) -> _Solution:
+    """The joint fit from ``x0``: :func:`~sogdd.calib.solvers.levenberg_marquardt` on the whitened residuals
+    ``fun``, their sparse Jacobian ``jac`` and its normal equations with the frames' poses (every parameter
+    after the first ``n``) eliminated; it stops when a step lowers the cost by less than 1e-10 of it."""
+    last = {}
+
+    def system(x):
+        r, J = fun(x), jac(x)
+        last["J"] = J  # the Jacobian at the end, for the covariance
+        return r, _normal(J, r, n)
+
+    x, r, _ = levenberg_marquardt(x0, system, fun, lambda x, step: x + step, ftol=1e-10, max_iterations=100)
+    return _Solution(x, r, last["J"])
 
 
 @dataclass
@@ -517,7 +501,7 @@ def _solve(states, par: _Params, models, square, private):
     def fun(x):  # whitened: each corner's residual times its weight (each camera's own set's, mono's)
         return _whitened(x, lay, models, used)
 
-    sol = _levenberg_marquardt(fun, lambda x: _jacobian(x, lay, models, used), x0, _n_cameras(lay))
+    sol = _fit(fun, lambda x: _jacobian(x, lay, models, used), x0, _n_cameras(lay))
     for c in range(len(models)):
         par.intr[c] = sol.x[lay.intr[c]].copy()
         if lay.pose[c] is not None:
