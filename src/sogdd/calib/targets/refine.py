@@ -53,6 +53,9 @@ __all__ = ["cell_sizes", "corner_covariance", "half_widths", "refine_corners"]
 
 #: the most sampling steps of the window each way from the centre (larger windows are strided)
 MAX_HALF = 12
+#: directions (over half a turn) of a window's reach (:func:`refine_grey`'s ``reach``)
+REACH_DIRS = 16
+_WHOLE = np.full(REACH_DIRS, np.inf)
 #: the window's half-width as a fraction of the local cell
 WINDOW_FRACTION = 0.65
 #: smallest and largest default half-widths (px)
@@ -80,8 +83,29 @@ def _bil(img, x, y):  # pragma: no cover - jit
 
 
 @numba.njit(**EXACT_JIT)
-def _normal(img, px, py, R, s, inv, A, b):  # pragma: no cover - jit
-    """Normal equations of the symmetric fit at ``(px, py)`` (module doc); returns ``(E, total)``."""
+def _bounded(reach):  # pragma: no cover - jit
+    """Whether a window's ``reach`` bounds it in some direction."""
+    for t in range(reach.shape[0]):
+        if reach[t] < np.inf:
+            return True
+    return False
+
+
+@numba.njit(**EXACT_JIT)
+def _beyond(dx, dy, reach):  # pragma: no cover - jit
+    """Whether the offset ``(dx, dy)`` lies beyond the ``reach`` of its direction (the nearest, mod pi)."""
+    t = int(round(math.atan2(dy, dx) * reach.shape[0] / np.pi)) % reach.shape[0]
+    return dx * dx + dy * dy > reach[t] * reach[t]
+
+
+@numba.njit(**EXACT_JIT)
+def _normal(img, px, py, R, s, inv, A, b, reach):  # pragma: no cover - jit
+    """Normal equations of the symmetric fit at ``(px, py)`` (module doc); returns ``(E, total)``.
+
+    ``reach`` (:data:`REACH_DIRS`,): the longest offset taken along each direction ``k pi / REACH_DIRS``
+    (an offset ``d`` counts in the direction nearest its own, mod pi); ``inf`` everywhere for the whole
+    square window."""
+    masked = _bounded(reach)
     for u in range(2):
         b[u] = 0.0
         for v in range(2):
@@ -95,6 +119,8 @@ def _normal(img, px, py, R, s, inv, A, b):  # pragma: no cover - jit
         for dx in range(-R, R + 1, s):
             if dy == 0 and dx <= 0:
                 continue  # d and -d give the same term
+            if masked and _beyond(dx, dy, reach):
+                continue
             w = math.exp(-(dx * dx + dy * dy) * inv)
             xa = px + dx
             ya = py + dy
@@ -131,7 +157,7 @@ def _solve(A, b, x):  # pragma: no cover - jit
 
 
 @numba.njit(parallel=True, **EXACT_JIT)
-def _refine(img, pts, half, stride, max_shift, iterations, tol, out, quality):  # pragma: no cover - jit
+def _refine(img, pts, half, stride, max_shift, iterations, tol, reach, out, quality):  # pragma: no cover - jit
     for k in numba.prange(pts.shape[0]):
         px0 = pts[k, 0]
         py0 = pts[k, 1]
@@ -147,7 +173,7 @@ def _refine(img, pts, half, stride, max_shift, iterations, tol, out, quality):  
         ok = False
         q = 0.0
         for _ in range(iterations):
-            e, tot = _normal(img, px, py, R, s, inv, A, b)
+            e, tot = _normal(img, px, py, R, s, inv, A, b, reach[k])
             q = 1.0 - e / tot if tot > 0 else 0.0
             if not _solve(A, b, step):
                 ok = False
@@ -231,7 +257,7 @@ def _covariance(img, pts, half, stride, out):  # pragma: no cover - jit
         inv = 1.0 / (2.0 * sig * sig)
         A = np.empty((2, 2))
         b = np.empty(2)
-        e, _ = _normal(img, px, py, R, stride[k], inv, A, b)
+        e, _ = _normal(img, px, py, R, stride[k], inv, A, b, _WHOLE)
         out[k, :, :] = np.nan
         det = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
         if not (det > 1e-12 * (A[0, 0] * A[1, 1] + 1e-300)):
@@ -473,17 +499,25 @@ def _windows(shape: tuple[int, ...], pts: np.ndarray, half: np.ndarray) -> tuple
 
 
 def refine_grey(grey: np.ndarray, pts: np.ndarray, half: np.ndarray, shift: np.ndarray,
-                iterations: int = 20, tol: float = DEFAULT_TOL) -> tuple[np.ndarray, np.ndarray]:
+                iterations: int = 20, tol: float = DEFAULT_TOL, reach: np.ndarray | None = None,
+                ) -> tuple[np.ndarray, np.ndarray]:
     """:func:`refine_corners` on a validated grey image with per-point half-widths and shift bounds.
 
-    At most ``iterations`` Gauss-Newton steps, stopping after a step of at most ``tol`` px.
+    At most ``iterations`` Gauss-Newton steps, stopping after a step of at most ``tol`` px. ``reach``
+    (N, :data:`REACH_DIRS`) or None: per point, the longest offset ``d`` of the window along each direction
+    ``k pi / REACH_DIRS`` (``d`` and ``-d`` count in the direction nearest theirs, mod pi; ``inf``: the
+    square's), a star-shaped window inside the square one, for a corner whose squares end sooner on some
+    sides than on others (a board's border); None: the square window.
     """
     half, stride = _windows(grey.shape, pts, half)
     out = np.empty_like(pts)
     quality = np.zeros(len(pts))
+    if reach is None:
+        reach = np.broadcast_to(_WHOLE, (len(pts), REACH_DIRS))
     if len(pts):
         _refine(np.ascontiguousarray(grey, dtype=np.float64), pts, half.astype(np.int64), stride,
-                shift.astype(np.float64), int(iterations), float(tol), out, quality)
+                shift.astype(np.float64), int(iterations), float(tol),
+                np.ascontiguousarray(reach, dtype=np.float64), out, quality)
     return out, quality
 
 

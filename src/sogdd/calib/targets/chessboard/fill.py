@@ -22,10 +22,11 @@ from .windows import (
     ASYMMETRY,
     MIN_ASYMMETRY,
     bilinear,
+    border_reach,
     deshaded,
-    edge_halves,
     inner_corners,
     recut,
+    star_refit,
 )
 from .xcorners import XCorners
 
@@ -161,14 +162,18 @@ def _measured(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, cand: np.nda
               cell: np.ndarray, thr: float) -> tuple[np.ndarray, np.ndarray]:
     """The point symmetry refined from the predictions ``p``: positions and qualities.
 
-    The window of a border corner (:func:`sogdd.calib.targets.chessboard.windows.edge_halves`); where the
-    asymmetry exceeds ``thr`` (a shadow or a reflection over the squares), also measured unshaded
+    The windows of a border corner (:func:`sogdd.calib.targets.chessboard.windows.recut`, and its
+    star window where the square stays asymmetric:
+    :func:`sogdd.calib.targets.chessboard.windows.star_refit`); where the asymmetry exceeds ``thr``
+    (a shadow or a reflection over the squares), also measured unshaded
     (:func:`sogdd.calib.targets.chessboard.windows.deshaded`), the better fit kept.
     """
     half = half_widths(p, None, cell)
     r, q = refine_grey(grey, p, half, half.astype(np.float64), iterations=FILL_ITERATIONS)
     at = np.where(q[:, None] > 0, r, p)
-    recut(grey, at, r, q, half, edge_halves(grey, at, cand, half, cell, also=np.ones(len(cand), bool)))
+    reach = border_reach(grey, at, cand, cell, also=np.ones(len(cand), bool))
+    recut(grey, at, r, q, half, reach)
+    star_refit(grey, at, r, q, half, reach, 1.0 - q > thr)
     shaded = 1.0 - q > thr
     if not shaded.any():  # the board's own windows are needed for the unshaded measure only
         return r, q

@@ -23,10 +23,10 @@ import numpy as np
 from sogdd._jit import EXACT_JIT
 
 from ..board import label_neighbours, lattice_cells
-from ..refine import MAX_WINDOW, MIN_HALF, half_widths, refine_grey
+from ..refine import MAX_WINDOW, MIN_HALF, REACH_DIRS, half_widths, refine_grey
 
-__all__ = ["ASYMMETRY", "MIN_ASYMMETRY", "bilinear", "deshaded", "edge_halves", "inner_corners",
-           "recut", "refine_board", "symmetric"]
+__all__ = ["ASYMMETRY", "MIN_ASYMMETRY", "bilinear", "border_reach", "deshaded", "edge_halves", "inner_corners",
+           "recut", "refine_board", "square_within", "star_refit", "symmetric"]
 
 #: a refined corner is dropped when its asymmetry ``1 - quality`` exceeds this multiple of the board's median
 ASYMMETRY = 10.0
@@ -77,9 +77,10 @@ _OUT_STEPS = np.arange(0.1, 0.96, 0.05)
 _OUT_DIRS = np.stack([np.cos(np.arange(16) * np.pi / 16), np.sin(np.arange(16) * np.pi / 16)], axis=1)
 
 
-def edge_halves(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, half: np.ndarray,
-                 cells: np.ndarray, also: np.ndarray | None = None) -> np.ndarray:
-    """Half-widths of the refinement windows, cut for the corners on the board's border (and ``also``).
+def border_reach(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, cells: np.ndarray,
+                 also: np.ndarray | None = None) -> np.ndarray:
+    """How far the refinement window of each corner on the board's border (and ``also``) may reach, per
+    direction: (n, :data:`sogdd.calib.targets.refine.REACH_DIRS`) px, ``inf`` where nothing bounds it.
 
     Beyond a border corner ``p`` (one without all four lattice neighbours) the
     outer squares may be narrower than a cell, or end at the paper's edge with
@@ -90,48 +91,91 @@ def edge_halves(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, half: np.n
     at which ``|I(p + r u) - I(p - r u)| > 0.2 c``, with ``c`` the spread of the
     image on the ring of radius 0.2 cell (10th to 90th percentile: the corner's
     contrast): where a blurred edge that is not the corner's own begins. The
-    square window of half-width ``h`` reaches ``h (|u_x| + |u_y|)`` along ``u``, and
-    its Gaussian weight is still 0.6 at its rim, so
-    ``h <= 0.8 min_u r(u) / (|u_x| + |u_y|)`` keeps it on the squares (a ray
-    symmetric out to 0.95 cell sets no bound: the window's own rule holds). An inner
-    corner keeps its window unless ``also`` (bool, one per corner) names it: an
-    inner corner whose window is far less point-symmetric than the board's
-    others (a code printed in its white squares, which differs between the two
-    squares mirrored through it) is measured the same way. ``xy`` must be
-    refined already (:func:`refine_board`).
+    window's Gaussian weight is still 0.6 at its rim, so its reach along ``u`` is
+    ``0.8 r(u)``, at least :data:`sogdd.calib.targets.refine.MIN_HALF` (a ray
+    symmetric out to 0.95 cell sets no bound). An inner corner is not bounded
+    unless ``also`` (bool, one per corner) names it: an inner corner whose window
+    is far less point-symmetric than the board's others (a code printed in its
+    white squares, which differs between the two squares mirrored through it) is
+    measured the same way. ``xy`` must be refined already (:func:`refine_board`).
     """
     border = ~inner_corners(labels)
     if also is not None:
         border |= also
     k = np.flatnonzero(border & np.isfinite(cells))
+    out = np.full((len(xy), REACH_DIRS), np.inf)
     if len(k) == 0:
-        return half
+        return out
     p, cell = xy[k][:, None, None, :], cells[k][:, None, None, None]
     d = _OUT_STEPS[None, :, None, None] * cell * _OUT_DIRS[None, None, :, :]  # (n, t, u, 2)
     ring = bilinear(grey, xy[k][:, None, :] + 0.2 * cells[k][:, None, None] * np.r_[_OUT_DIRS, -_OUT_DIRS])
     c = np.percentile(ring, 90, axis=1) - np.percentile(ring, 10, axis=1)
     bad = np.abs(bilinear(grey, p + d) - bilinear(grey, p - d)) > 0.2 * c[:, None, None]  # (n, t, u)
     r = np.where(bad.any(axis=1), _OUT_STEPS[np.argmax(bad, axis=1)], np.inf) * cells[k][:, None]  # (n, u)
-    reach = np.abs(_OUT_DIRS[:, 0]) + np.abs(_OUT_DIRS[:, 1])
-    limit = np.floor(np.minimum(0.8 * np.min(r / reach, axis=1), MAX_WINDOW)).astype(np.int64)
-    out = half.copy()
-    out[k] = np.minimum(half[k], np.maximum(limit, MIN_HALF))
+    out[k] = np.maximum(0.8 * r, MIN_HALF)
     return out
 
 
+def square_within(reach: np.ndarray, half: np.ndarray) -> np.ndarray:
+    """The half-widths ``half`` cut so that the square window stays within ``reach`` (:func:`border_reach`).
+
+    A square of half-width ``h`` reaches ``h (|u_x| + |u_y|)`` along ``u``, so
+    ``h = floor(min_u reach(u) / (|u_x| + |u_y|))``, at most ``half`` and
+    :data:`sogdd.calib.targets.refine.MAX_WINDOW`, at least
+    :data:`sogdd.calib.targets.refine.MIN_HALF`.
+    """
+    spread = np.abs(_OUT_DIRS[:, 0]) + np.abs(_OUT_DIRS[:, 1])
+    bounded = np.isfinite(reach).any(axis=1)
+    out = np.asarray(half).copy()
+    if bounded.any():
+        limit = np.floor(np.minimum(np.min(reach[bounded] / spread, axis=1), MAX_WINDOW)).astype(np.int64)
+        out[bounded] = np.minimum(out[bounded], np.maximum(limit, MIN_HALF))
+    return out
+
+
+def edge_halves(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, half: np.ndarray,
+                cells: np.ndarray, also: np.ndarray | None = None) -> np.ndarray:
+    """Half-widths of the square refinement windows, cut for the corners on the board's border (and
+    ``also``) to stay within :func:`border_reach`: :func:`square_within`."""
+    return square_within(border_reach(grey, xy, labels, cells, also), half)
+
+
 def recut(grey: np.ndarray, start: np.ndarray, out: np.ndarray, quality: np.ndarray, half: np.ndarray,
-           cut: np.ndarray) -> None:
-    """Refine again, from ``start``, the corners whose window ``cut`` narrows; keep the more symmetric fit.
+          reach: np.ndarray) -> None:
+    """Refine again, from ``start``, the corners whose square window ``reach`` (:func:`border_reach`) cuts
+    (:func:`square_within`); keep the more symmetric fit.
 
     ``out`` and ``quality`` are updated in place where the cut window's fit has
     the higher quality (the measure of the extent is noisy: a corner whose full
     window stayed on the squares keeps it, and its accuracy).
     """
+    cut = square_within(reach, half)
     redo = np.flatnonzero(cut < half)
     if len(redo):
         xy2, q2 = refine_grey(grey, start[redo], cut[redo], cut[redo].astype(np.float64))
         better = q2 > quality[redo]
         out[redo[better]], quality[redo[better]] = xy2[better], q2[better]
+
+
+def star_refit(grey: np.ndarray, start: np.ndarray, out: np.ndarray, quality: np.ndarray, half: np.ndarray,
+               reach: np.ndarray, which: np.ndarray) -> None:
+    """Refine again, from ``start``, the corners ``which`` (bool) with the star window ``reach`` draws in
+    their square ``half`` (:func:`sogdd.calib.targets.refine.refine_grey`); keep the more symmetric fit.
+
+    Beyond a corner on a board's border whose outer squares the paper cuts, the
+    symmetric surroundings are long along the border (the squares go on) and
+    short across it (the outer squares end): the square window cut to the
+    short side (:func:`recut`) may hold too few pixels under blur and noise,
+    and the star keeps the long side. It is the fallback for the corners that
+    are still far less symmetric than the board's others (a tie with their
+    fit, or a worse fit, keeps it: on a board the square fits well, the star's
+    fewer pixels fit no more accurately).
+    """
+    star = np.flatnonzero(which & np.isfinite(reach).any(axis=1) & (np.min(reach, axis=1) < half))
+    if len(star):
+        xy2, q2 = refine_grey(grey, start[star], half[star], half[star].astype(np.float64), reach=reach[star])
+        better = q2 > quality[star]
+        out[star[better]], quality[star[better]] = xy2[better], q2[better]
 
 
 def refine_board(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -148,18 +192,21 @@ def refine_board(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray) -> tuple[
     between the two squares mirrored through the corner, breaks the symmetry
     beyond its clear margin only, so a window within that margin fits the
     corner; an occluder over the corner leaves the cut fit asymmetric too.
+    Those still asymmetric are refined with the star window of their reach
+    (:func:`star_refit`), and, failing it, on the image unshaded (:func:`deshaded`).
     """
     cells = lattice_cells(xy, labels)
     half = half_widths(xy, None, cells)
     out, quality = refine_grey(grey, xy, half, half.astype(np.float64))
     at = np.where(quality[:, None] > 0, out, xy)
-    recut(grey, xy, out, quality, half, edge_halves(grey, at, labels, half, cells))
+    reach = border_reach(grey, at, labels, cells)
+    recut(grey, xy, out, quality, half, reach)
     asym = (quality > 0) & ~symmetric(quality)
     if asym.any():
         # measured on their own: the border corners' windows are cut already
-        cut = half.copy()
-        cut[asym] = edge_halves(grey, at[asym], labels[asym], half[asym], cells[asym], also=asym[asym])
-        recut(grey, xy, out, quality, half, cut)
+        reach[asym] = border_reach(grey, at[asym], labels[asym], cells[asym], also=asym[asym])
+        recut(grey, xy, out, quality, half, np.where(asym[:, None], reach, np.inf))
+    star_refit(grey, xy, out, quality, half, reach, ~symmetric(quality))
     bad = ~symmetric(quality)
     if bad.any() and np.isfinite(cells).any():
         inner = inner_corners(labels) & ~bad
