@@ -18,6 +18,7 @@ A client of the core (:mod:`sogdd.detector` and its stages); the core never impo
 :mod:`.report`: the HTML report with its figures.
 :mod:`.demo`: a small known calibration for examples.
 :mod:`.rig`: camera rigs, several cameras calibrated together (:func:`~sogdd.calib.rig.calibrate_rig`).
+:mod:`.exchange`: a calibration in other tools' files (ROS, Kalibr, mrcal, COLMAP) and back; ``sogdd convert``.
 """
 
 from .cameras import MODELS, Camera, CameraModel, ProjectionDifference, projection_difference

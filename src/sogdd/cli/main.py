@@ -37,6 +37,7 @@ COMMANDS = {
     "eval": "evaluate detectors: GT accuracy, repeatability, resolution, matching, SfM",
     "report": "run the evaluations and write the results page (Markdown + figures)",
     "colmap": "COLMAP interoperability (needs pycolmap)",
+    "convert": "convert a calibration to or from ROS, Kalibr, mrcal and COLMAP files",
 }
 
 

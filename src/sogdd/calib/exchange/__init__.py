@@ -1,0 +1,27 @@
+"""A calibration in the files other tools read and write: ROS, Kalibr, mrcal, COLMAP, and sogdd's own.
+
+Every format reads into and writes from one plain description of the cameras
+(:class:`StoredRig`, :class:`StoredCamera`); a model or a rig a format cannot hold is refused
+with the reason (``ValueError``), never approximated, and a round trip gives the numbers back to
+float precision. ``sogdd convert IN OUT --to FORMAT`` is :func:`convert`.
+
+:mod:`.stored`: :class:`StoredCamera` and :class:`StoredRig`, what the formats hold (:func:`stored_rig`).
+:mod:`.format`: :class:`~.format.ExchangeFormat`, what a format's record holds, and what the formats share.
+:mod:`.registry`: the formats, one row per format: a new format is one module and one row.
+:mod:`.native`: sogdd's own camera.yaml / rig.yaml (OpenCV FileStorage), camera.json / rig.json, folders.
+:mod:`.ros`: ROS ``camera_info`` YAML (plumb_bob, rational_polynomial, equidistant; a stereo pair).
+:mod:`.kalibr`: Kalibr's camchain YAML (pinhole and omni; radtan and equidistant; ``T_cn_cnm1``).
+:mod:`.mrcal`: mrcal's ``.cameramodel`` (LENSMODEL_OPENCV4, 5, 8; ``extrinsics``).
+:mod:`.colmap`: COLMAP cameras and rigs through pycolmap (OPENCV, FULL_OPENCV, OPENCV_FISHEYE).
+:mod:`.mrgingham`: a calibration's corners as mrgingham's ``corners.vnl`` (``mrcal-calibrate-cameras``).
+:mod:`.conversion`: :func:`read_calibration`, :func:`write_calibration_as` and :func:`convert` in any format.
+"""
+
+from .conversion import convert, read_calibration, write_calibration_as
+from .format import ExchangeFormat
+from .mrgingham import write_corners_vnl
+from .registry import FORMATS, detect, exchange_format
+from .stored import StoredCamera, StoredRig, stored_rig
+
+__all__ = ["FORMATS", "ExchangeFormat", "StoredCamera", "StoredRig", "convert", "detect", "exchange_format",
+           "read_calibration", "stored_rig", "write_calibration_as", "write_corners_vnl"]

@@ -1,0 +1,146 @@
+"""sogdd's own files as an exchange format: ``camera.yaml`` / ``camera.json``, ``rig.yaml`` / ``rig.json``,
+or an output folder holding them (``sogdd calibrate --out``).
+
+Read through :func:`sogdd.calib.files.read_camera` and :func:`sogdd.calib.rig.read_rig` (a
+``rig.json`` by its ``cameras`` list, :func:`~sogdd.calib.rig.files.rig_dict`'s). Written
+(``--to sogdd``) as the OpenCV FileStorage nodes those readers read, and nothing of a fit's
+diagnostics (a converted camera has none): one camera as ``camera.yaml`` (``model``,
+``image_width``, ``image_height``, ``camera_matrix``, ``distortion_coefficients``), a rig as
+``rig.yaml`` (``cameras``; per camera ``model_NAME``, ``camera_matrix_NAME``,
+``distortion_coefficients_NAME``, ``image_size_NAME``, ``R_NAME``, ``T_NAME``, in the first
+camera's frame). ``path`` is that file, or a folder to hold it.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Iterable
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from ...formats.safe_write import atomic_write, check_not_inputs
+from ..files import read_camera
+from ..rig.files import check_camera_names, read_rig
+from .format import ExchangeFormat
+from .stored import StoredCamera, StoredRig
+
+__all__ = ["FORMAT", "read", "sniff", "write"]
+
+_FILES = ("rig.yaml", "rig.json", "camera.yaml", "camera.json")
+
+
+def _storage(tmp: Path, rig: StoredRig) -> None:
+    fs = cv2.FileStorage(str(tmp), cv2.FILE_STORAGE_WRITE | cv2.FILE_STORAGE_FORMAT_YAML)
+    if not fs.isOpened():
+        raise OSError(f"{tmp}: cannot be written")
+    if len(rig.cameras) == 1:
+        cam = rig.cameras[0]
+        fs.write("model", cam.model)
+        fs.write("image_width", cam.image_size[0])
+        fs.write("image_height", cam.image_size[1])
+        fs.write("camera_matrix", np.asarray(cam.K, np.float64))
+        fs.write("distortion_coefficients", np.asarray(cam.dist, np.float64).reshape(1, -1))
+    else:
+        fs.startWriteStruct("cameras", cv2.FileNode_SEQ)
+        for n in rig.names:
+            fs.write("", n)
+        fs.endWriteStruct()
+        for c in rig.cameras:
+            fs.write(f"model_{c.name}", c.model)
+            fs.write(f"camera_matrix_{c.name}", np.asarray(c.K, np.float64))
+            fs.write(f"distortion_coefficients_{c.name}", np.asarray(c.dist, np.float64).reshape(1, -1))
+            fs.startWriteStruct(f"image_size_{c.name}", cv2.FileNode_SEQ | cv2.FileNode_FLOW)
+            for v in c.image_size:
+                fs.write("", int(v))
+            fs.endWriteStruct()
+            fs.write(f"R_{c.name}", np.asarray(c.R, np.float64))
+            fs.write(f"T_{c.name}", np.asarray(c.T, np.float64).reshape(3, 1))
+    fs.release()
+
+
+def write(rig: StoredRig, path: Path, inputs: Iterable[str | os.PathLike] = ()) -> list[Path]:
+    """One camera as ``camera.yaml``, a rig as ``rig.yaml`` (module doc): ``path`` itself when it ends in
+    ``.yaml``, else that file in the folder ``path``; the file written (never one of ``inputs``, nor a
+    file of ``sogdd calibrate``'s output folder)."""
+    path = Path(path)
+    if len(rig.cameras) > 1:
+        check_camera_names(rig.names)
+        rig = rig.relative()
+    target = path if path.suffix.lower() in (".yaml", ".yml") else \
+        path / ("camera.yaml" if len(rig.cameras) == 1 else "rig.yaml")
+    check_not_inputs([("output", target)], inputs)
+    if target.exists() and any((target.parent / n).is_file() for n in ("camera.json", "rig.json")):
+        raise ValueError(f"{target}: part of a sogdd calibrate output folder, whose other files would no "
+                         "longer agree with it; write it elsewhere")
+    target.parent.mkdir(parents=True, exist_ok=True)
+    return [atomic_write(target, lambda tmp: _storage(tmp, rig))]
+
+
+def _one(d: dict, name: str, where: Path) -> StoredCamera:
+    try:
+        return StoredCamera(name, d["model"], d["camera_matrix"], np.ravel(d["distortion_coefficients"]),
+                            d.get("image_size") or (d["image_width"], d["image_height"]), d.get("R", np.eye(3)),
+                            np.ravel(d.get("T", np.zeros(3))))
+    except (KeyError, TypeError) as exc:
+        raise ValueError(f"{where}: camera {name!r} lacks {exc}") from None
+    except ValueError as exc:
+        raise ValueError(f"{where}: camera {name!r}: {exc}") from None
+
+
+def _rig_json(path: Path) -> StoredRig:
+    try:
+        d = json.loads(path.read_text(encoding="utf-8"))
+        cams = d["cameras"]
+        return StoredRig(tuple(_one(c, c["name"], path) for c in cams))
+    except (KeyError, TypeError, json.JSONDecodeError) as exc:
+        raise ValueError(f"{path}: not a sogdd rig.json ({exc})") from None
+
+
+def _is_rig(path: Path) -> bool:
+    if path.suffix.lower() == ".json":
+        try:
+            return "cameras" in json.loads(path.read_text(encoding="utf-8"))
+        except (ValueError, UnicodeDecodeError):
+            return False
+    return "\ncameras:" in path.read_text(encoding="utf-8", errors="replace")[:4096]
+
+
+def read(path: Path) -> StoredRig:
+    """A sogdd camera or rig file, or the output folder holding one (a rig's files first)."""
+    path = Path(path)
+    if path.is_dir():
+        found = [path / n for n in _FILES if (path / n).is_file()]
+        if not found:
+            raise ValueError(f"{path}: no {', '.join(_FILES)} in the folder")
+        path = found[0]
+    if _is_rig(path):
+        if path.suffix.lower() == ".json":
+            return _rig_json(path)
+        d = read_rig(path)
+        return StoredRig(tuple(_one(c, n, path) for n, c in d["cameras"].items()))
+    return StoredRig((_one(read_camera(path), "camera", path),))
+
+
+def sniff(path: Path) -> bool:
+    """An output folder holding one of sogdd's camera or rig files, a ``.json`` with sogdd's
+    ``camera_matrix`` or ``cameras``, or an OpenCV FileStorage ``.yaml`` (``%YAML`` and ``!!opencv-matrix``)."""
+    path = Path(path)
+    if path.is_dir():
+        return any((path / n).is_file() for n in _FILES)
+    if not path.is_file():
+        return False
+    try:
+        head = path.read_text(encoding="utf-8", errors="replace")[:65536]
+    except OSError:
+        return False
+    if path.suffix.lower() == ".json":
+        return '"camera_matrix"' in head or '"cameras"' in head
+    return path.suffix.lower() in (".yaml", ".yml") and head.startswith("%YAML") and "!!opencv-matrix" in head
+
+
+#: the record
+FORMAT = ExchangeFormat(name="sogdd", summary="sogdd's own camera.yaml / rig.yaml (OpenCV FileStorage), "
+                        "camera.json / rig.json, or an output folder", sniff=sniff, read=read, write=write)

@@ -1,0 +1,72 @@
+"""sogdd convert IN OUT --to FORMAT: a calibration into the files another tool reads, or back.
+
+IN is a sogdd calibration (camera.yaml, camera.json, rig.yaml, rig.json, or the output folder of
+sogdd calibrate) or a file or folder in any format below, recognised by its content (--from names
+it). OUT is a file or a folder, as the format wants:
+
+  sogdd   camera.yaml (one camera) or rig.yaml (a rig), OpenCV FileStorage
+  ros     ROS camera_info YAML: OUT.yaml for one camera; a folder with left.yaml and right.yaml for
+          a stereo pair (rectified by cv2.stereoRectify)
+  kalibr  Kalibr's camchain YAML (OUT.yaml, or OUT/camchain.yaml): cam0, cam1, ..., T_cn_cnm1
+  mrcal   mrcal's .cameramodel (OUT.cameramodel, or OUT/camera-K.cameramodel for each camera)
+  colmap  a COLMAP text model folder: cameras.txt and rigs.txt (needs pycolmap)
+  mrgingham  the corners, not the camera: IN's corners.csv (a rig's NAME/corners.csv, views named
+          NAME/VIEW) as mrgingham's corners.vnl, for mrcal-calibrate-cameras --corners-cache
+
+A model a format cannot hold (mrcal has no OpenCV fisheye, Kalibr no rational model, ...) is
+refused with the reason, and nothing is written; every number goes out and comes back to float
+precision. Translations keep the unit of the calibration's square unless --scale changes it
+(--scale 0.001 for a square in mm to Kalibr's and ROS's metres). Reading YAML needs PyYAML, and
+COLMAP pycolmap: pip install 'sogdd[formats]'. The library: sogdd.calib.exchange.convert.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+__all__ = ["configure"]
+
+def run(args: argparse.Namespace) -> int:
+    from ..calib.exchange import convert
+
+    if args.to == "mrgingham":
+        from ..calib.exchange.mrgingham import write_corners_vnl
+
+        path = write_corners_vnl(args.input, args.output, pattern=args.pattern, used_only=args.used_only)
+        print(f"sogdd: wrote the corners as mrgingham's corners.vnl: {path}")
+        return 0
+    rig, files = convert(args.input, args.output, args.to, source_format=args.source, scale=args.scale)
+    cams = ", ".join(f"{c.name} ({c.model})" for c in rig.cameras)
+    print(f"sogdd: wrote {cams} as {args.to}: {', '.join(str(f) for f in files)}")
+    return 0
+
+
+def configure(p: argparse.ArgumentParser) -> None:
+    """The ``convert`` command's arguments."""
+    from ..calib.exchange import FORMATS
+
+    p.description = __doc__
+    p.add_argument("input", metavar="IN", help="a calibration: sogdd's file or output folder, or any format "
+                   "below")
+    p.add_argument("output", metavar="OUT", help="the file or folder to write")
+    p.add_argument("--to", required=True, choices=(*FORMATS, "mrgingham"),
+                   help="the format to write (mrgingham: the corners, not the camera)")
+    p.add_argument("--from", dest="source", choices=tuple(FORMATS), default=None,
+                   help="IN's format (default: recognised from its content)")
+    p.add_argument("--scale", type=float, default=1.0, metavar="S",
+                   help="multiply every translation by S (0.001: millimetres to metres)")
+    p.add_argument("--pattern", type=_pattern, metavar="WxH", default=None,
+                   help="--to mrgingham: the board's inner corners (default: from the labels)")
+    p.add_argument("--used-only", action="store_true",
+                   help="--to mrgingham: only the corners the calibration used (the others '-')")
+    p.set_defaults(func=run)
+
+
+def _pattern(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: give WxH, such as 9x6") from None
+    if w < 1 or h < 1:
+        raise argparse.ArgumentTypeError(f"{text!r}: W and H are at least 1")
+    return w, h
