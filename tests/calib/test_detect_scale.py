@@ -134,3 +134,46 @@ def test_a_column_just_outside_the_frame_gets_no_label(render, seed):
     lab = b.labels - b.labels.min(axis=0)
     truth = v.labels[k] - v.labels[k].min(axis=0)
     assert np.array_equal(lab, truth) or np.array_equal(lab.max(axis=0) - lab, truth)  # one labelling
+
+
+def _textured(render, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """A 7 x 9 board of 55 grey levels' contrast (89 and 144) over a background textured far more strongly
+    (smooth noise of three octaves, 46 grey levels std), smeared 19 px at a random angle, noise 3, JPEG
+    quality 35: the image and its true corners."""
+    rng = np.random.default_rng(seed)
+    cam = Camera(np.array([[700.0, 0, 319.5], [0, 700.0, 239.5], [0, 0, 1]]), (0.0, 0, 0, 0), (640, 480))
+    R = np.array([0.4, -0.3, 0.2]) + rng.normal(0, 0.15, 3)
+    t = np.array([0.0, 0.0, 0.62]) - cv2.Rodrigues(R)[0] @ np.array([3 * 0.022, 4 * 0.022, 0.0])
+    board = render.Board(7, 9, 0.022)
+    v = render.render_view(cam, board, R, t, blur=1.0, levels=(89.0, 144.0, 0.0))
+    paper = render.render_view(cam, board, R, t, blur=1.0, levels=(89.0, 144.0, 255.0)).image
+    background = (paper.astype(np.float64) - v.image) / 255.0
+    tex = sum(cv2.resize(rng.normal(0, 1, (480 // s, 640 // s)), (640, 480), interpolation=cv2.INTER_CUBIC)
+              for s in (8, 16, 32))
+    img = smear(v.image + background * (120 + 46 * tex / tex.std()), 19, rng.uniform(0, 180))
+    img = np.clip(img + rng.normal(0, 3, img.shape), 0, 255).astype(np.uint8)
+    return cv2.imdecode(cv2.imencode(".jpg", img, [cv2.IMWRITE_JPEG_QUALITY, 35])[1], 0), v.corners
+
+
+def test_a_coarse_level_is_searched_against_the_noise_of_the_finest(render):
+    """The strength map's median at a coarse level of a small image measures the background's texture and the
+    board as much as the noise; averaging pixels never adds noise, so each level is searched against the
+    smaller of its own measure and the finest level's. A faint smeared board over a strongly textured
+    background is found then (measured at each level alone, no level's threshold lets its corners through)."""
+    found = 0
+    for seed in range(1, 5):
+        img, truth = _textured(render, seed)
+        b = detect_board(img, (7, 9), proposals=False)
+        if b is not None and len(b) == 63:
+            found += 1
+            assert cKDTree(truth).query(b.image_points)[0].max() < 2.0
+    assert found >= 3
+
+
+def test_the_finest_levels_noise_caps_a_coarser_ones():
+    """:func:`search` with ``noise_cap``: the level's noise is the smaller of its measure and the cap."""
+    rng = np.random.default_rng(0)
+    img = (128 + 2.0 * rng.standard_normal((240, 320))).astype(np.float32)
+    own = search(img, None, 0.5, None).noise
+    assert search(img, None, 0.5, None, noise_cap=0.5 * own).noise == 0.5 * own
+    assert search(img, None, 0.5, None, noise_cap=2.0 * own).noise == own

@@ -25,6 +25,7 @@ returned as a board; :func:`find_boards` returns it among the ``others``.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -303,8 +304,11 @@ def _search(grey: np.ndarray, pat: tuple[int, int] | None, min_corners: int, min
     best: list[Board] = []
     others: list[Board] = []
     g32 = grey.astype(np.float32)  # the X-corner search's maps are float32
+    cap, finest = math.inf, math.inf  # the noise of the finest level searched so far, and its scale
     for level in (scale,) if scale is not None else search_levels(grey.shape):
-        xc = search(g32, min_strength, level, mask)
+        xc = search(g32, min_strength, level, mask, cap if level < finest else math.inf)
+        if level < finest:
+            cap, finest = xc.noise, level
         best = _merged(best, _boards(grey, xc, pat, min_corners, refine, max_boards, others, best))
         if pat is not None and not _room_for_larger(best, pat, grey.shape):
             break

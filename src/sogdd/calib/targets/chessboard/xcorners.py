@@ -81,12 +81,16 @@ class XCorners:
     spread : (N,) float64
         Half-angle ``phi`` between the edge lines and the light axis, in
         ``(0, pi/2)``; ``pi/4`` for perpendicular edges.
+    noise : float
+        The noise of the search that found them (:func:`noise_strength`, as
+        the search used it; NaN when they come from elsewhere).
     """
 
     xy: np.ndarray
     strength: np.ndarray
     light: np.ndarray
     spread: np.ndarray
+    noise: float = math.nan
 
     def __len__(self) -> int:
         return len(self.xy)
@@ -377,13 +381,18 @@ def _newton(m, x, y, steps, hess):  # pragma: no cover - jit
         hess[t, 0], hess[t, 1], hess[t, 2] = v[2], v[3], v[4]
 
 
-def saddles(work: np.ndarray, floor: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Saddle points of ``G_sigma * work`` stronger than the search's threshold: ``(xy, strength, hess)``.
+def saddles(work: np.ndarray, floor: float, noise_cap: float = math.inf,
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """Saddle points of ``G_sigma * work`` stronger than the search's threshold: ``(xy, strength, hess, N)``.
 
     With the derivative maps of :func:`derivative_maps` (in bands of rows of
     about :data:`BAND_PIXELS` pixels, each exact on its rows):
 
-    1. the threshold ``t = max(floor, NOISE_FACTOR N)`` (``N`` :func:`noise_strength`);
+    1. the threshold ``t = max(floor, NOISE_FACTOR N)``, ``N`` the smaller of
+       :func:`noise_strength` and ``noise_cap`` (the noise of a finer level of the
+       same image: averaging pixels never adds noise, while the strength map's
+       median at a coarse level, where the board and the background's texture
+       fill much of a small image, measures them too);
     2. candidates: the 3 x 3 maxima (in-image neighbours) of the saddle strength
        ``s = sigma^2 sqrt(g_xy^2 - g_xx g_yy) / u`` with ``s >= t``;
     3. :data:`NEWTON_STEPS` Newton steps ``p <- p - H(p)^{-1} grad(p)`` from the
@@ -398,7 +407,7 @@ def saddles(work: np.ndarray, floor: float) -> tuple[np.ndarray, np.ndarray, np.
     --------
     >>> t = np.arange(60) - 30.4
     >>> img = np.where((t[:, None] > 0) == (t[None, :] > 0), 200.0, 40.0)
-    >>> xy, s, _ = saddles(img, 5.0)
+    >>> xy, s, _, _ = saddles(img, 5.0)
     >>> np.round(xy, 2).tolist(), round(float(s[0]))  # contrast 160, the junction on the pixel grid
     ([[30.5, 30.5]], 157)
     """
@@ -412,6 +421,7 @@ def saddles(work: np.ndarray, floor: float) -> tuple[np.ndarray, np.ndarray, np.
         noise = _noise(np.abs(det[::step, ::step]).ravel())
     else:
         noise = noise_strength(work)
+    noise = min(noise, float(noise_cap))
     t_det = (max(float(floor), NOISE_FACTOR * noise) * unit / SIGMA2) ** 2
     xy, strength, hess = [], [], []
     for k, (a, c) in enumerate(bands):
@@ -432,7 +442,7 @@ def saddles(work: np.ndarray, floor: float) -> tuple[np.ndarray, np.ndarray, np.
         hess.append(h[ok])
     xy, strength, hess = np.concatenate(xy), np.concatenate(strength), np.concatenate(hess)
     keep = one_per_point(xy, strength, SADDLE_MERGE)
-    return xy[keep], strength[keep], hess[keep]
+    return xy[keep], strength[keep], hess[keep], noise
 
 
 def search_levels(shape: tuple[int, int]) -> tuple[float, ...]:
@@ -500,15 +510,16 @@ def floor(grey: np.ndarray, min_strength: float | None = None) -> float:
 
 
 def search(grey: np.ndarray, min_strength: float | None, scale: float | None,
-           mask: np.ndarray | None) -> XCorners:
-    """:func:`find_xcorners` on a validated grey image (float32 or float64, 0-255)."""
+           mask: np.ndarray | None, noise_cap: float = math.inf) -> XCorners:
+    """:func:`find_xcorners` on a validated grey image (float32 or float64, 0-255); ``noise_cap``: the
+    noise of a finer level's search of the same image (:func:`saddles`)."""
     H, W = grey.shape
     scale = default_scale(grey.shape) if scale is None else scale
     work = np.asarray(grey, dtype=np.float32)  # the search's maps are float32: one conversion per image
     if scale < 1:
         size = (max(8, round(W * scale)), max(8, round(H * scale)))
         work = cv2.resize(work, size, interpolation=cv2.INTER_AREA)
-    xy, st, hess = saddles(work, floor(work, min_strength))
+    xy, st, hess, noise = saddles(work, floor(work, min_strength), noise_cap)
     light, phi, saddle = edge_geometry(hess)
     if scale < 1:
         fx, fy = W / work.shape[1], H / work.shape[0]
@@ -521,4 +532,4 @@ def search(grey: np.ndarray, min_strength: float | None, scale: float | None,
         keep &= m[iy, ix]
     order = np.argsort(-st[keep], kind="stable")
     sel = np.flatnonzero(keep)[order]
-    return XCorners(xy[sel], st[sel], light[sel], phi[sel])
+    return XCorners(xy[sel], st[sel], light[sel], phi[sel], noise)
