@@ -44,6 +44,36 @@ def test_ray_neighbours_link_a_grid_of_x_corners():
     assert (ray_neighbours(same)[0] < 0).all()
 
 
+def test_ray_neighbours_follow_the_lattice_where_the_hessians_spread_is_biased():
+    """A grid sheared to axes at 8 and 53 degrees (a board tilted far from the camera): the true edge lines lie
+    22.5 degrees either side of the light axis, but the Hessian's spread, biased towards 45 degrees by the
+    smoothing (and a smear), says 44. The rays along the spread the neighbours draw link the grid all the same;
+    along the Hessian's alone, no corner has a neighbour on every ray."""
+    n = 6
+    lab = np.array([(i, j) for j in range(n) for i in range(n)], float)
+    a0, a1 = np.radians(8.0), np.radians(53.0)
+    axes = 30.0 * np.array([[np.cos(a0), np.sin(a0)], [np.cos(a1), np.sin(a1)]])
+    xy = 50.0 + lab @ axes
+    mid = (a0 + a1) / 2  # the light axis bisects the edge lines; it turns by 90 degrees at each step
+    light = np.mod(np.where(lab.sum(axis=1) % 2 == 0, mid, mid + np.pi / 2), np.pi)
+    biased = XCorners(xy, np.full(len(xy), 100.0), light, np.full(len(xy), np.radians(44.0)))
+    inner = np.flatnonzero((lab.min(axis=1) > 0) & (lab.max(axis=1) < n - 1))
+
+    def linked(nb):  # the inner corners whose four rays reach exactly their four edge neighbours
+        return sum(set(nb[k].tolist()) == {k + 1, k - 1, k + n, k - n} for k in inner)
+
+    assert linked(ray_neighbours(biased)[0]) == len(inner)
+    import sogdd.calib.targets.chessboard.lattice as lattice
+
+    own = np.full((len(xy), 4), -1, dtype=np.int64)  # the test along the Hessian's edge lines alone
+    d = np.hypot(*(xy[None] - xy[:, None]).transpose(2, 0, 1))
+    order = np.argsort(d, axis=1)[:, 1:]
+    v = xy[order] - xy[:, None]
+    lattice._rays(np.take_along_axis(d, order, axis=1), order.astype(np.int64), np.arctan2(v[..., 1], v[..., 0]),
+                  light, biased.spread, biased.edges, own, np.full((len(xy), 4), np.inf))
+    assert linked(own) <= len(inner) // 4
+
+
 def barrel_grid(n=7, cell=30.0, k=-0.1):
     """A grid bent by strong barrel distortion ``x_d = x (1 + k r^2)`` about its centre: rows are curves."""
     lab = np.array([(i, j) for j in range(n) for i in range(n)], float)

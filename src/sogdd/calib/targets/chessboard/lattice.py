@@ -4,7 +4,10 @@ Three tests make two X-corners lattice neighbours (:func:`ray_neighbours`): the
 second lies along one of the first's edge lines (within :data:`CONE`), one of its
 own edge lines points back along that line (:data:`EDGE_TOL`), and its light axis
 is turned by about 90 degrees (the wedges' colours swap across an edge line,
-:data:`POLARITY_TOL`).
+:data:`POLARITY_TOL`). The edge lines are tried twice: the Hessian's (:attr:`XCorners.spread`)
+and those the corner's nearest corners of the other parity draw (:func:`_lattice_spread`), which the
+smoothing does not bias where the cells are small, foreshortened or smeared; the nearest neighbour that
+passes either is the ray's.
 
 A board grows from a **seed**, an X-corner whose four rays all reach mutual
 neighbours at similar distances (a cross of five corners), labelled
@@ -62,6 +65,9 @@ SEED_RATIO = 1.6
 #: the white squares (ECoCheck: 20 or more within a cell of a corner) to the next corner along each ray
 KNN = 32
 
+#: corners of the other parity that measure a corner's spread (:func:`_lattice_spread`): its four edge neighbours
+SPREAD_NEIGHBOURS = 4
+
 _OFFS = np.array([(1, 0), (0, 1), (-1, 0), (0, -1)])
 #: the label offsets whose corners predict a label (a 5 x 5 block without its centre)
 _SUPPORT_F = SUPPORT.astype(np.float64)
@@ -98,7 +104,48 @@ def ray_neighbours(xc: XCorners, tree: cKDTree | None = None) -> tuple[np.ndarra
     light = np.ascontiguousarray(xc.light, dtype=np.float64)
     spread = np.ascontiguousarray(xc.spread, dtype=np.float64)
     _rays(d, idx, ang, light, spread, np.ascontiguousarray(xc.edges, dtype=np.float64), nb, dist)
+    # and along the edge lines the neighbours draw (:func:`_lattice_spread`): the nearest that passes either
+    seen = _lattice_spread(idx, ang, light)
+    edges = np.mod(np.stack([light - seen, light + seen], axis=1), np.pi)
+    _rays(d, idx, ang, light, seen, edges, nb, dist)
     return nb, dist
+
+
+@numba.njit(**EXACT_JIT)
+def _lattice_spread(idx, ang, light):  # pragma: no cover - jit
+    """Each corner's spread as its lattice neighbours draw it: the median of ``|wrap_pi(a - light)|`` over
+    the directions ``a`` to its :data:`SPREAD_NEIGHBOURS` nearest corners whose light axis is turned by about
+    90 degrees (:data:`POLARITY_TOL`); its own spread (NaN: none) where fewer are near.
+
+    The four edge neighbours of a lattice corner lie along ``light +- s`` and
+    ``light + pi +- s``, ``s`` the true spread, and are the nearest corners of the
+    other parity (the diagonal ones share the corner's parity). The Hessian's
+    spread (:attr:`XCorners.spread`) is biased towards 45 degrees where the cells
+    are small, strongly foreshortened or smeared (20-30 degrees at a board tilted
+    68 degrees under a 13 px smear), while the light axis, an eigenvector, stays
+    within a few degrees, so the rays are tried along both.
+    """
+    n, m = idx.shape
+    out = np.full(n, np.nan)
+    buf = np.empty(SPREAD_NEIGHBOURS)
+    for c in range(n):
+        k = 0
+        for t in range(m):
+            q = idx[c, t]
+            if not abs(abs(_wrap_pi(light[q] - light[c])) - np.pi / 2) < POLARITY_TOL:
+                continue
+            v = abs(_wrap_pi(ang[c, t] - light[c]))
+            u = k
+            while u > 0 and buf[u - 1] > v:  # insertion sort
+                buf[u] = buf[u - 1]
+                u -= 1
+            buf[u] = v
+            k += 1
+            if k == SPREAD_NEIGHBOURS:
+                break
+        if k == SPREAD_NEIGHBOURS:
+            out[c] = 0.5 * (buf[k // 2 - 1] + buf[k // 2])
+    return out
 
 
 @numba.njit(**EXACT_JIT)
