@@ -69,8 +69,9 @@ def test_ray_neighbours_follow_the_lattice_where_the_hessians_spread_is_biased()
     d = np.hypot(*(xy[None] - xy[:, None]).transpose(2, 0, 1))
     order = np.argsort(d, axis=1)[:, 1:]
     v = xy[order] - xy[:, None]
-    lattice._rays(np.take_along_axis(d, order, axis=1), order.astype(np.int64), np.arctan2(v[..., 1], v[..., 0]),
-                  light, biased.spread, biased.edges, own, np.full((len(xy), 4), np.inf))
+    ang = np.arctan2(v[..., 1], v[..., 0])
+    lattice._rays(np.take_along_axis(d, order, axis=1), order.astype(np.int64), ang, light, biased.spread,
+                  biased.edges, own, np.full((len(xy), 4), np.inf))
     assert linked(own) <= len(inner) // 4
 
 

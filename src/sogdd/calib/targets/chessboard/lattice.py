@@ -65,7 +65,7 @@ SEED_RATIO = 1.6
 #: the white squares (ECoCheck: 20 or more within a cell of a corner) to the next corner along each ray
 KNN = 32
 
-#: corners of the other parity that measure a corner's spread (:func:`_lattice_spread`): its four edge neighbours
+#: corners of the other parity that measure a spread (:func:`_lattice_spread`): the four edge neighbours
 SPREAD_NEIGHBOURS = 4
 
 _OFFS = np.array([(1, 0), (0, 1), (-1, 0), (0, -1)])
