@@ -347,6 +347,88 @@ def render_charuco(camera, board, rvec, tvec, *, supersample: int = 4, blur: flo
                 t.copy(), ids)
 
 
+def aprilgrid_texture(cols: int, rows: int, spacing: float, margin: int = 10) -> tuple[np.ndarray, int]:
+    """Kalibr's AprilGrid as a grid of grey levels, one cell a bit (a tenth of a tag), and the cells from the
+    grid's first cell to the top-left tag's top-left corner.
+
+    As ``kalibr_create_target_pdf`` draws it: tag ``t`` at Kalibr's column ``t % cols`` and row ``t // cols``
+    (rows counted *up* the printed target), 36h11 with a border of 2 bits, its bits OpenCV's marker ``t``
+    turned half a turn; a black square of ``spacing`` tags at each tag corner; white paper ``margin`` cells
+    beyond the squares; the background (two cells) around. Cell ``[b, a]`` is ``v`` in ``[b - o, b - o + 1)``,
+    ``u`` in ``[a - o, a - o + 1)`` tenths of a tag in the board's frame (``u`` right, ``v`` down, the origin
+    at the top-left tag's top-left corner), ``o`` the offset returned."""
+    gap = int(round(10 * spacing))
+    assert abs(gap - 10 * spacing) < 1e-9, "the renderer draws spacings of whole bits (tenths of a tag)"
+    pitch = 10 + gap
+    dark, light, bg = LEVELS
+    o = 2 + margin + gap
+    w, h = (cols - 1) * pitch + 10 + 2 * o, (rows - 1) * pitch + 10 + 2 * o
+    tex = np.full((h, w), bg)
+    tex[2:h - 2, 2:w - 2] = light
+    d = cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_APRILTAG_36h11)
+    for t in range(cols * rows):
+        c, r = t % cols, rows - 1 - t // cols  # r: tag rows counted down
+        a, b = o + c * pitch, o + r * pitch
+        bits = np.rot90(cv2.aruco.generateImageMarker(d, t, 10, borderBits=2), 2)
+        tex[b:b + 10, a:a + 10] = np.where(bits > 0, light, dark)
+        for ya in (b - gap, b + 10):
+            for xa in (a - gap, a + 10):
+                tex[ya:ya + gap, xa:xa + gap] = dark
+    return tex, o
+
+
+def render_aprilgrid(camera, cols: int, rows: int, tag: float, spacing: float, rvec, tvec, *,
+                     supersample: int = 4, blur: float = 0.0, noise: float = 0.0, rng=None,
+                     border: float = 4.0) -> View:
+    """Kalibr's AprilGrid (:func:`aprilgrid_texture`) of tags of side ``tag`` seen through ``camera``, exact:
+    each sample's grey level is the grid's box-filtered over the sample's footprint on the board (the
+    board is piecewise constant on cells of ``tag / 10``: the box filter is a sum over the cells it
+    overlaps, separable in u and v). ``corners``: the exact projections of Kalibr's points ``0 .. 4 cols
+    rows - 1`` (``ids``) at the board coordinates ``(x, Y - y)`` (Kalibr's ``(x, y)``, ``Y`` the top row's
+    top edge); ``labels`` those coordinates in tenths of ``tag`` when ``10 spacing`` is whole."""
+    s = int(supersample)
+    tex, o = aprilgrid_texture(cols, rows, spacing)
+    cell = tag / 10
+    R, t = pose_matrix(rvec, tvec)
+    w, h = camera.size
+    img = np.empty((h, w))
+    th, tw = tex.shape
+    for r0 in range(0, h, 32):
+        rows_ = slice(r0, min(r0 + 32, h))
+        U, V = _sample_uv(camera, R, t, s, rows_)
+        ru, rv = _footprint(U, V, s)
+        ru, rv = np.clip(ru, 1e-9, 0.5 * cell), np.clip(rv, 1e-9, 0.5 * cell)
+        ru, rv = np.broadcast_to(ru, U.shape), np.broadcast_to(rv, U.shape)
+        ok = np.isfinite(U) & np.isfinite(V)
+        uu, vv = np.where(ok, U / cell + o, -1e6), np.where(ok, V / cell + o, -1e6)
+        uu, vv = np.clip(uu, -4.0, tw + 4.0), np.clip(vv, -4.0, th + 4.0)
+        a0, b0 = np.floor(uu).astype(np.int64), np.floor(vv).astype(np.int64)
+        acc = np.zeros_like(uu)
+        for da in (-1, 0, 1):
+            a = a0 + da
+            fu = _overlap(uu, ru / cell, a, a + 1)
+            for db in (-1, 0, 1):
+                b = b0 + db
+                f = fu * _overlap(vv, rv / cell, b, b + 1)
+                inside = (a >= 0) & (a < tw) & (b >= 0) & (b < th)
+                acc += f * np.where(inside, tex[np.clip(b, 0, th - 1), np.clip(a, 0, tw - 1)], LEVELS[2])
+        img[rows_] = np.where(ok, acc, LEVELS[2]).mean(axis=(1, 3))
+    if blur > 0:
+        k = 2 * int(np.ceil(4 * blur)) + 1
+        img = cv2.GaussianBlur(img, (k, k), blur, borderType=cv2.BORDER_REFLECT)
+    k = np.arange(4 * cols * rows)
+    gc, gr = k % (2 * cols), k // (2 * cols)
+    pitch = 1 + spacing
+    x = (gc // 2) * pitch + (gc % 2)
+    y = (gr // 2) * pitch + (gr % 2)
+    top = (rows - 1) * pitch + 1
+    obj = np.c_[x * tag, (top - y) * tag, np.zeros(len(k))]
+    corners = camera.project(obj, rvec, tvec)
+    labels = np.rint(np.c_[x, top - y] * 10).astype(np.int64)
+    return View(add_noise(img, noise, rng), corners, labels, in_frame(corners, camera.size, border),
+                np.asarray(rvec, dtype=np.float64).reshape(3).copy(), t.copy(), k)
+
+
 def camera_for(width: int, height: int, hfov_deg: float = 60.0,
                dist: tuple = (-0.22, 0.08, 0.0008, -0.0006)) -> Camera:
     """A ``width x height`` camera of ``hfov_deg`` degrees across, its principal point a little off the
@@ -407,12 +489,14 @@ class Renderer:
     render_view, render_scene, add_noise = staticmethod(render_view), staticmethod(render_scene), \
         staticmethod(add_noise)
     render_charuco, random_poses = staticmethod(render_charuco), staticmethod(random_poses)
+    render_aprilgrid, aprilgrid_texture = staticmethod(render_aprilgrid), staticmethod(aprilgrid_texture)
     camera_for, in_frame = staticmethod(camera_for), staticmethod(in_frame)
 
 
 @pytest.fixture(scope="session")
 def render():
     """The tests' renderer: :class:`Board`, :class:`View`, :func:`render_view`, :func:`render_scene`,
-    :func:`add_noise`, :func:`render_charuco`, :func:`random_poses`, :func:`camera_for`, :func:`in_frame`,
+    :func:`add_noise`, :func:`render_charuco`, :func:`render_aprilgrid`, :func:`aprilgrid_texture`,
+    :func:`random_poses`, :func:`camera_for`, :func:`in_frame`,
     ``Camera`` and ``LEVELS``."""
     return Renderer()

@@ -7,6 +7,7 @@ and the registry of board kinds (a new kind is one module and one row).
 :mod:`.chessboard`: chessboard detection, a package of stages (its table): X-corners over a pyramid,
 lattices, refinement, checks, labels, OpenCV's detectors as proposals.
 :mod:`.charuco`: ChArUco detection (OpenCV's markers, sogdd's refinement).
+:mod:`.aprilgrid`: Kalibr's AprilGrid (OpenCV's 36h11 tags, Kalibr's point numbers, sogdd's corners).
 :mod:`.refine`: corner refinement to the centre of point symmetry (``cv2.cornerSubPix``'s contract).
 :mod:`.precision`: a board's corner precision, each corner's measured 1-sigma position uncertainty.
 """

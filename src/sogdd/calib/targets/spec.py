@@ -5,7 +5,11 @@
 - ``chessboard:auto`` -- a chessboard of unknown size (partial boards welcome);
 - ``charuco:COLSxROWS:MARKER:DICT`` -- a ChArUco board of COLS x ROWS *squares*,
   markers MARKER times the square's side, OpenCV's dictionary DICT (e.g.
-  ``charuco:5x7:0.7:DICT_5X5_100``).
+  ``charuco:5x7:0.7:DICT_5X5_100``);
+- ``aprilgrid:COLSxROWS:SIZE:SPACING`` -- Kalibr's AprilGrid of COLS x ROWS
+  36h11 tags of side SIZE, SPACING times the side apart (e.g.
+  ``aprilgrid:6x6:0.088:0.3``, Kalibr's ``tagCols``, ``tagRows``, ``tagSize``,
+  ``tagSpacing``).
 
 Board kinds
 -----------
@@ -21,6 +25,7 @@ kind       module                                        ``view`` finds
 ========== ============================================ =======================
 chessboard :mod:`sogdd.calib.targets.chessboard`        own search, OpenCV's as proposals
 charuco    :mod:`sogdd.calib.targets.charuco`           OpenCV's markers, sogdd's corners
+aprilgrid  :mod:`sogdd.calib.targets.aprilgrid`         OpenCV's tags, sogdd's corners
 ========== ============================================ =======================
 """
 
@@ -33,13 +38,14 @@ from typing import Literal
 import cv2
 import numpy as np
 
-from . import charuco, chessboard
+from . import aprilgrid, charuco, chessboard
+from .aprilgrid import AprilGrid
 from .board import ViewBoards
 
 __all__ = ["KINDS", "BoardKind", "BoardSpec", "Kind", "parse_board", "view_boards"]
 
 #: the kinds of board a specification names (:data:`KINDS`)
-BoardKind = Literal["chessboard", "charuco"]
+BoardKind = Literal["chessboard", "charuco", "aprilgrid"]
 
 
 @dataclass(frozen=True)
@@ -49,7 +55,9 @@ class BoardSpec:
     ``pattern`` is the chessboard's (columns, rows) of inner corners, or None
     for ``auto``; for ChArUco ``squares`` is (columns, rows) of squares,
     ``marker`` the marker's side over the square's and ``dictionary`` the name
-    of OpenCV's predefined dictionary.
+    of OpenCV's predefined dictionary; for an AprilGrid ``tags`` is (columns,
+    rows) of tags, ``tag_size`` a tag's side and ``spacing`` the gap between
+    tags over the side.
     """
 
     kind: BoardKind
@@ -57,10 +65,31 @@ class BoardSpec:
     squares: tuple[int, int] | None = None
     marker: float = 0.0
     dictionary: str = ""
+    tags: tuple[int, int] | None = None
+    tag_size: float = 0.0
+    spacing: float = 0.0
 
     def charuco_board(self, square: float = 1.0) -> cv2.aruco.CharucoBoard:
         """The OpenCV ChArUco board (square side ``square``)."""
         return charuco.charuco_board(self.squares, self.marker, self.dictionary, square)
+
+    def aprilgrid(self) -> AprilGrid:
+        """The AprilGrid (its labels' step :attr:`~sogdd.calib.targets.aprilgrid.AprilGrid.unit`)."""
+        return AprilGrid(self.tags[0], self.tags[1], self.tag_size, self.spacing)
+
+    @property
+    def label_step(self) -> float:
+        """The board length of one label step, in the unit the specification gives sizes in (1: a square,
+        for a board whose specification gives none): a calibration's object points are
+        ``label x label_step x square``.
+
+        Examples
+        --------
+        >>> grid = parse_board("aprilgrid:6x6:0.088:0.3")  # one step: SIZE / 10, the gap's share being 3 / 10
+        >>> parse_board("chessboard:9x6").label_step, round(grid.label_step, 6)
+        (1.0, 0.0088)
+        """
+        return float(KINDS[self.kind].label_step(self))
 
     def __str__(self) -> str:
         return KINDS[self.kind].text(self)
@@ -68,13 +97,15 @@ class BoardSpec:
 
 @dataclass(frozen=True)
 class Kind:
-    """One kind of board (module doc): ``name``, ``syntax`` and its module's ``parse``, ``text``, ``view``."""
+    """One kind of board (module doc): ``name``, ``syntax`` and its module's ``parse``, ``text``, ``view``;
+    ``label_step``: the board length of one label step (:attr:`BoardSpec.label_step`)."""
 
     name: str
     syntax: str
     parse: Callable[[list[str], str], dict]
     text: Callable[[BoardSpec], str]
     view: Callable[[np.ndarray, BoardSpec], ViewBoards]
+    label_step: Callable[[BoardSpec], float] = lambda spec: 1.0
 
 
 KINDS: dict[str, Kind] = {k.name: k for k in (
@@ -82,6 +113,8 @@ KINDS: dict[str, Kind] = {k.name: k for k in (
          chessboard.spec_text, chessboard.view_boards),
     Kind("charuco", "charuco:COLSxROWS:MARKER:DICT (squares, marker/square ratio, OpenCV dictionary)",
          charuco.parse_spec, charuco.spec_text, charuco.view_boards),
+    Kind("aprilgrid", "aprilgrid:COLSxROWS:SIZE:SPACING (Kalibr's: tags, tag side, gap/side)",
+         aprilgrid.parse_spec, aprilgrid.spec_text, aprilgrid.view_boards, lambda spec: spec.aprilgrid().unit),
 )}
 
 _SYNTAX = ("expected " + " or ".join(k.syntax for k in KINDS.values())
