@@ -83,3 +83,32 @@ def test_a_calibrate_output_folder_is_not_overwritten_by_a_conversion(tmp_path):
     with pytest.raises(ValueError, match="part of a sogdd calibrate output folder"):
         write_calibration_as(cam, tmp_path, "sogdd")
     assert (tmp_path / "camera.yaml").read_bytes() == before
+
+
+def test_the_files_standard_deviations_are_read_where_they_are(tmp_path, rig):
+    """camera.yaml's std_intrinsics, camera.json's std, rig.json's per camera (with the pose's), and a rig.yaml
+    alone its cameras' from NAME/camera.yaml; a converted file (--to sogdd) holds none: unknown, NaN."""
+    cal = demo_calibration()
+    write_calibration(cal, tmp_path / "one")
+    for name in ("camera.yaml", "camera.json"):
+        back = read_calibration(tmp_path / "one" / name, "sogdd")
+        cam = back.cameras[0]
+        assert back.square == cal.square and cam.rms == pytest.approx(cal.rms)
+        assert [cam.std[n] for n in ("fx", "fy", "cx", "cy")] == pytest.approx([cal.std[n] for n in
+                                                                              ("fx", "fy", "cx", "cy")])
+    write_rig(rig, tmp_path / "rig")
+    both = [read_calibration(tmp_path / "rig" / n, "sogdd") for n in ("rig.json", "rig.yaml")]
+    for got in both:
+        right = got.camera("right")
+        assert right.std["fx"] == pytest.approx(rig.camera("right").std["fx"])
+        assert right.pose_std["baseline"] == pytest.approx(rig.camera("right").std["baseline"])
+        assert right.rms == pytest.approx(rig.camera("right").calibration.rms)
+    (tmp_path / "rig" / "rig.json").unlink()
+    alone = read_calibration(tmp_path / "rig" / "rig.yaml", "sogdd").camera("right")
+    assert alone.std["fx"] == pytest.approx(rig.camera("right").std["fx"], rel=1e-6)
+    assert np.isnan(alone.pose_std["baseline"])
+    write_calibration_as(both[0], tmp_path / "converted", "sogdd")
+    bare = read_calibration(tmp_path / "converted", "sogdd")
+    assert all(np.isnan(c.std["fx"]) and np.isnan(c.rms) for c in bare.cameras) and bare.square is None
+    with pytest.raises(ValueError, match="no such file"):
+        read_calibration(tmp_path / "nothere.yaml", "sogdd")

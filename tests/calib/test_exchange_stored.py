@@ -59,3 +59,27 @@ def test_scaled_and_relative_keep_the_geometry():
         rig.scaled(0)
     with pytest.raises(ValueError, match="distinct names"):
         StoredRig((rig.cameras[0], rig.cameras[0]))
+
+
+def test_the_uncertainties_are_optional_and_follow_the_geometry():
+    """Unknown by default; a vector as OpenCV's std_intrinsics; a held parameter's 0 is unknown; a new pose
+    drops the pose's, a new unit scales the baseline's and the square."""
+    cam = StoredCamera("a", "pinhole4", K, [0.0] * 4, (640, 480))
+    assert all(np.isnan(v) for v in (*cam.std.values(), cam.rms, *cam.pose_std.values()))
+    cam = StoredCamera("b", "pinhole4", K, [0.0] * 4, (640, 480), T=[-2.0, 0, 0], std=[0.5, 0.4, 0.0],
+                       rms=0.1, pose_std={"rotation_deg": 0.01, "baseline": 0.02})
+    assert cam.std["fx"] == 0.5 and cam.std["fy"] == 0.4 and np.isnan(cam.std["cx"]) and np.isnan(cam.std["cy"])
+    assert cam.intrinsics == {"fx": 600.0, "fy": 601.0, "cx": 320.0, "cy": 240.0}
+    rig = StoredRig((StoredCamera("a", "pinhole4", K, [0.0] * 4, (640, 480)), cam), square=25.0)
+    scaled = rig.scaled(0.001)
+    assert scaled.square == pytest.approx(0.025)
+    assert scaled.cameras[1].pose_std["baseline"] == pytest.approx(2e-5)
+    assert scaled.cameras[1].std == pytest.approx(cam.std, nan_ok=True) and scaled.cameras[1].rms == 0.1
+    assert rig.relative().cameras[1].pose_std == cam.pose_std  # already in the first camera's frame
+    moved = cam.with_pose(np.eye(3), [-3.0, 0, 0])
+    assert moved.std == pytest.approx(cam.std, nan_ok=True) and np.isnan(moved.pose_std["baseline"])
+    assert cam.with_pose(cam.R, cam.T, "c").pose_std == cam.pose_std
+    cal = stored_rig(demo_calibration())
+    assert cal.square == 1.0 and cal.cameras[0].std["fx"] > 0 and cal.cameras[0].rms > 0
+    with pytest.raises(ValueError, match="square"):
+        StoredRig(rig.cameras, square=0)

@@ -14,6 +14,7 @@ A client of the core (:mod:`sogdd.detector` and its stages); the core never impo
 :mod:`.detection`: boards in image files, over many files (each image read once).
 :mod:`.session`: :func:`calibrate_images`, image files to a camera and every view's fate; its output folder.
 :mod:`.verdict`: what a calibration is worth, in plain words.
+:mod:`.drift`: :func:`~.drift.check_calibration`, new views checked against a stored camera or rig.
 :mod:`.files`: camera.yaml (OpenCV FileStorage), camera.json, views.csv, corners.csv.
 :mod:`.report`: the HTML report with its figures.
 :mod:`.demo`: a small known calibration for examples.

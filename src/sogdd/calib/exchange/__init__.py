@@ -5,10 +5,12 @@ Every format reads into and writes from one plain description of the cameras
 with the reason (``ValueError``), never approximated, and a round trip gives the numbers back to
 float precision. ``sogdd convert IN OUT --to FORMAT`` is :func:`convert`.
 
-:mod:`.stored`: :class:`StoredCamera` and :class:`StoredRig`, what the formats hold (:func:`stored_rig`).
+:mod:`.stored`: :class:`StoredCamera` and :class:`StoredRig`, what the formats hold (:func:`stored_rig`), with
+the optional uncertainties sogdd's own files hold (the drift check's, :mod:`sogdd.calib.drift`).
 :mod:`.format`: :class:`~.format.ExchangeFormat`, what a format's record holds, and what the formats share.
 :mod:`.registry`: the formats, one row per format: a new format is one module and one row.
-:mod:`.native`: sogdd's own camera.yaml / rig.yaml (OpenCV FileStorage), camera.json / rig.json, folders.
+:mod:`.native`: sogdd's own camera.yaml / rig.yaml (OpenCV FileStorage), camera.json / rig.json, folders,
+read with their standard deviations (the one reader of sogdd's stored files).
 :mod:`.ros`: ROS ``camera_info`` YAML (plumb_bob, rational_polynomial, equidistant; a stereo pair).
 :mod:`.kalibr`: Kalibr's camchain YAML (pinhole and omni; radtan and equidistant; ``T_cn_cnm1``).
 :mod:`.mrcal`: mrcal's ``.cameramodel`` (LENSMODEL_OPENCV4, 5, 8; ``extrinsics``).

@@ -1,9 +1,12 @@
-"""A calibration as the exchange formats hold it: cameras (lens model, ``K``, distortion, image size)
-and their poses in the rig's reference camera, nothing of the fit's diagnostics.
+"""A stored calibration: cameras (lens model, ``K``, distortion, image size) and their poses in the
+rig's reference camera, with the uncertainties a file may hold, nothing else of the fit's diagnostics.
 
 :class:`StoredCamera` is one camera, :class:`StoredRig` one or more (a single camera is a rig of
 one). Every format reads into them and writes from them; :func:`stored_rig` makes one of
 sogdd's results (:class:`~sogdd.calib.Calibration`, :class:`~sogdd.calib.rig.RigCalibration`).
+The uncertainties (``std``, ``rms``, ``pose_std``; :attr:`StoredRig.square`) are optional, NaN or
+None where unknown: sogdd's own files and results hold them (:mod:`.native` reads them back), the
+other formats ignore them. :mod:`~sogdd.calib.drift` checks new views against them.
 
 Conventions are sogdd's throughout: pixel centres at integers (OpenCV's), the distortion in
 OpenCV's order for the model (:data:`~sogdd.calib.cameras.MODELS`), a camera's pose
@@ -15,7 +18,8 @@ its own module.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -23,7 +27,33 @@ from ..cameras import lens, project
 from ..result import Calibration
 from ..rig.result import RigCalibration
 
-__all__ = ["StoredCamera", "StoredRig", "stored_rig"]
+__all__ = ["INTRINSICS", "POSE_STD", "StoredCamera", "StoredRig", "stored_rig"]
+
+#: the intrinsics whose standard deviations a camera carries (``std``), in OpenCV's order
+INTRINSICS = ("fx", "fy", "cx", "cy")
+#: the standard deviations of a camera's pose in its rig (``pose_std``): the rotation's (degrees) and
+#: the baseline's (the unit of ``T``)
+POSE_STD = ("rotation_deg", "baseline")
+_NAN = float("nan")
+
+
+def _number(v) -> float:
+    """A float, NaN for None or what is no number."""
+    try:
+        return _NAN if v is None else float(v)
+    except (TypeError, ValueError):
+        return _NAN
+
+
+def _stds(given: Mapping | Sequence | np.ndarray | None, names: tuple[str, ...]) -> dict[str, float]:
+    """``names``' standard deviations from a dict by name or a vector in ``names``' order (OpenCV's
+    ``std_intrinsics``): NaN where missing, and where not positive (0: a parameter the fit held)."""
+    if isinstance(given, Mapping):
+        vals = [_number(given.get(n)) for n in names]
+    else:
+        flat = [] if given is None else np.ravel(np.asarray(given, dtype=np.float64))
+        vals = [float(flat[k]) if k < len(flat) else _NAN for k in range(len(names))]
+    return {n: v if math.isfinite(v) and v > 0 else _NAN for n, v in zip(names, vals)}
 
 
 def _matrix(value, shape: tuple[int, ...], what: str) -> np.ndarray:
@@ -54,7 +84,15 @@ class StoredCamera:
     T : (3,) float64
         The pose: :math:`x_{cam} = R\\,x_{ref} + T` (identity and zero for the reference). ``R`` is
         kept as given, orthonormal to 1e-6 (files print rotations to 6 to 17 digits).
+    std : dict of str to float
+        The standard deviations of :data:`INTRINSICS` (px), NaN where unknown; given as a dict by name
+        or a vector in that order (camera.yaml's ``std_intrinsics``). Not positive counts as unknown.
+    rms : float
+        The fit's RMS reprojection error (px), NaN unknown.
+    pose_std : dict of str to float
+        The pose's standard deviations, :data:`POSE_STD`, NaN unknown.
 
+    The uncertainties default to unknown; the formats that do not hold them ignore them.
     Compared by identity (``==`` on arrays has no single answer): compare the fields.
 
     Examples
@@ -63,6 +101,8 @@ class StoredCamera:
     >>> cam = StoredCamera("left", "pinhole4", K, [0.0] * 4, (640, 480))
     >>> cam.project(np.array([[0.1, -0.2, 1.0]])).tolist()
     [[370.0, 140.0]]
+    >>> cam.intrinsics, cam.std["fx"], cam.rms
+    ({'fx': 500.0, 'fy': 500.0, 'cx': 320.0, 'cy': 240.0}, nan, nan)
     """
 
     name: str
@@ -72,6 +112,9 @@ class StoredCamera:
     image_size: tuple[int, int]
     R: np.ndarray = field(default_factory=lambda: np.eye(3))
     T: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    std: dict[str, float] = field(default_factory=dict)
+    rms: float = _NAN
+    pose_std: dict[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         record = lens(self.model)
@@ -96,6 +139,15 @@ class StoredCamera:
         object.__setattr__(self, "image_size", (w, h))
         object.__setattr__(self, "R", R)
         object.__setattr__(self, "T", _matrix(self.T, (3,), "T"))
+        object.__setattr__(self, "std", _stds(self.std, INTRINSICS))
+        object.__setattr__(self, "rms", _number(self.rms))
+        object.__setattr__(self, "pose_std", _stds(self.pose_std, POSE_STD))
+
+    @property
+    def intrinsics(self) -> dict[str, float]:
+        """:data:`INTRINSICS` by name: ``fx, fy, cx, cy`` from ``K``."""
+        K = self.K
+        return {"fx": float(K[0, 0]), "fy": float(K[1, 1]), "cx": float(K[0, 2]), "cy": float(K[1, 2])}
 
     @property
     def skew(self) -> float:
@@ -115,14 +167,20 @@ class StoredCamera:
         return project(p, self.K, self.dist, self.model)
 
     def with_pose(self, R: np.ndarray, T: np.ndarray, name: str | None = None) -> StoredCamera:
-        """The same camera with another pose (and name)."""
-        return StoredCamera(self.name if name is None else name, self.model, self.K, self.dist,
-                            self.image_size, R, T)
+        """The same camera with another pose (and name): ``std`` and ``rms`` kept, ``pose_std`` only
+        where the pose is the same (another pose's uncertainty is unknown)."""
+        same = np.array_equal(np.asarray(R, dtype=np.float64), self.R) and \
+            np.array_equal(np.ravel(np.asarray(T, dtype=np.float64)), self.T)
+        return replace(self, name=self.name if name is None else name, R=R, T=T,
+                       pose_std=self.pose_std if same else {})
 
 
 @dataclass(frozen=True, eq=False)
 class StoredRig:
     """Cameras calibrated together, the first the reference (a single camera is a rig of one).
+
+    ``square`` is the board square's length in the unit of the cameras' ``T`` where known (sogdd's
+    own files and results: what the board's corners are placed with), else None.
 
     Examples
     --------
@@ -134,8 +192,14 @@ class StoredRig:
     """
 
     cameras: tuple[StoredCamera, ...]
+    square: float | None = None
 
     def __post_init__(self) -> None:
+        if self.square is not None:
+            sq = _number(self.square)
+            if not math.isfinite(sq) or sq <= 0:
+                raise ValueError(f"square must be a positive number or None, got {self.square!r}")
+            object.__setattr__(self, "square", sq)
         cams = tuple(self.cameras)
         if not cams or not all(isinstance(c, StoredCamera) for c in cams):
             raise ValueError("a rig needs one or more cameras (StoredCamera)")
@@ -159,7 +223,8 @@ class StoredRig:
         raise KeyError(f"no camera {name!r}; there are {', '.join(self.names)}")
 
     def scaled(self, factor: float) -> StoredRig:
-        """The rig with every translation multiplied by ``factor`` (another unit of length).
+        """The rig with every translation (and ``square``, and the baselines' standard deviations)
+        multiplied by ``factor`` (another unit of length).
 
         Examples
         --------
@@ -171,35 +236,41 @@ class StoredRig:
         f = float(factor)
         if not math.isfinite(f) or f <= 0:
             raise ValueError(f"the scale must be a positive number, got {factor!r}")
-        return StoredRig(tuple(c.with_pose(c.R, c.T * f) for c in self.cameras))
+        cams = tuple(replace(c, T=c.T * f, pose_std={**c.pose_std, "baseline": c.pose_std["baseline"] * f})
+                     for c in self.cameras)
+        return StoredRig(cams, None if self.square is None else self.square * f)
 
     def relative(self) -> StoredRig:
         """The rig re-expressed in its first camera's frame (that camera: identity and zero)."""
         R0, T0 = self.cameras[0].R, self.cameras[0].T
-        return StoredRig(tuple(c.with_pose(c.R @ R0.T, c.T - c.R @ R0.T @ T0) for c in self.cameras))
+        return StoredRig(tuple(c.with_pose(c.R @ R0.T, c.T - c.R @ R0.T @ T0) for c in self.cameras),
+                         self.square)
 
 
 def stored_rig(obj: StoredRig | StoredCamera | Calibration | RigCalibration, name: str = "camera") -> StoredRig:
     """One of sogdd's calibrations as a :class:`StoredRig`.
 
     A :class:`~sogdd.calib.Calibration` (one camera, called ``name``), a
-    :class:`~sogdd.calib.rig.RigCalibration` (its cameras and poses), a :class:`StoredCamera`
-    or a :class:`StoredRig` (as it is).
+    :class:`~sogdd.calib.rig.RigCalibration` (its cameras and poses), each with its standard
+    deviations, RMS and square; a :class:`StoredCamera` or a :class:`StoredRig` (as it is).
 
     Examples
     --------
     >>> from sogdd.calib.rig.demo import demo_rig
-    >>> stored_rig(demo_rig()).names
-    ('left', 'right')
+    >>> rig = stored_rig(demo_rig())
+    >>> rig.names, bool(rig.cameras[1].pose_std["baseline"] > 0), rig.square
+    (('left', 'right'), True, 1.0)
     """
     if isinstance(obj, StoredRig):
         return obj
     if isinstance(obj, StoredCamera):
         return StoredRig((obj,))
     if isinstance(obj, Calibration):
-        return StoredRig((StoredCamera(name, obj.model, obj.K, np.ravel(obj.dist), obj.image_size),))
+        return StoredRig((StoredCamera(name, obj.model, obj.K, np.ravel(obj.dist), obj.image_size,
+                                       std=obj.std, rms=obj.rms),), float(obj.square))
     if isinstance(obj, RigCalibration):
         return StoredRig(tuple(StoredCamera(c.name, c.model, c.K, np.ravel(c.dist), c.image_size, c.R,
-                                            np.ravel(c.T)) for c in obj.cameras))
+                                            np.ravel(c.T), c.std, c.calibration.rms, c.std)
+                               for c in obj.cameras), float(obj.square))
     raise TypeError(f"not a calibration: {type(obj).__name__}")
 
