@@ -171,6 +171,8 @@ def test_partial_boards_with_relative_labels():
     (lambda b: calibrate(b, SIZE, names=["a"]), "boards but 1 view names"),
     (lambda b: calibrate(b, SIZE, model="kb8"), "unknown camera model"),
     (lambda b: calibrate(b, SIZE, square=0), "square must be"),
+    (lambda b: calibrate(b, SIZE, square=1e9), r"square must be from 1e-06 to 1e\+06"),
+    (lambda b: calibrate(b, SIZE, square=1e-30), r"square must be from 1e-06 to 1e\+06"),
     (lambda b: calibrate(b, "640x480"), "image_size"),
     (lambda b: calibrate([*b, "x"], SIZE), "expected a Board"),
 ])
@@ -300,3 +302,29 @@ def test_the_jacobian_standard_deviations_are_opencvs(model):
     cal = calibrate(boards, SIZE, model=model, reject=False, cross_validate=False)
     names = ("fx", "fy", "cx", "cy", *MODELS[model])
     np.testing.assert_allclose([cal.std[k] for k in names], std.ravel()[:n], rtol=1e-3)
+
+
+@pytest.fixture(scope="module")
+def rendered_boards(rendered_frames):
+    """The boards detected in the eight rendered frames, and their image size."""
+    from sogdd.calib import calibrate_images
+    cal = calibrate_images(rendered_frames, "chessboard:9x6").calibration
+    return list(cal.boards), cal.image_size
+
+
+@pytest.mark.parametrize("model", ["pinhole", "auto"])
+def test_the_square_does_not_change_the_fit(rendered_boards, model):
+    """The unit of the board is the poses' alone: from 1e-6 to 1e6 the same camera, the same residuals,
+    and translations that scale with the square."""
+    boards, size = rendered_boards
+    ref = calibrate(boards, size, square=1.0, model=model)
+    for s in (1e-6, 1e-3, 25.0, 1e3, 1e6):
+        cal = calibrate(boards, size, square=s, model=model)
+        assert cal.model == ref.model and cal.square == s
+        np.testing.assert_allclose(cal.K, ref.K, rtol=1e-9, atol=0)
+        np.testing.assert_allclose(cal.dist, ref.dist, rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(cal.rms, ref.rms, rtol=1e-9)
+        np.testing.assert_allclose(cal.rvecs, ref.rvecs, rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(cal.tvecs / s, ref.tvecs, rtol=1e-9)
+        assert [cal.std[n] for n in ref.std] == pytest.approx([ref.std[n] for n in ref.std], rel=1e-9)
+        assert cal.cross_validation.mean == pytest.approx(ref.cross_validation.mean, rel=1e-9)

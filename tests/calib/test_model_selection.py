@@ -136,17 +136,18 @@ def test_the_command_with_model_pinhole4(rendered_frames, tmp_path, capsys):
     code = main(["calibrate", str(rendered_frames / "*.png"), "--board", "chessboard:9x6", "--model",
                  "pinhole4", "--out", str(out), "--no-report", "--quiet", "--json"])
     text, err = capsys.readouterr()
-    assert code == 0, err
     summary = json.loads(text)
+    assert code == (3 if summary["verdict_level"] == "bad" else 0), err  # 3: written, but the verdict is bad
     assert summary["model"] == "pinhole4" and summary["model_selection"] is None and len(summary["dist"]) == 4
     fs = cv2.FileStorage(str(out / "camera.yaml"), cv2.FILE_STORAGE_READ)
     assert fs.getNode("model").string() == "pinhole4"
     assert fs.getNode("distortion_coefficients").mat().shape == (1, 4)
     fs.release()
     auto = tmp_path / "auto"
-    assert main(["calibrate", str(rendered_frames / "*.png"), "--board", "chessboard:9x6", "--out", str(auto),
-                 "--quiet"]) == 0
+    code = main(["calibrate", str(rendered_frames / "*.png"), "--board", "chessboard:9x6", "--out", str(auto),
+                 "--quiet"])
     text, _ = capsys.readouterr()
+    assert code == (3 if any(line.startswith("  bad: ") for line in text.splitlines()) else 0)
     assert "models (cross-validated RMS px)" in text
     page = (auto / "report.html").read_text()
     assert "Lens model" in page and "cross-validated RMS" in page

@@ -224,6 +224,29 @@ def test_bad_input_is_refused_in_one_line():
         calibrate_rig(d.boards, d.image_sizes, pattern=(9,))
 
 
+@pytest.mark.parametrize("shift", [1, -1, 3])
+def test_a_camera_paired_a_few_frames_off_is_refused_with_the_shift(shift):
+    """Each frame of cam1 paired with cam0's frame ``shift`` earlier: no pose explains them, and the
+    error names the shift under which they agree instead of fitting intrinsics bent to reconcile them."""
+    d = synthetic_rig(cameras=2, frames=14, noise=0.05, seed=2, baseline=2.0)  # 11 shared frames
+    b1 = list(d.boards["cam1"])
+    rolled = {"cam0": d.boards["cam0"], "cam1": b1[-shift:] + b1[:-shift]}  # cam1's frame f at f + shift
+    names = {n: [f"{n}_{f:02d}.png" for f in range(14)] for n in rolled}
+    with pytest.raises(ValueError, match="the shared frames disagree") as info:
+        calibrate_rig(rolled, d.image_sizes, view_names=names)
+    first = f"cam0_{max(0, -shift):02d}.png with cam1_{max(0, shift):02d}.png"
+    assert f"shifted by {shift:+d} ({first}" in str(info.value)
+
+
+def test_frames_that_disagree_under_any_shift_are_refused():
+    """cam1's frames in a random order: no shift makes them agree, and the error says so."""
+    d = synthetic_rig(cameras=2, frames=14, noise=0.05, seed=2, baseline=2.0)  # 11 shared frames
+    order = np.random.default_rng(0).permutation(14)
+    mixed = {"cam0": d.boards["cam0"], "cam1": [d.boards["cam1"][k] for k in order]}
+    with pytest.raises(ValueError, match="no shift of the pairing by up to 3 frames makes them agree"):
+        calibrate_rig(mixed, d.image_sizes)
+
+
 def test_the_consensus_follows_the_majority_of_frames():
     R = _rot([0.0, 0.1, 0.0])
     flip = np.diag([-1.0, -1.0, 1.0])

@@ -67,6 +67,34 @@ def test_the_rig_is_recovered(rendered_rig, rig_result):
     np.testing.assert_array_equal(rig.camera("left").R, np.eye(3))
 
 
+def test_the_square_does_not_change_the_rig(rig_result):
+    """The rendered rig's boards fitted with squares from 1e-6 to 1e6: the same cameras, the same residuals,
+    every translation and its uncertainty scaled with the square."""
+    from sogdd.calib.rig import calibrate_rig
+    cams = rig_result.rig.cameras
+    boards = {c.name: list(c.calibration.boards) for c in cams}
+    sizes = {c.name: c.image_size for c in cams}
+    ref = calibrate_rig(boards, sizes, square=1.0, pattern=(9, 6))
+    for s in (1e-6, 25.0, 1e6):
+        rig = calibrate_rig(boards, sizes, square=s, pattern=(9, 6))
+        assert rig.square == s and rig.rms == pytest.approx(ref.rms, rel=1e-9)
+        np.testing.assert_allclose(rig.tvecs / s, ref.tvecs, rtol=1e-9, atol=1e-12)
+        d = np.ones(len(ref.covariance))
+        for key, sl in ref.layout.items():
+            d[sl] = [1, 1, 1, s, s, s] if key.endswith(".pose") else 1
+        np.testing.assert_allclose(rig.covariance / np.outer(d, d), ref.covariance, rtol=1e-6,
+                                   atol=1e-9 * np.abs(ref.covariance).max())
+        for cam, want in zip(rig.cameras, ref.cameras):
+            np.testing.assert_allclose(cam.K, want.K, rtol=1e-9, atol=0)
+            np.testing.assert_allclose(cam.dist, want.dist, rtol=1e-9, atol=1e-12)
+            np.testing.assert_allclose(cam.R, want.R, rtol=1e-9, atol=1e-12)
+            np.testing.assert_allclose(cam.T / s, want.T, rtol=1e-9, atol=1e-12)
+            np.testing.assert_allclose(cam.calibration.tvecs / s, want.calibration.tvecs, rtol=1e-9)
+            assert cam.std["baseline"] / s == pytest.approx(want.std["baseline"], rel=1e-6, abs=1e-12)
+            assert cam.std["fx"] == pytest.approx(want.std["fx"], rel=1e-6)
+            assert cam.calibration.square == s
+
+
 def test_every_image_is_a_record_named_by_its_file(rig_result):
     for name in ("left", "right"):
         views = rig_result.views[name]
@@ -105,6 +133,8 @@ RULES = [
     ({"square": 0.0}, "square must be a positive size, got 0.0", "--square must be a positive size, got 0.0"),
     ({"square": float("inf")}, "square must be a positive size, got inf",
      "--square must be a positive size, got inf"),
+    ({"square": 1e-30}, "square must be from 1e-06 to 1e+06 (the board's square in any unit), got 1e-30",
+     "--square must be from 1e-06 to 1e+06 (the board's square in any unit), got 1e-30"),
     ({"jobs": 0}, "jobs must be >= 1, got 0", "--jobs must be >= 1, got 0"),
     ({"min_views": -2}, "min_views must be >= 1, got -2", "--min-views must be >= 1, got -2"),
     ({"cameras": {"left": "l"}}, "cameras: a rig needs two or more cameras (one camera: "
@@ -220,6 +250,52 @@ def test_frames_that_do_not_match_are_one_line(rendered_rig, tmp_path):
     (right / "right08.png").rename(right / "right09.png")
     with pytest.raises(ValueError, match=r"left lacks frame 9; right lacks frame 8"):
         calibrate_rig_images({"left": folder / "left", "right": right}, "chessboard:9x6")
+
+
+def _renamed_by(folder, tmp_path, shift: int):
+    """The rendered rig with the right camera's k-th image named as its (k + shift)-th (cyclically): each
+    right image paired with the left one ``shift`` frames later."""
+    right = tmp_path / "right"
+    right.mkdir()
+    files = sorted((folder / "right").iterdir())
+    for k, p in enumerate(files):
+        shutil.copy(p, right / files[(k + shift) % len(files)].name)
+    return right
+
+
+@pytest.mark.parametrize("shift", [1, -2])
+def test_frames_paired_off_by_a_shift_stop_naming_the_shift(rendered_rig, tmp_path, shift):
+    """Images paired with the wrong moment are not a rig: the run stops, says the shared frames disagree and
+    names the shift under which they agree, and writes nothing."""
+    folder, _, _ = rendered_rig
+    right = _renamed_by(folder, tmp_path, shift)
+    out = tmp_path / "out"
+    with pytest.raises(ValueError, match="the shared frames disagree") as info:
+        calibrate_rig_into({"left": folder / "left", "right": right}, out, "chessboard:9x6", model="pinhole",
+                           report=False)
+    text = str(info.value)
+    assert f"shifted by {shift:+d}" in text and "\n" not in text
+    first = f"left{1 + max(0, -shift):02d}.png with right{1 + max(0, shift):02d}.png"
+    assert first in text and f"{abs(shift)} frame(s) off" in text
+    assert not out.exists()
+
+
+def test_frames_paired_one_off_are_told_on_opencvs_stereo_pair(data_dir, tmp_path):
+    """OpenCV's own sample pair, its right images renamed one frame on: the shift is found."""
+    src = data_dir / "calibration" / "opencv_stereo"
+    if not src.is_dir():
+        pytest.skip("no opencv_stereo in the shared data")
+    left = tmp_path / "left"
+    left.mkdir()
+    for p in sorted(src.glob("left[0-9]*.jpg")):
+        shutil.copy(p, left / p.name)
+    (tmp_path / "pair" / "right").mkdir(parents=True)
+    for p in sorted(src.glob("right[0-9]*.jpg")):
+        shutil.copy(p, tmp_path / "pair" / "right" / p.name)
+    right = _renamed_by(tmp_path / "pair", tmp_path, 1)
+    with pytest.raises(ValueError, match=r"the shared frames disagree.*shifted by \+1 \(left01.jpg with "
+                                         r"right02.jpg"):
+        calibrate_rig_images({"left": left, "right": right}, "chessboard:9x6", model="pinhole")
 
 
 @pytest.mark.slow

@@ -114,3 +114,14 @@ def test_pairs_of_larger_rigs_are_named():
         stereo_pair(rig, "cam1", "cam1")
     with pytest.raises(ValueError, match="which must be 1 or 2"):
         rectify_points(pair, rig.cameras[0].K, rig.cameras[0].dist, "pinhole", np.zeros((1, 2)), 3)
+
+
+def test_the_pair_unpacks_as_opencvs_nine_matrices(known):
+    """What the guide says it gives: ``R, T, E, F, R1, R2, P1, P2, Q = stereo_pair(rig)``, the same arrays as
+    the pair's attributes."""
+    _, rig = known
+    pair = stereo_pair(rig)
+    R, T, E, F, R1, R2, P1, P2, Q = stereo_pair(rig)
+    for got, name in zip((R, T, E, F, R1, R2, P1, P2, Q), ("R", "T", "E", "F", "R1", "R2", "P1", "P2", "Q")):
+        np.testing.assert_array_equal(got, getattr(pair, name))
+    assert T.shape == (3,) and P2.shape == (3, 4) and Q.shape == (4, 4)

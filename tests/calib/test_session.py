@@ -87,6 +87,8 @@ def test_the_library_checks_its_parameters_before_any_work(inputs):
 @pytest.mark.parametrize("given, library, command", [
     ({"square": 0.0}, "square must be a positive size, got 0.0", "--square must be a positive size, got 0.0"),
     ({"square": -1}, "square must be a positive size, got -1", "--square must be a positive size, got -1"),
+    ({"square": 1e9}, "square must be from 1e-06 to 1e+06 (the board's square in any unit), got 1000000000.0",
+     "--square must be from 1e-06 to 1e+06 (the board's square in any unit), got 1000000000.0"),
     ({"jobs": 0}, "jobs must be >= 1, got 0", "--jobs must be >= 1, got 0"),
     ({"jobs": 1.5}, "jobs must be an integer, got 1.5", "--jobs must be an integer, got 1.5"),
     ({"min_views": 0}, "min_views must be >= 1, got 0", "--min-views must be >= 1, got 0"),

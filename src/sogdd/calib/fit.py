@@ -25,7 +25,42 @@ from .result import Calibration
 from .solvers import fisheye_fixed, jacobian_std
 from .targets.board import Board
 
-__all__ = ["calibrate", "std_dict"]
+__all__ = ["SQUARE_RANGE", "calibrate", "check_square", "std_dict"]
+
+#: the board squares a calibration accepts, in any unit (inclusive): the fit is made in squares and its
+#: translations scaled by the square afterwards, so any square in the range gives the same intrinsics;
+#: beyond it the translations would lose their meaning (a unit of 1e-9 is no board's)
+SQUARE_RANGE: tuple[float, float] = (1e-6, 1e6)
+
+
+def check_square(square: float) -> float:
+    """``square`` as a float, refused (a one-line ``ValueError``) unless it is a size in :data:`SQUARE_RANGE`.
+
+    The fits (:func:`calibrate`, :func:`~sogdd.calib.rig.calibrate_rig`) are made
+    with the board's points in squares, :math:`X_c = (i, j, 0)`, and every
+    translation is then multiplied by ``square``: :math:`t = s\\,t_{squares}`
+    (the reprojection :math:`\\pi(K, d, R X + t)` is unchanged when :math:`X` and
+    :math:`t` scale together), so the intrinsics cannot depend on the unit.
+
+    Examples
+    --------
+    >>> check_square(25)
+    25.0
+    >>> check_square(1e9)
+    Traceback (most recent call last):
+    ...
+    ValueError: square must be from 1e-06 to 1e+06 (the board's square in any unit), got 1000000000.0
+    """
+    try:
+        s = float(square)
+    except (TypeError, ValueError):
+        raise ValueError(f"square must be a positive size, got {square!r}") from None
+    if not np.isfinite(s) or s <= 0:
+        raise ValueError(f"square must be a positive size, got {square}")
+    lo, hi = SQUARE_RANGE
+    if not lo <= s <= hi:
+        raise ValueError(f"square must be from {lo:g} to {hi:g} (the board's square in any unit), got {square}")
+    return s
 
 
 def std_dict(std, model: str) -> dict:
@@ -96,7 +131,10 @@ def calibrate(
     image_size : (width, height)
         Of every view.
     square : float
-        Board square size (any unit; the poses are in it).
+        Board square size, in any unit from 1e-6 to 1e6 (:data:`SQUARE_RANGE`):
+        the fit is made in squares (``s = 1``) and the poses' translations are
+        then multiplied by ``square`` (:func:`check_square`), so the intrinsics
+        are the same for any unit.
     model : {"pinhole", "pinhole4", "rational", "fisheye", "omnidir", "auto"}
         ``k1, k2, p1, p2, k3``; ``k1, k2, p1, p2`` (k3 held at 0,
         ``CALIB_FIX_K3``: OpenCV's four-coefficient vector); OpenCV's rational
@@ -132,9 +170,10 @@ def calibrate(
     Raises
     ------
     ValueError
-        No corners at all, fewer than ``min_views`` usable views (saying how
-        many more are needed), an unknown model, points outside ``image_size``,
-        names not matching the boards, or OpenCV failing to calibrate.
+        A ``square`` outside :data:`SQUARE_RANGE`, no corners at all, fewer
+        than ``min_views`` usable views (saying how many more are needed), an
+        unknown model, points outside ``image_size``, names not matching the
+        boards, or OpenCV failing to calibrate.
 
     Examples
     --------
@@ -150,12 +189,12 @@ def calibrate(
     """
     check_model_choice(model)
     size = check_size(image_size)
-    if not np.isfinite(square) or square <= 0:
-        raise ValueError(f"square must be a positive size, got {square}")
+    square = check_square(square)
     if min_views < 1 or min_corners < 4:
         raise ValueError("min_views must be >= 1 and min_corners >= 4")
     boards, names = check_boards(boards, names, size)
-    common = dict(square=float(square), reject=reject, k=k, floor=floor, min_corners=min_corners,
+    # fitted in squares (X = (i, j, 0)), the translations scaled to the square's unit at the end
+    common = dict(square=1.0, reject=reject, k=k, floor=floor, min_corners=min_corners,
                   min_views=min_views, max_iterations=max_iterations)
     if model == "auto":
         if flags:
@@ -165,9 +204,14 @@ def calibrate(
         st, idx, fit, res, thresholds = fit_with_rejection(boards, names, size, model=sel.chosen, flags=0,
                                                            **common)
         cal = _result(st, idx, fit, res, thresholds, min_views, cross_validate)
-        return replace(cal, model_selection=sel, notes=(*sel.notes, *cal.notes))
+        return replace(_in_unit(cal, square), model_selection=sel, notes=(*sel.notes, *cal.notes))
     st, idx, fit, res, thresholds = fit_with_rejection(boards, names, size, model=model, flags=flags, **common)
-    return _result(st, idx, fit, res, thresholds, min_views, cross_validate)
+    return _in_unit(_result(st, idx, fit, res, thresholds, min_views, cross_validate), square)
+
+
+def _in_unit(cal: Calibration, square: float) -> Calibration:
+    """A calibration made in squares, its translations in the square's unit: :math:`t = s\\,t_{squares}`."""
+    return replace(cal, tvecs=cal.tvecs * square, square=square)
 
 
 _ONE_VIEW = ("one view: a view of a flat board gives two constraints on the intrinsics, too few to "

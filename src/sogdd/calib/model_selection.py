@@ -19,11 +19,11 @@ import numpy as np
 
 from .cameras import LENSES, MODELS, check_model, check_size, lens, project, undistort
 from .rejection import check_boards, fit_with_rejection, usable_reason
-from .solvers import fit_camera, fit_fisheye_from, solve_pose
+from .solvers import fisheye_fixed, fit_camera, fit_fisheye_from, solve_pose
 from .targets.board import Board
 
-__all__ = ["DEFAULT_CANDIDATES", "CandidateScore", "ModelChoice", "ModelSelection", "check_model_choice",
-           "select_model"]
+__all__ = ["DEFAULT_CANDIDATES", "CandidateScore", "ModelChoice", "ModelSelection", "HigherTerms",
+           "check_model_choice", "fix_flags", "select_model", "higher_terms"]
 
 #: a model, or "auto": the one :func:`select_model` chooses
 ModelChoice = Literal[("auto", *LENSES)]  # type: ignore[valid-type]
@@ -345,6 +345,7 @@ def select_model(
     size = check_size(image_size)
     cands = _check_candidates(candidates)
     _check_numbers(square, folds, noise_se, min_views, min_corners)
+    square = 1.0  # made in squares: nothing it gives has a unit, so the square's size cannot change it
     if not (tolerance >= 0 and np.isfinite(tolerance)):
         raise ValueError(f"tolerance must be a finite value >= 0, got {tolerance}")
     boards, names = check_boards(boards, names, size)
@@ -479,3 +480,170 @@ def _table(cands, s: dict, n: np.ndarray, fold_of: np.ndarray, full: dict, why: 
         rows.append(CandidateScore(c, len(MODELS[c]), full[c][1], e, float(se), float(diff), float(dse),
                                    bool(within), ""))
     return tuple(rows)
+
+
+# --------------------------------------------------------------------------------------------------
+# whether a model's higher radial terms are the lens's or noise
+
+
+@dataclass(frozen=True)
+class HigherTerms:
+    """Whether a model's higher radial terms predict held-out corners better than the model without them
+    (:func:`higher_terms`).
+
+    Attributes
+    ----------
+    fixed : tuple of str
+        The terms held at 0 in the comparison that decided: the largest set of
+        top terms whose removal predicts as well (``noise`` True), else the
+        top term alone (``noise`` False).
+    noise : bool
+        Whether the model without ``fixed`` predicts held-out corners as well
+        (the rule of :func:`select_model`): the terms fit noise.
+    free_rms, fixed_rms : float
+        RMS of the held-out corners' residuals, the model as it is and with
+        ``fixed`` held at 0 (px).
+    difference_se : float
+        Standard error of ``fixed_rms - free_rms`` from the paired per-view differences (px).
+    folds : int
+    """
+
+    fixed: tuple[str, ...]
+    noise: bool
+    free_rms: float
+    fixed_rms: float
+    difference_se: float
+    folds: int
+
+
+def fix_flags(model: str, terms: Sequence[str]) -> tuple[int, str]:
+    """OpenCV's flags holding the distortion ``terms`` of ``model`` at 0, and their names.
+
+    Examples
+    --------
+    >>> fix_flags("pinhole", ["k2", "k3"])[1]
+    'cv2.CALIB_FIX_K2 | cv2.CALIB_FIX_K3'
+    >>> fix_flags("fisheye", ["k4"])[1]
+    'cv2.fisheye.CALIB_FIX_K4'
+    """
+    space, prefix = (cv2.fisheye, "cv2.fisheye.") if lens(model).start == "fisheye.calibrate" else (cv2, "cv2.")
+    flags, words = 0, []
+    for t in terms:
+        name = f"CALIB_FIX_{t.upper()}"
+        flags |= getattr(space, name)
+        words.append(prefix + name)
+    return flags, " | ".join(words)
+
+
+def higher_terms(
+    boards: Sequence[Board | None],
+    corner_used: Sequence[np.ndarray | None],
+    views: Sequence[int],
+    image_size: tuple[int, int],
+    model: str,
+    *,
+    folds: int = 5,
+    min_views: int = 3,
+    noise_se: float = _NOISE_SE,
+    tolerance: float = _TOLERANCE,
+) -> HigherTerms | None:
+    """Whether a fit's higher radial terms are the lens's: do they predict the corners of views the fit
+    did not see better than the model without them?
+
+    The radial series of ``model`` (:attr:`~sogdd.calib.cameras.LensModel.radial_terms`:
+    ``k1, k2[, k3]`` of the pinhole family, ``k1..k4`` of the fisheye) is cut
+    from the top: first its last term held at 0, then the last two, ... down to
+    ``k1`` alone. Each cut is scored as :func:`select_model` scores a candidate:
+    ``folds``-fold cross-validation over ``views`` (each held-out view's pose
+    fitted to its corners with the fold's intrinsics), the RMS :math:`e` of the
+    held-out residuals, and the cut predicts "as well" when
+    :math:`e_{cut} - e_{free} \\le \\max(\\text{noise\\_se} \\cdot SE, \\text{tolerance} \\cdot e_{free})`,
+    SE that of the paired per-view difference. The largest cut that predicts as
+    well is returned (the terms it holds at 0 fit noise); when none does, the
+    top term alone, ``noise`` False.
+
+    Parameters
+    ----------
+    boards, corner_used : sequences, one per view
+        The calibration's boards and the corners it used (``Calibration.boards``,
+        ``Calibration.corner_used``).
+    views : sequence of int
+        The used views.
+    image_size : (width, height)
+    model : str
+        A model with a radial series (others: None).
+    folds, min_views, noise_se, tolerance
+        As :func:`select_model`.
+
+    Returns
+    -------
+    HigherTerms or None
+        None for a model without a series of two or more terms, too few views
+        for the folds, or a fit that fails.
+    """
+    series = lens(model).radial_terms
+    names = MODELS[model]
+    if len(series) < 2:
+        return None
+    used = np.asarray(list(views), int)
+    n_folds = _fold_sizes(len(used), int(folds), min_views)
+    if n_folds == 0:
+        return None
+    size = check_size(image_size)
+    fold_of = np.arange(len(used)) % n_folds
+    obj = {v: boards[v].object_points(1.0)[corner_used[v]] for v in used}
+    img = {v: boards[v].image_points[corner_used[v]] for v in used}
+    n = np.array([len(obj[v]) for v in used], float)
+    start = None
+    if lens(model).start == "fisheye.calibrate":
+        try:
+            start = fit_camera([obj[v] for v in used], [img[v] for v in used], size, model, 0)[:2]
+        except cv2.error:
+            return None
+
+    data = (boards, corner_used, used, fold_of, obj, img, size, model, start)
+    free = _fold_scores(data, 0)
+    if free is None:
+        return None
+    N = float(n.sum())
+    e_free = float(np.sqrt(free.sum() / N))
+    nf = _per_fold(n, fold_of)
+    best = None
+    for cut in range(1, len(series)):
+        fixed = tuple(names[i] for i, _ in series[len(series) - cut:])
+        s = _fold_scores(data, fix_flags(model, fixed)[0])
+        if s is None:
+            break
+        e = float(np.sqrt(s.sum() / N))
+        dse = _ratio_se(_per_fold(s - free, fold_of), nf) / (e + e_free) if e + e_free > 0 else 0.0
+        dse = dse if np.isfinite(dse) else 0.0
+        as_well = e - e_free <= max(noise_se * dse, tolerance * e_free)
+        test = HigherTerms(fixed, as_well, e_free, e, dse, n_folds)
+        if not test.noise:
+            return best or test
+        best = test
+    return best
+
+
+def _fold_scores(data, flags: int) -> np.ndarray | None:
+    """Each used view's held-out sum of squared residuals under ``model`` with ``flags`` (None: a fit or a
+    pose failed); a fisheye refitted from ``start``, its fixed terms at 0."""
+    boards, corner_used, used, fold_of, obj, img, size, model, start = data
+    s = np.full(len(used), np.nan)
+    for f in range(int(fold_of.max()) + 1):
+        train = used[fold_of != f]
+        o, i = [obj[v] for v in train], [img[v] for v in train]
+        try:
+            if start is not None:
+                K, D = fit_fisheye_from(o, i, start[0], np.where(fisheye_fixed(flags)[4:], 0.0, start[1]),
+                                        flags)[:2]
+            else:
+                K, D = fit_camera(o, i, size, model, flags)[:2]
+        except cv2.error:
+            return None
+        for r in np.flatnonzero(fold_of == f):
+            got = _held_out(boards[used[r]], corner_used[used[r]], 1.0, K, D, model)
+            if got is None:
+                return None
+            s[r] = got
+    return s

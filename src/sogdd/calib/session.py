@@ -22,15 +22,17 @@ into a new hidden folder beside it (``.<name>.new-<random>.sogdd.tmp``), which t
 takes its place by two renames (the old folder is renamed aside, the new one in,
 the old one deleted). A failure or an interrupt before that leaves the folder as
 it was and removes the new one; a signal during the renames (milliseconds) is held
-until they are done, and the run completes. Only a missing folder, an empty one,
-or a previous output of this function (its files alone) is replaced: a folder
-holding anything else is refused, so a run never deletes a file it did not make.
+until they are done, and the run completes; what a run killed outright left beside it the
+next run removes (:func:`write_folder`). Only a missing folder, an empty one, or a previous
+output of ``sogdd calibrate`` (its files alone, one camera's or a rig's) is replaced: a
+folder holding anything else is refused, so a run never deletes a file it did not make.
 :func:`write_folder` is that contract for any writer of such a folder (the rig's too).
 """
 
 from __future__ import annotations
 
 import functools
+import glob
 import numbers
 import os
 import re
@@ -44,7 +46,9 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from ..collection import expand_inputs, relative_names
-from ..formats.safe_write import TMP_SUFFIX, check_input_files, folder_holds
+from ..formats.record import check_name
+from ..formats.safe_write import TMP_SUFFIX, check_input_files, claimed, folder_holds, remove_stale_beside
+from ..image.files import IMAGE_SUFFIXES, list_images
 from .detection import (
     BOARD_CHOICES,
     THUMB_WIDTH,
@@ -57,19 +61,23 @@ from .detection import (
     pick_boards,
 )
 from .files import FILES, write_calibration
-from .fit import calibrate
+from .fit import SQUARE_RANGE, calibrate
 from .model_selection import ModelChoice, check_model_choice
 from .result import Calibration
 from .targets.board import Board, grid_dims
 from .targets.spec import BoardSpec, parse_board
 
 __all__ = ["OUTPUTS", "ImageCalibration", "ParameterError", "calibrate_images", "calibrate_into",
-           "check_detections", "check_output_folder", "check_run_parameters",
-           "common_image_size", "foreign_entry", "write_folder", "write_outputs"]
+           "check_detections", "check_inputs", "check_output_folder", "check_run_parameters",
+           "common_image_size", "expand_images", "foreign_entry", "foreign_rig_entry", "previous_output",
+           "write_folder", "write_outputs"]
 
 #: what :func:`write_outputs` writes: the four files, report.html and the report/ folder of figures
 OUTPUTS = (*FILES, "report.html", "report")
 _FIGURE = re.compile(r"(view_\d{4,}|residuals|coverage|cross_validation)\.png")
+#: the figures of a rig's report (:mod:`sogdd.calib.rig.report`), and its cameras' folders
+_RIG_FIGURE = re.compile(r"(extrinsics|errors|(uncertainty|rectified)_[A-Za-z0-9_-]+)\.png")
+_CAMERA_FOLDER = re.compile(r"[A-Za-z0-9_-]+")
 
 
 @dataclass(frozen=True)
@@ -143,7 +151,7 @@ class ParameterError(ValueError):
 def check_run_parameters(*, square: float, jobs: int, min_views: int) -> None:
     """The numbers every calibration run takes, checked: a one-line :class:`ParameterError` naming the bad one.
 
-    ``square`` must be a positive finite size; ``jobs`` and ``min_views``
+    ``square`` must be a positive size in :data:`~sogdd.calib.fit.SQUARE_RANGE`; ``jobs`` and ``min_views``
     integers >= 1.
 
     Examples
@@ -155,6 +163,9 @@ def check_run_parameters(*, square: float, jobs: int, min_views: int) -> None:
     """
     if not (isinstance(square, numbers.Real) and 0 < square < float("inf")):
         raise ParameterError("{square} must be a positive size, got {value}", square="square", value=square)
+    if not SQUARE_RANGE[0] <= square <= SQUARE_RANGE[1]:
+        raise ParameterError(f"{{square}} must be from {SQUARE_RANGE[0]:g} to {SQUARE_RANGE[1]:g} (the board's "
+                             "square in any unit), got {value}", square="square", value=square)
     for name, v in (("jobs", jobs), ("min_views", min_views)):
         integral = isinstance(v, numbers.Integral) and not isinstance(v, bool)
         if not integral or v < 1:
@@ -212,7 +223,8 @@ def calibrate_images(
         (:func:`~sogdd.calib.detection.pick_boards`). A ChArUco board is one per
         image.
     square : float
-        The side of a board square, in the unit the poses should have.
+        The side of a board square, in the unit the poses should have; for a board whose specification
+        gives its size (``aprilgrid:...:SIZE:...``), a factor on that size's unit (1: poses in it).
     model : {"auto", "pinhole4", "pinhole", "rational", "fisheye", "omnidir"}
         The camera model (:func:`sogdd.calib.calibrate`); ``"auto"``: the one
         cross-validation over the views chooses
@@ -283,8 +295,8 @@ def calibrate_images(
     results = [replace(r, boards=kept) for r, (kept, _) in zip(results, picked)]
     check_detections(results, spec)
     views, vnames, owners = _views(results, names)
-    cal = calibrate(views, common_image_size(results), square=float(square), model=model, names=vnames,
-                    reject=reject, min_views=min_views)
+    cal = calibrate(views, common_image_size(results), square=float(square) * spec.label_step, model=model,
+                    names=vnames, reject=reject, min_views=min_views)
     records = _records(results, names, cal, spec, [ignored for _, ignored in picked])
     return ImageCalibration(cal, spec, tuple(records), tuple(results[i].thumbnail for i in owners))
 
@@ -292,10 +304,47 @@ def calibrate_images(
 def _expand(images: str | os.PathLike | Iterable[str | os.PathLike], recursive: bool) -> list[Path]:
     """The image files that ``images`` names; a one-line error when there are none."""
     given = [images] if isinstance(images, (str, os.PathLike)) else list(images)
-    paths = expand_inputs([os.fspath(g) for g in given], recursive=recursive)
+    paths = expand_images(given, recursive=recursive)
     if not paths:
         raise ValueError("no input images")
     return paths
+
+
+def expand_images(items: Iterable[str | os.PathLike], *, recursive: bool = False) -> list[Path]:
+    """The image files a calibration reads: :func:`sogdd.collection.expand_inputs`'s, but a glob pattern's
+    broken links and folders named as images (``right99.jpg/``) are inputs too (each reported as unreadable,
+    as when named, never dropped in silence), and no file inside a previous output of ``sogdd calibrate``
+    (:func:`previous_output`: its report's figures) is one (a re-run of ``-r inp --out inp/calib``)."""
+    out: list[Path] = []
+    for item in map(os.fspath, items):
+        missed = _missed(item)
+        try:
+            found = expand_inputs([item], recursive=recursive)
+        except ValueError:  # a pattern that matches no file: its broken links and folders, if any
+            if not missed:
+                raise
+            found = []
+        out += sorted({*found, *missed}) if missed else found
+    seen: set[str] = set()
+    inside = functools.cache(previous_output)  # each folder asked once
+    kept = []
+    for p in out:
+        key = os.path.realpath(p) if os.path.lexists(p) else str(p)
+        if key not in seen and not any(inside(f) for f in Path(os.path.abspath(p)).parents):
+            seen.add(key)
+            kept.append(p)
+    return kept
+
+
+def _missed(item: str) -> list[Path]:
+    """What :func:`sogdd.collection.expand_inputs` leaves out of ``item``: a glob pattern's broken links, and
+    a folder named as an image that holds none (a mistake the reader names; a re-expansion keeps it)."""
+    def odd(p: str) -> bool:
+        return os.path.isdir(p) and Path(p).suffix.lower() in IMAGE_SUFFIXES and not list_images(p)
+
+    if os.path.lexists(item) or not any(ch in item for ch in "*?["):
+        return [Path(item)] if odd(item) else []
+    return [Path(m) for m in glob.glob(item, recursive=True) if odd(m) or not os.path.exists(m)]
 
 
 def check_detections(results: Sequence[ViewResult], spec: BoardSpec) -> None:
@@ -308,6 +357,16 @@ def check_detections(results: Sequence[ViewResult], spec: BoardSpec) -> None:
     if not any(r.boards for r in results):
         _no_board(results, spec)
     _check_smaller(results, spec)
+
+
+def check_inputs(paths: Iterable[str | os.PathLike]) -> None:
+    """The inputs of a run that writes an output folder, checked at the door (one-line ``ValueError``
+    naming the file): none a device, a FIFO or a socket (:func:`sogdd.formats.safe_write.check_input_files`),
+    every name valid UTF-8, which every output can hold (:func:`sogdd.formats.record.check_name`)."""
+    paths = list(paths)
+    for p in paths:
+        check_name(os.fspath(p))
+    check_input_files(paths)
 
 
 def _views(results: list[ViewResult], names: list[str]) -> tuple[list, list[str], list[int]]:
@@ -413,15 +472,64 @@ def foreign_entry(folder: Path) -> str | None:
     return None
 
 
+def foreign_rig_entry(folder: Path) -> str | None:
+    """None if ``folder`` holds only what a rig's writer writes (rig.yaml, rig.json, report.html, its figures
+    in report/, a folder per camera as :func:`foreign_entry` says), else the first entry it did not."""
+    from .rig.files import RIG_FILES
+
+    for p in sorted(folder.iterdir()):
+        if p.name.endswith(TMP_SUFFIX):
+            continue
+        if p.name in (*RIG_FILES, "report.html") and p.is_file():
+            continue
+        if not p.is_dir() or p.is_symlink():
+            return p.name
+        if p.name == "report":
+            odd = next((q for q in sorted(p.iterdir()) if not _RIG_FIGURE.fullmatch(q.name)
+                        and not q.name.endswith(TMP_SUFFIX)), None)
+            if odd is not None:
+                return f"report/{odd.name}"
+            continue
+        # a camera's folder: its files (as a one-camera output), camera.yaml always among them
+        odd = foreign_entry(p) if _CAMERA_FOLDER.fullmatch(p.name) and (p / "camera.yaml").is_file() else ""
+        if odd is not None:
+            return f"{p.name}/{odd}" if odd else p.name
+    return None
+
+
+def previous_output(folder: str | os.PathLike) -> bool:
+    """Whether ``folder`` is a previous output of ``sogdd calibrate``, one camera's or a rig's (its files and
+    nothing else): a run may replace it, and its files are never a run's inputs."""
+    path = Path(folder)
+    try:
+        return path.is_dir() and not path.is_symlink() and any(
+            (path / marker).is_file() and foreign(path) is None
+            for marker, foreign in (("camera.yaml", foreign_entry), ("rig.yaml", foreign_rig_entry)))
+    except OSError:  # a folder that cannot be listed is no output of ours
+        return False
+
+
+def _foreign(folder: Path, own: Callable[[Path], str | None]) -> str | None:
+    """None if a run may replace ``folder`` (``own`` says it is its kind's previous output, or it is the other
+    kind's: a one-camera run replaces a rig's output and the reverse), else the first entry no run wrote."""
+    odd = own(folder)
+    if odd is None or previous_output(folder):
+        return None
+    for marker, foreign in (("rig.yaml", foreign_rig_entry), ("camera.yaml", foreign_entry)):
+        if (folder / marker).is_file():  # the files say which kind of output it was: that kind's entry
+            return foreign(folder)
+    return odd
+
+
 def check_output_folder(out: str | os.PathLike, inputs: Iterable[str | os.PathLike] = (), *,
                         previous: Callable[[Path], str | None] | None = None) -> Path:
     """Whether :func:`write_outputs` may write ``out``: a one-line ``ValueError`` if not, else its full path.
 
     ``out`` may be missing (it is created, with its parents), empty, or a
-    previous output (:data:`OUTPUTS` and nothing else), which is replaced. It
-    is refused when it is a file, holds an input (however the inputs were
-    named: :func:`sogdd.formats.safe_write.folder_holds`), holds files this
-    function did not write, or is (or holds) the current folder. ``previous``
+    previous output (:data:`OUTPUTS` and nothing else, or a rig's: :func:`previous_output`),
+    which is replaced. It is refused when it is a file, its name is not valid UTF-8, it holds
+    an input (however the inputs were named: :func:`sogdd.formats.safe_write.folder_holds`),
+    holds files this function did not write, or is (or holds) the current folder. ``previous``
     says what a previous output holds for another writer of such a folder (the
     rig's): given the folder, None if it is one, else the first entry it did
     not write.
@@ -439,6 +547,11 @@ def check_output_folder(out: str | os.PathLike, inputs: Iterable[str | os.PathLi
     """
     given = os.fspath(out)
     path = Path(os.path.abspath(given))
+    try:
+        check_name(str(path))
+    except ValueError:  # OpenCV's writers cannot take such a name (they crash)
+        shown = os.fsencode(path).decode("utf-8", "backslashreplace")
+        raise ValueError(f"output folder {shown}: the name is not valid UTF-8; give a UTF-8 name") from None
     if os.path.lexists(path) and not path.is_dir():
         raise ValueError(f"output folder {given}: exists and is not a folder")
     held = folder_holds(path, inputs)  # a glob pattern too: it lies where its matches would
@@ -450,7 +563,7 @@ def check_output_folder(out: str | os.PathLike, inputs: Iterable[str | os.PathLi
         raise ValueError(f"output folder {given}: is (or holds) the current folder, which a run replaces; "
                          "choose another folder")
     if path.is_dir():
-        odd = (previous or foreign_entry)(path)
+        odd = _foreign(path, previous or foreign_entry)
         if odd is not None:
             raise ValueError(f"output folder {given}: holds {odd}, which sogdd calibrate did not write; give a "
                              "new or empty folder, or a previous output to replace")
@@ -569,7 +682,7 @@ def calibrate_into(
     """Calibrate a camera from image files of a board into an output folder: what ``sogdd calibrate`` runs.
 
     Every check comes before any work: the parameters, the inputs (none of them a
-    device or a FIFO, :func:`sogdd.formats.safe_write.check_input_files`) and ``out``
+    device or a FIFO, every name valid UTF-8: :func:`check_inputs`) and ``out``
     (:func:`check_output_folder`). Then :func:`calibrate_images` and
     :func:`write_outputs`: the folder ends complete, or as it was.
 
@@ -596,7 +709,7 @@ def calibrate_into(
         ``square``, ``jobs`` or ``min_views`` out of range (one line naming it).
     ValueError
         One line: the other errors of :func:`calibrate_images`; an input that is a
-        device, a FIFO or a socket; an ``out`` that may not be written.
+        device, a FIFO or a socket, or whose name is not valid UTF-8; an ``out`` that may not be written.
     OSError
         A write failed; ``out`` was left as it was.
     sogdd.collection.BatchInterrupted
@@ -625,7 +738,7 @@ def calibrate_into(
     spec = _check_parameters(board, square, model, jobs, min_views, boards)
     check_read_options(read_options)
     paths = _expand(images, recursive)
-    check_input_files(paths)  # a device or a FIFO would be read for ever
+    check_inputs(paths)
     check_output_folder(out, paths)
     result = calibrate_images(paths, spec, boards=boards, square=square, model=model, jobs=jobs,
                               scheduler=scheduler, min_views=min_views, reject=reject,
@@ -643,20 +756,24 @@ def write_folder(out: str | os.PathLike, fill: Callable[[Path], Mapping[str, obj
     first (:func:`check_output_folder`, with ``previous``); ``fill`` returns the
     names it wrote (relative to the folder it was given); the result maps each
     to its final path. A failure or an interrupt leaves ``out`` as it was (an
-    ``OSError`` is one line saying so).
+    ``OSError`` is one line saying so). The new folder is held while it is written
+    (:func:`~sogdd.formats.safe_write.claimed`); what a run killed outright (``SIGKILL``) left beside
+    ``out``, its new folder and (killed during the renames) the old one, is removed first.
     """
     path = check_output_folder(out, inputs, previous=previous)
     given = os.fspath(out)
     kept = f"{given} left as it was" if path.exists() else f"{given} not created"
+    remove_stale_beside(path)  # what a run killed outright left (a running one's is held, and kept)
     made = _make_parents(path.parent)
     new = None
     try:
         new = _beside(path, "new")
         new.mkdir()  # the user's umask, as any folder they make
-        if path.exists():
-            os.chmod(new, path.stat().st_mode & 0o7777)
-        files = fill(new)
-        _swap(new, path)
+        with claimed(new):
+            if path.exists():
+                os.chmod(new, path.stat().st_mode & 0o7777)
+            files = fill(new)
+            _swap(new, path)
     except OSError as exc:
         _undo(new, made)
         why = exc.strerror or (str(exc).replace(str(new), given) if new is not None else str(exc))

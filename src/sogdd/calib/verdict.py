@@ -5,10 +5,13 @@ The analysis behind the report (:mod:`.report` draws it) and the command's summa
 
 from __future__ import annotations
 
+import weakref
+
 import cv2
 import numpy as np
 
-from .cameras import MODELS, lens, project
+from .cameras import LENSES, MODELS, lens, project
+from .model_selection import fix_flags, higher_terms
 from .result import Calibration
 
 __all__ = ["coverage", "cv_inside", "radial_map", "used_points", "verdict"]
@@ -349,19 +352,76 @@ def _distortion_findings(cal: Calibration) -> list[tuple[str, str]]:
     out = []
     if rho_max < rho_frame:
         where = "inside the corners" if theta_f <= theta_data else "beyond the corners"
-        out.append(("bad" if theta_f <= theta_data else "warn",
-                    f"the distortion folds over {rho_max * f:.0f} px from the principal point, {where} "
-                    f"(the frame reaches {rho_frame * f:.0f} px): pixels farther out have no ray; the "
-                    "distortion coefficients are not those of a lens (try a simpler model or more views)"))
+        text = (f"the distortion folds over {rho_max * f:.0f} px from the principal point, {where} "
+                f"(the frame reaches {rho_frame * f:.0f} px): pixels farther out have no ray")
+        if theta_f <= theta_data:  # where the data are: no lens maps two of its rays to one pixel
+            out.append(("bad", text + "; the distortion coefficients are not those of a lens (try a simpler "
+                                      "model or more views)"))
+        else:  # beyond them the fit is an extrapolation, sound or not where the boards were
+            out.append(("warn", text + " under the model: use it only where the boards were (views with the "
+                                       "board nearer the frame's corners would extend it)"))
     series = lens(cal.model).radial_terms  # (coefficient, power) of each radial term; () skips the check
     if series:
         x = theta_f if lens(cal.model).fisheye else float(np.tan(theta_f))
         terms = np.array([cal.dist[i] * x ** p for i, p in series]) * f
         total, net = float(np.sum(np.abs(terms))), abs(float(np.sum(terms)))
         if total > _CANCEL_PX and total > _CANCEL_RATIO * net:
-            coef = ", ".join(f"{n} = {v:.3g}" for n, v in cal.coefficients().items() if not n.startswith("p"))
-            out.append(("bad", f"implausible distortion ({coef}): at the frame's corner its terms move a point "
-                               f"by {total:.0f} px in all but cancel to {net:.1f} px, so they fit noise and "
-                               "the model diverges beyond the data; add views near the frame's edges and "
-                               "corners, or fix the higher terms (e.g. cv2.CALIB_FIX_K3)"))
+            out.append(_cancelling_terms(cal, terms, total, net))
     return out
+
+
+def _cancelling_terms(cal: Calibration, terms: np.ndarray, total: float, net: float) -> tuple[str, str]:
+    """Radial terms that all but cancel at the frame's corner (``terms``: each one's move there, px),
+    judged by whether held-out corners need them (:func:`~sogdd.calib.model_selection.higher_terms`):
+    "bad" when those that fit noise carry half the total or more, else "ok"."""
+    coef = ", ".join(f"{n} = {v:.3g}" for n, v in cal.coefficients().items() if not n.startswith("p"))
+    head = (f"distortion ({coef}): at the frame's corner its terms move a point by {total:.0f} px in all but "
+            f"cancel to {net:.1f} px")
+    test = _higher_terms(cal)
+    if test is None:  # nothing measured: the terms' sizes alone
+        top = MODELS[cal.model][lens(cal.model).radial_terms[-1][0]]
+        how = _how_to_fix(cal.model, (top,))
+        return ("bad", f"implausible {head}, which is how coefficients fitted to noise look (too few views to "
+                       "test them by cross-validation); the model diverges beyond the data; add views near the "
+                       f"frame's edges and corners, or hold the top term at 0 ({how})")
+    fixed = ", ".join(test.fixed)
+    scores = (f"{test.fixed_rms:.3f} px RMS against {test.free_rms:.3f} px, {test.folds}-fold "
+              "cross-validation over the views")
+    series = [MODELS[cal.model][i] for i, _ in lens(cal.model).radial_terms]
+    noise = float(sum(abs(t) for n, t in zip(series, terms) if n in test.fixed))
+    if test.noise and noise < 0.5 * total:
+        return ("ok", f"{head}, and they are the lens's but {fixed} ({noise:.0f} px of them), which fit noise: "
+                      f"with {fixed} held at 0 the model predicts the corners of views it did not see as well "
+                      f"({scores}); {fixed} may be held at 0 ({_how_to_fix(cal.model, test.fixed)})")
+    if test.noise:
+        return ("bad", f"implausible {head}, and they fit noise: with {fixed} held at 0 the model predicts the "
+                       f"corners of views it did not see as well ({scores}); it diverges beyond the data: hold "
+                       f"{fixed} at 0 ({_how_to_fix(cal.model, test.fixed)}), or add views near the frame's "
+                       "edges and corners")
+    return ("ok", f"{head}, but they are the lens's: without {fixed} the model predicts the corners of views "
+                  f"it did not see worse ({scores})")
+
+
+#: each calibration's higher_terms while it lives (the summary, the report and the files each ask for the
+#: verdict; a fisheye's test costs seconds): id -> (weak reference, result)
+_TESTED: dict[int, tuple[weakref.ref, object]] = {}
+
+
+def _higher_terms(cal: Calibration):
+    """:func:`~sogdd.calib.model_selection.higher_terms` of ``cal``'s used corners, once per calibration."""
+    key = id(cal)
+    hit = _TESTED.get(key)
+    if hit is not None and hit[0]() is cal:
+        return hit[1]
+    test = higher_terms(cal.boards, cal.corner_used, np.flatnonzero(cal.view_used), cal.image_size, cal.model)
+    _TESTED[key] = (weakref.ref(cal, lambda _, k=key: _TESTED.pop(k, None)), test)
+    return test
+
+
+def _how_to_fix(model: str, terms: tuple[str, ...]) -> str:
+    """How to hold ``terms`` of ``model`` at 0, in OpenCV's flags (and the model that does it, if one does)."""
+    flags = fix_flags(model, terms)[1]
+    mine = set(MODELS[model])
+    held = [m for m, rec in LENSES.items()
+            if rec.start == lens(model).start and set(MODELS[m]) < mine and mine - set(MODELS[m]) == set(terms)]
+    return f"model {held[0]}, {flags}" if held else flags

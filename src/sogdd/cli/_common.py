@@ -7,13 +7,17 @@ import errno
 import json
 import math
 import os
+import signal
 import sys
-from collections.abc import Callable
+import threading
+from collections.abc import Callable, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 
 from ..formats.safe_write import check_input_files, check_not_inputs
 
 __all__ = [
+    "BAD_VERDICT",
     "HelpFormatter",
     "add_detectors_argument",
     "add_output_arguments",
@@ -26,6 +30,8 @@ __all__ = [
     "print_json",
     "reference_file",
     "reporter",
+    "run_calibration",
+    "verdict_level",
     "write_stdout",
 ]
 
@@ -179,18 +185,57 @@ def reporter(args: argparse.Namespace) -> Callable[[str], None] | None:
     return lambda msg: print(msg, file=sys.stderr, flush=True)
 
 
+#: the exit code of a calibration whose verdict is "bad": its outputs are written all the same
+BAD_VERDICT = 3
+
+
 def run_calibration(out: str, calibrate: Callable[[], tuple[object, dict]],
-                    summary: Callable[[object, dict], None]) -> int:
+                    summary: Callable[[object, dict], Sequence[tuple[str, str]]]) -> int:
     """A calibration command's run: ``calibrate()`` (the library's, which checks, calibrates and writes ``out``,
-    returning the result and the files written), Ctrl-C saying that ``out`` is as it was; each unreadable
-    input on stderr, then ``summary(result, written)``. Returns the exit code: 2 when an input could not be
-    read, else 0 (one camera and a rig alike)."""
+    returning the result and the files written), Ctrl-C or ``SIGTERM`` saying that ``out`` is as it was; each
+    unreadable input on stderr, then ``summary(result, written)``, which prints the summary and returns the
+    verdict it gave (``(level, text)`` findings). Returns the exit code (one camera and a rig alike):
+    :data:`BAD_VERDICT` when a finding is "bad", else 2 when an input could not be read, else 0."""
     try:
-        result, written = calibrate()
-    except KeyboardInterrupt:
+        with _sigterm_interrupts():
+            result, written = calibrate()
+    except KeyboardInterrupt:  # Ctrl-C, or SIGTERM (a BatchInterrupted carrying its number)
         print(f"sogdd: interrupted; {out} left as it was", file=sys.stderr)
         raise
     for v in result.unreadable:
         print(f"sogdd: error: {v.reason}", file=sys.stderr)
-    summary(result, written)
+    findings = summary(result, written)
+    if any(level == "bad" for level, _ in findings):
+        return BAD_VERDICT
     return 2 if result.unreadable else 0
+
+
+def verdict_level(findings: Sequence[tuple[str, str]]) -> str:
+    """The worst level of a verdict's findings: "bad", "warn" or "ok".
+
+    Examples
+    --------
+    >>> verdict_level([("ok", "sound"), ("warn", "few views")])
+    'warn'
+    """
+    levels = {level for level, _ in findings}
+    return next((lv for lv in ("bad", "warn") if lv in levels), "ok")
+
+
+@contextmanager
+def _sigterm_interrupts():
+    """While active (main thread only), ``SIGTERM`` interrupts as Ctrl-C does: a
+    :class:`sogdd.collection.BatchInterrupted` carrying the signal's number (exit code 143)."""
+    from ..collection import BatchInterrupted
+
+    def interrupt(signum, _frame):
+        raise BatchInterrupted(signum)
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, old)

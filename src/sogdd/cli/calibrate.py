@@ -26,7 +26,10 @@ rejected and reported. The folder ends complete or as it was: a new or empty
 folder, or a previous output of sogdd calibrate, which is replaced whole; a
 folder holding other files, or any input, is refused.
 An image that cannot be read is reported and the calibration uses the others
-(exit code 2 all the same). Ctrl-C leaves --out as it was (exit code 130).
+(exit code 2 all the same); a file name that is not valid UTF-8 is refused before
+any work. Exit codes: 0 done; 2 an error (nothing written) or an unreadable input;
+3 the verdict is bad (the outputs written all the same; --json: verdict_level);
+130 Ctrl-C and 143 SIGTERM, --out left as it was.
 
 A rig of two or more cameras: --camera NAME PATTERN... once per camera instead
 of the images; how its frames are matched and what it writes is below.
@@ -39,7 +42,7 @@ import sys
 from typing import TYPE_CHECKING
 
 from ..calib.cameras import LENSES
-from ._common import print_json, run_calibration
+from ._common import print_json, run_calibration, verdict_level
 from .calibrate_rig import RIG_HELP, RIG_WORDS, add_rig_arguments, run_rig
 from .params import add_read_arguments, read_options
 
@@ -123,7 +126,8 @@ def _run(args: argparse.Namespace) -> int:
         lambda result, written: _summary(args, result, written))
 
 
-def _summary(args: argparse.Namespace, result, written: dict) -> None:
+def _summary(args: argparse.Namespace, result, written: dict) -> list[tuple[str, str]]:
+    """Print the summary (text, or one JSON object); return the verdict's findings."""
     from ..calib.files import selection_dict
     from ..calib.verdict import verdict
 
@@ -140,10 +144,11 @@ def _summary(args: argparse.Namespace, result, written: dict) -> None:
                     "cross_validation_mean_within": None if cv is None else cv.mean_within,
                     "model_selection": selection_dict(cal.model_selection),
                     "verdict": [{"level": lv, "text": t} for lv, t in findings],
+                    "verdict_level": verdict_level(findings),
                     "rejected": {n: r for n, s, r in not_used if s == "rejected"},
                     "not_used": [{"view": n, "status": s, "reason": r} for n, s, r in not_used],
                     "unreadable": [v.file for v in result.unreadable]})
-        return
+        return findings
     lines = [f"{cal.model}: fx {K[0, 0]:.2f} fy {K[1, 1]:.2f} cx {K[0, 2]:.2f} cy {K[1, 2]:.2f}, "
              f"RMS {cal.rms:.4f} px, {cal.n_used} of {len(cal.names)} views used"
              + (f", cross-validation {cv.mean_within:.3f} px inside the corners ({cv.mean:.3g} over the frame)"
@@ -162,3 +167,4 @@ def _summary(args: argparse.Namespace, result, written: dict) -> None:
     main = [n for n in ("camera.yaml", "report.html") if n in written]
     lines.append(f"written to {args.out}/: {', '.join(main)} ...")
     sys.stdout.write("\n".join(lines) + "\n")
+    return findings

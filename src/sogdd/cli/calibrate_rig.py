@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ._common import print_json, run_calibration
+from ._common import print_json, run_calibration, verdict_level
 
 if TYPE_CHECKING:  # the library is imported when the command runs
     from ..calib import BoardSpec
@@ -97,7 +97,8 @@ def _fmt_std(v) -> str:
     return "" if v is None or not np.isfinite(v) else f" ± {v:.2g}"
 
 
-def _summary(args: argparse.Namespace, result, written: dict) -> None:
+def _summary(args: argparse.Namespace, result, written: dict) -> list[tuple[str, str]]:
+    """Print the summary (text, or one JSON object); return the verdict's findings."""
     from ..calib.rig.verdict import rig_verdict
 
     rig = result.rig
@@ -110,10 +111,11 @@ def _summary(args: argparse.Namespace, result, written: dict) -> None:
         print_json({"out": args.out, "files": sorted(str(p) for p in written.values()), "cameras": cams,
                     "reference": rig.cameras[0].name, "rms": rig.rms, "sigma": rig.sigma,
                     "square": rig.square, "frames_used": n_used, "frames": len(rig.frames),
-                    "verdict": [{"level": lv, "text": t} for lv, t in findings], "notes": list(rig.notes),
+                    "verdict": [{"level": lv, "text": t} for lv, t in findings],
+                    "verdict_level": verdict_level(findings), "notes": list(rig.notes),
                     "not_used": [{"camera": c, "view": n, "status": s, "reason": r} for c, n, s, r in not_used],
                     "unreadable": [v.file for v in result.unreadable]})
-        return
+        return findings
     first = rig.cameras[0].name
     lines = [f"rig of {len(cams)} cameras: {n_used} of {len(rig.frames)} frames used, RMS {rig.rms:.4f} px; "
              f"poses in {first}'s frame (x_cam = R x_{first} + T), in the unit of --square"]
@@ -133,3 +135,4 @@ def _summary(args: argparse.Namespace, result, written: dict) -> None:
     main = [n for n in ("rig.yaml", "report.html") if n in written]
     lines.append(f"written to {args.out}/: {', '.join(main)} ...")
     sys.stdout.write("\n".join(lines) + "\n")
+    return findings

@@ -38,6 +38,7 @@ COMMANDS = {
     "report": "run the evaluations and write the results page (Markdown + figures)",
     "colmap": "COLMAP interoperability (needs pycolmap)",
     "convert": "convert a calibration to or from ROS, Kalibr, mrcal and COLMAP files",
+    "check": "check new views against a stored calibration: pass, warn or fail",
 }
 
 
@@ -103,7 +104,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
         print(f"sogdd: error: {opencv_message(exc)}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt as exc:  # Ctrl-C: 130; a batch stopped by SIGTERM: 143 (128 + signal)
+    except KeyboardInterrupt as exc:  # Ctrl-C: 130; a batch or a calibration stopped by SIGTERM: 143
         return 128 + int(getattr(exc, "signum", 2))
 
 

@@ -10,19 +10,31 @@ One home for the three rules every writer of the package follows:
   (:func:`user_mode`), not ``mkstemp``'s 0600;
 - an output that is one of the inputs, by any path, is refused before any work
   (:func:`check_not_inputs`, :func:`folder_holds`).
+
+A writer holds its temporary file or folder (:func:`claimed`: a lock the system
+drops when the process ends, however it ends), so that a later run can tell
+what a killed writer left beside a target from what a running one is writing,
+and remove only the former (:func:`remove_stale_beside`).
 """
 
 from __future__ import annotations
 
 import os
 import re
+import shutil
 import stat
 import tempfile
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
-__all__ = ["TMP_SUFFIX", "atomic_write", "check_input_files", "check_not_inputs", "existing_file",
-           "folder_holds", "temporary_beside", "user_mode", "write_bytes", "write_text"]
+try:
+    import fcntl
+except ImportError:  # pragma: no cover - not POSIX: nothing is held, and nothing is taken for stale
+    fcntl = None
+
+__all__ = ["TMP_SUFFIX", "atomic_write", "check_input_files", "check_not_inputs", "claimed", "existing_file",
+           "folder_holds", "remove_stale_beside", "temporary_beside", "user_mode", "write_bytes", "write_text"]
 
 #: the suffix of a temporary file that is being written (an interrupted writer's are stale)
 TMP_SUFFIX = ".sogdd.tmp"
@@ -81,6 +93,82 @@ def atomic_write(target: str | os.PathLike, write: Callable[[Path], None]) -> Pa
         tmp.unlink(missing_ok=True)
         raise
     return target
+
+
+@contextmanager
+def claimed(path: str | os.PathLike) -> Iterator[None]:
+    """Hold the temporary file or folder ``path`` while it is written: an exclusive lock on it, which the
+    system drops when the process ends, however it ends (``SIGKILL`` too).
+
+    :func:`remove_stale_beside` leaves what is held alone: a temporary of a
+    running writer is never taken for a killed writer's.
+    """
+    if fcntl is None:  # pragma: no cover
+        yield
+        return
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)
+
+
+def _stale(name: str, target: str) -> bool:
+    """Whether ``name`` is a temporary of ``target`` (``.<target>.<one word>`` + :data:`TMP_SUFFIX`)."""
+    prefix = f".{target}."
+    if not (name.startswith(prefix) and name.endswith(TMP_SUFFIX)):
+        return False
+    word = name[len(prefix):-len(TMP_SUFFIX)]
+    return bool(word) and "." not in word  # ``.calib.x.new-1.sogdd.tmp`` is calib.x's, not calib's
+
+
+def remove_stale_beside(target: str | os.PathLike) -> list[Path]:
+    """Remove the temporary files and folders that killed writers of ``target`` left beside it; return them.
+
+    A writer killed outright (``SIGKILL``, the out-of-memory killer) cannot
+    clean up: its ``.<name>.<random>`` + :data:`TMP_SUFFIX` file or folder
+    stays beside ``target``. Those that no running process holds
+    (:func:`claimed`) are removed; a symbolic link by that name is removed
+    itself, never followed. Entries that cannot be removed are left.
+
+    Examples
+    --------
+    >>> d = Path(tempfile.mkdtemp())
+    >>> (d / ".calib.new-1a2b.sogdd.tmp").mkdir(); (d / ".calib.x.new-3c.sogdd.tmp").mkdir()
+    >>> [p.name for p in remove_stale_beside(d / "calib")], sorted(p.name for p in d.iterdir())
+    (['.calib.new-1a2b.sogdd.tmp'], ['.calib.x.new-3c.sogdd.tmp'])
+    """
+    target = Path(target)
+    if fcntl is None:  # pragma: no cover - a running writer could not be told from a killed one
+        return []
+    try:
+        names = sorted(n for n in os.listdir(target.parent) if _stale(n, target.name))
+    except OSError:  # no folder yet, or not readable: nothing of ours there
+        return []
+    removed = []
+    for n in names:
+        p = target.parent / n
+        try:
+            if p.is_symlink():
+                p.unlink()
+                removed.append(p)
+                continue
+            fd = os.open(p, os.O_RDONLY)
+        except OSError:
+            continue
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)  # held: a running writer's
+            if p.is_dir():
+                shutil.rmtree(p)
+            else:
+                p.unlink()
+            removed.append(p)
+        except OSError:
+            pass
+        finally:
+            os.close(fd)
+    return removed
 
 
 def write_bytes(target: str | os.PathLike, data: bytes) -> Path:

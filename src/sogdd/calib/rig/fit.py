@@ -19,7 +19,7 @@ import numpy as np
 from scipy.sparse import csr_matrix
 
 from ..cameras import LENSES, MODELS, check_size, lens
-from ..fit import calibrate, std_dict
+from ..fit import calibrate, check_square, std_dict
 from ..model_selection import ModelChoice, check_model_choice
 from ..rejection import State, reject_corners, reject_view, robust_limit
 from ..result import Calibration
@@ -29,7 +29,9 @@ from ..weighting import corner_weights
 from . import labels as _labels
 from . import uncertainty as _unc
 from .connectivity import Connectivity, rig_connectivity
+from .frames import check_pairing
 from .result import RigCalibration, RigCamera
+from .units import in_unit
 
 __all__ = ["calibrate_rig"]
 
@@ -145,16 +147,19 @@ def _pair_candidates(b0: Board, bc: Board, pattern, square: float, P0, Pc):
     return None, False
 
 
-def _pair_pose(m: str, n: str, mono, boards, pattern, square: float):
+def _pair_pose(m: str, n: str, mono, boards, pattern, square: float, shift: int = 0):
     """Camera ``n``'s pose relative to camera ``m`` from the frames both used: the consensus over the
     frames both saw whole, or where there are none, over those where one saw the board whole and
-    the other part of it; ``(R, t, disagreeing frames, shared frames)``, or None without such frames."""
+    the other part of it; ``(R, t, disagreeing frames, shared frames)``, or None without such frames.
+    ``shift``: ``m``'s frame ``f`` is paired with ``n``'s frame ``f + shift`` (0: as given)."""
     cands, loose, dists = [], [], []
-    for f in range(len(boards[m])):
-        if not (mono[m].view_used[f] and mono[n].view_used[f]):
+    F = len(boards[m])
+    for f in range(max(0, -shift), min(F, F - shift)):
+        g = f + shift
+        if not (mono[m].view_used[f] and mono[n].view_used[g]):
             continue
-        P0, Pc = _mono_pose(mono[m], f), _mono_pose(mono[n], f)
-        cs, whole = _pair_candidates(boards[m][f], boards[n][f], pattern, square, P0, Pc)
+        P0, Pc = _mono_pose(mono[m], f), _mono_pose(mono[n], g)
+        cs, whole = _pair_candidates(boards[m][f], boards[n][g], pattern, square, P0, Pc)
         if cs:
             (cands if whole else loose).append(cs)
             dists.append(float(np.linalg.norm(P0[1])))
@@ -166,9 +171,10 @@ def _pair_pose(m: str, n: str, mono, boards, pattern, square: float):
     return R, t, sum(c < 0 for c in chosen), len(chosen)
 
 
-def _relative_poses(names, mono, boards, pattern, square, notes) -> dict:
+def _relative_poses(names, mono, boards, pattern, square, notes, views) -> dict:
     """Each camera's pose in the first camera's frame (:func:`_pair_pose` to the first, else through
-    a camera already placed); None for a camera that nothing ties to the first."""
+    a camera already placed); None for a camera that nothing ties to the first. Frames paired wrong
+    stop it (:func:`~sogdd.calib.rig.frames.check_pairing`)."""
     ref = names[0]
     poses: dict = {ref: (np.eye(3), np.zeros(3))}
     todo = list(names[1:])
@@ -185,6 +191,9 @@ def _relative_poses(names, mono, boards, pattern, square, notes) -> dict:
         if found is None:
             break
         n, m, (R, t, off, shared) = found
+        if off:  # frames paired with the wrong moment stop here, before the joint fit bends to them
+            check_pairing(m, n, off, shared, views[m], views[n],
+                          lambda k, m=m, n=n: _pair_pose(m, n, mono, boards, pattern, square, shift=k))
         poses[n] = _compose((R, t), poses[m])
         todo.remove(n)
         via = "" if m == ref else f" (through camera {m!r})"
@@ -657,7 +666,9 @@ def calibrate_rig(
         Per camera (the first is the reference), one entry per frame, all of one length.
     image_sizes : mapping of str to (width, height)
     square : float
-        The board's square (the unit of every translation).
+        The board's square (the unit of every translation), from 1e-6 to 1e6
+        (:data:`~sogdd.calib.fit.SQUARE_RANGE`): the fit is made in squares and
+        the translations scaled at the end (:func:`~sogdd.calib.rig.units.in_unit`).
     models : str or mapping of str to str
         One of :data:`~sogdd.calib.cameras.MODELS` (or ``"auto"``: each camera's own
         calibration chooses, :func:`~sogdd.calib.calibrate`) for every camera, or per camera.
@@ -683,7 +694,9 @@ def calibrate_rig(
         size, a camera with fewer than ``min_views`` usable views (its name and
         the mono error), a bad ``pattern``, frame or view names that do not match the frames, or
         cameras in groups that no frame shows the board to both of
-        (:meth:`~sogdd.calib.rig.connectivity.Connectivity.problem`: the groups named).
+        (:meth:`~sogdd.calib.rig.connectivity.Connectivity.problem`: the groups named),
+        a ``square`` out of range, or shared frames that disagree on the pose between two
+        cameras (:func:`~sogdd.calib.rig.frames.check_pairing`: the likely shift named).
 
     Examples
     --------
@@ -694,6 +707,8 @@ def calibrate_rig(
     (('cam0', 'cam1'), True, True)
     """
     names, blists, F = _check_boards(boards)
+    unit = check_square(square)
+    square = 1.0  # fitted in squares, every translation scaled to the square's unit at the end (in_unit)
     sizes = {n: check_size(s) for n, s in _per_camera(image_sizes, names, "image size").items()}
     mods = _per_camera(models, names, "model")
     _check_models(mods)
@@ -707,7 +722,7 @@ def calibrate_rig(
     mono = _mono(names, blists, sizes, mods, views, kw)
     _check_models({n: mono[n].model for n in names})  # "auto" may have chosen a model the fit cannot take
     notes: list[str] = []
-    poses = _relative_poses(names, mono, blists, pattern, float(square), notes)
+    poses = _relative_poses(names, mono, blists, pattern, float(square), notes, views)
     start = _align(names, mono, blists, poses, pattern, float(square))
     for n, m in start.relabelled.items():
         if m:
@@ -729,8 +744,9 @@ def calibrate_rig(
                   [np.zeros(6) if poses[n] is None else _to_vec(poses[n]) for n in names], start.frames.copy())
     private = [poses[n] is None for n in names]
     selections = {n: m.model_selection for n, m in mono.items()}
-    return _finish(names, states, par, frame_names, float(square), notes, start.resolved, private, selections,
-                   (reject, k, floor, min_views, min_corners, max_iterations))
+    rig = _finish(names, states, par, frame_names, float(square), notes, start.resolved, private, selections,
+                  (reject, k, floor, min_views, min_corners, max_iterations))
+    return in_unit(rig, unit)
 
 
 def _used_connectivity(names, states, private) -> Connectivity:

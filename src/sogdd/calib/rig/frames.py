@@ -6,21 +6,24 @@ matched by the number in their file names, the last run of digits in the stem
 or, when no file name holds a number, by their rank in sorted order. A frame that one
 camera lacks is an error unless it is explicitly allowed (``allow_missing``): a missing
 file is more often a copy gone wrong than a camera that did not fire, and matching the
-rest silently would pair images of different moments.
+rest silently would pair images of different moments. Nor can the names prove the pairing:
+:func:`check_pairing` tests it on the poses the frames give (the rig fit calls it).
 """
 
 from __future__ import annotations
 
 import os
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
-__all__ = ["frame_number", "match_frames"]
+__all__ = ["SHIFTS", "check_pairing", "frame_number", "match_frames"]
 
 _DIGITS = re.compile(r"\d+")
 #: how many of a camera's missing frame numbers an error names
 _SHOWN = 5
+#: the shifts of one camera's frames against another's that :func:`check_pairing` tries
+SHIFTS = (1, -1, 2, -2, 3, -3)
 
 
 def frame_number(path: str | os.PathLike) -> int | None:
@@ -127,3 +130,67 @@ def _by_rank(given: dict[str, list[str]]) -> tuple[tuple[str, ...], dict[str, tu
                          "the file names the frames are matched by sorted order, which needs the same count")
     n = next(iter(counts.values()))
     return tuple(str(k + 1) for k in range(n)), {name: tuple(sorted(files)) for name, files in given.items()}
+
+
+def check_pairing(first: str, second: str, off: int, shared: int, names_first: Sequence[str],
+                  names_second: Sequence[str], shifted: Callable[[int], tuple | None]) -> None:
+    """Stop (``ValueError``, one line) when the frames two cameras share do not agree on the pose between
+    them: when most disagree, or when pairing ``second``'s frames shifted by one of :data:`SHIFTS` makes
+    more of them agree.
+
+    Each camera's own calibration gives the board's pose :math:`P_{c,f}` in it, frame by frame, whatever
+    the pairing; the frames of a rig agree on one relative pose :math:`P_{2,f} P_{1,f}^{-1}` only when
+    each pairs images of one moment. Images paired one moment off (a file renamed, a camera that missed
+    a trigger) each give another relative pose, and a joint fit of them bends every camera's intrinsics
+    to reconcile them. With ``a_s`` of ``n_s`` frames agreeing with the consensus when ``second``'s frame
+    ``f + s`` is paired with ``first``'s frame ``f``, the pairing stops when ``2 off > shared``, or when the
+    best shift has ``2 a_s > n_s`` and ``a_s > shared - off``; the error names that shift if there is one.
+
+    Parameters
+    ----------
+    first, second : str
+        The cameras' names.
+    off, shared : int
+        Of the frames both used, how many disagree with the consensus, and how many there are.
+    names_first, names_second : sequence of str
+        Each camera's view name (its image file) per frame.
+    shifted : callable
+        ``shifted(s)``: ``(..., disagreeing, shared)`` (the last two items) with ``second``'s frames
+        shifted by ``s``, or None without a shared frame.
+
+    Examples
+    --------
+    >>> check_pairing("left", "right", 1, 12, ["l1"] * 14, ["r1"] * 14, lambda s: (0, 12 - abs(s)))
+    >>> check_pairing("left", "right", 11, 12, [f"l{k}" for k in range(14)], [f"r{k}" for k in range(14)],
+    ...               lambda s: (0, 11) if s == 1 else (10, 11))
+    Traceback (most recent call last):
+    ...
+    ValueError: the shared frames disagree: in 11 of the 12 frames cameras left and right both used, the pose \
+between them is not the one the other frames give, so their images are not paired by the moment they were \
+taken; with camera right's frames shifted by +1 (l0 with r1, l1 with r2, ...), 11 of 11 agree: camera \
+right's file names (or their order) look 1 frame(s) off; rename them so that each frame's images share its \
+number, then run again
+    """
+    tried = []
+    for s in SHIFTS:
+        rel = shifted(s)
+        if rel is not None:
+            tried.append((rel[-1] - rel[-2], rel[-1], s))
+    best = max(tried, key=lambda x: (x[0], -abs(x[2])), default=None)
+    fits = best is not None and 2 * best[0] > best[1] and best[0] > shared - off
+    if 2 * off <= shared and not fits:
+        return
+    head = (f"the shared frames disagree: in {off} of the {shared} frames cameras {first} and {second} both "
+            "used, the pose between them is not the one the other frames give, so their images are not paired "
+            "by the moment they were taken")
+    if best is None or not fits:
+        raise ValueError(f"{head}, and no shift of the pairing by up to {max(SHIFTS)} frames makes them "
+                         "agree: check that the cameras were synchronised and that each frame's images are of "
+                         "one moment")
+    k, total, s = best
+    F = len(names_first)
+    shown = ", ".join(f"{names_first[f]} with {names_second[f + s]}"
+                      for f in range(max(0, -s), min(F, F - s))[:2])
+    raise ValueError(f"{head}; with camera {second}'s frames shifted by {s:+d} ({shown}, ...), {k} of {total} "
+                     f"agree: camera {second}'s file names (or their order) look {abs(s)} frame(s) off; rename "
+                     "them so that each frame's images share its number, then run again")

@@ -23,14 +23,12 @@ one board per image (``boards="best"``: a frame is one pose of one board).
 from __future__ import annotations
 
 import os
-import re
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Literal
 
-from ...collection import expand_inputs, relative_names
-from ...formats.safe_write import TMP_SUFFIX, check_input_files
+from ...collection import relative_names
 from ..detection import (
     BOARD_CHOICES,
     THUMB_WIDTH,
@@ -45,14 +43,16 @@ from ..model_selection import ModelChoice, check_model_choice, select_model
 from ..session import (
     ParameterError,
     check_detections,
+    check_inputs,
     check_output_folder,
     check_run_parameters,
     common_image_size,
-    foreign_entry,
+    expand_images,
+    foreign_rig_entry,
     write_folder,
 )
 from ..targets.spec import BoardSpec, parse_board
-from .files import RIG_FILES, check_camera_names, write_rig
+from .files import check_camera_names, write_rig
 from .fit import calibrate_rig
 from .frames import match_frames
 from .result import RigCalibration
@@ -61,8 +61,6 @@ __all__ = ["RigImageCalibration", "calibrate_rig_images", "calibrate_rig_into", 
            "foreign_rig_entry", "write_rig_outputs"]
 
 Inputs = str | os.PathLike | Iterable[str | os.PathLike]
-_FIGURE = re.compile(r"(extrinsics|errors|(uncertainty|rectified)_[A-Za-z0-9_-]+)\.png")
-_CAMERA_FOLDER = re.compile(r"[A-Za-z0-9_-]+")
 
 
 @dataclass(frozen=True)
@@ -149,7 +147,7 @@ def _expand(cameras: Mapping[str, Inputs], recursive: bool) -> dict[str, list[Pa
     owner: dict[str, str] = {}
     for name, inputs in cameras.items():
         given = [inputs] if isinstance(inputs, (str, os.PathLike)) else list(inputs)
-        paths = expand_inputs([os.fspath(g) for g in given], recursive=recursive)
+        paths = expand_images(given, recursive=recursive)
         if not paths:
             raise ParameterError("{camera} {name}: no input images", camera="camera", name=name)
         for p in paths:
@@ -268,8 +266,9 @@ one board
         labels[n] = [f"(frame {f}: no image)" if p is None else next(rel) for f, p in zip(frames, per[n])]
     sizes = {n: _camera_says(n, common_image_size, [r for r in results[n] if r is not None]) for n in names}
     views = {n: [r.boards[0] if r is not None and r.boards else None for r in results[n]] for n in names}
-    chosen, selection = _choose_models(models, views, sizes, float(square), reject, min_views)
-    rig = calibrate_rig(views, sizes, square=float(square), models=chosen, frames=frames, view_names=labels,
+    unit = float(square) * spec.label_step  # the board length of one label step
+    chosen, selection = _choose_models(models, views, sizes, unit, reject, min_views)
+    rig = calibrate_rig(views, sizes, square=unit, models=chosen, frames=frames, view_names=labels,
                         pattern=spec.pattern, reject=reject, min_views=min_views)
     if selection:
         rig = replace(rig, model_selection=selection)
@@ -331,34 +330,14 @@ def _records(name: str, results: list[ViewResult | None], labels: list[str],
 # the output folder
 
 
-def foreign_rig_entry(folder: Path) -> str | None:
-    """None if ``folder`` holds only what :func:`write_rig_outputs` writes, else the first entry it did not."""
-    for p in sorted(folder.iterdir()):
-        if p.name.endswith(TMP_SUFFIX):
-            continue
-        if p.name in (*RIG_FILES, "report.html") and p.is_file():
-            continue
-        if not p.is_dir() or p.is_symlink():
-            return p.name
-        if p.name == "report":
-            odd = next((q for q in sorted(p.iterdir()) if not _FIGURE.fullmatch(q.name)
-                        and not q.name.endswith(TMP_SUFFIX)), None)
-            if odd is not None:
-                return f"report/{odd.name}"
-            continue
-        # a camera's folder: its files (as a one-camera output), camera.yaml always among them
-        odd = foreign_entry(p) if _CAMERA_FOLDER.fullmatch(p.name) and (p / "camera.yaml").is_file() else ""
-        if odd is not None:
-            return f"{p.name}/{odd}" if odd else p.name
-    return None
-
-
 def check_rig_output_folder(out: str | os.PathLike, inputs: Iterable[str | os.PathLike] = ()) -> Path:
     """Whether :func:`write_rig_outputs` may write ``out``: a one-line ``ValueError`` if not, else its path.
 
     As :func:`sogdd.calib.check_output_folder`, a previous output being a rig's:
     rig.yaml, rig.json, report.html, its figures in report/, and per camera a
-    folder of its own files (:data:`sogdd.calib.session.OUTPUTS`) and nothing else.
+    folder of its own files (:data:`sogdd.calib.session.OUTPUTS`) and nothing else
+    (:func:`sogdd.calib.session.foreign_rig_entry`); a one-camera run's output is
+    replaced too.
     """
     return check_output_folder(out, inputs, previous=foreign_rig_entry)
 
@@ -427,7 +406,7 @@ def calibrate_rig_into(
 
     Every check comes before any work: the parameters and the rig's rules
     (:func:`calibrate_rig_images`), each camera's inputs (at least one, none of
-    them a device or a FIFO: :func:`sogdd.formats.safe_write.check_input_files`) and
+    them a device or a FIFO, every name valid UTF-8: :func:`sogdd.calib.session.check_inputs`) and
     ``out`` (:func:`check_rig_output_folder`). Then :func:`calibrate_rig_images`
     and :func:`write_rig_outputs`: the folder ends complete, or as it was.
 
@@ -455,7 +434,7 @@ def calibrate_rig_into(
     ------
     ParameterError, ValueError
         One line, as :func:`calibrate_rig_images`; also an input that is a device,
-        a FIFO or a socket, and an ``out`` that may not be written.
+        a FIFO or a socket, or whose name is not valid UTF-8, and an ``out`` that may not be written.
     OSError
         A write failed; ``out`` was left as it was.
     sogdd.collection.BatchInterrupted
@@ -481,7 +460,7 @@ def calibrate_rig_into(
     check_read_options(read_options)
     paths = _expand(cameras, recursive)
     every = [p for ps in paths.values() for p in ps]
-    check_input_files(every)  # a device or a FIFO would be read for ever
+    check_inputs(every)  # a device or a FIFO would be read for ever; a name no output can hold
     check_rig_output_folder(out, every)
     result = calibrate_rig_images(paths, spec, square=square, model=model, boards=boards, jobs=jobs,
                                   scheduler=scheduler, min_views=min_views, reject=reject,

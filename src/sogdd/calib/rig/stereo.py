@@ -11,6 +11,7 @@ rectified images, where a point's two images share one row.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Literal
 
@@ -26,6 +27,11 @@ __all__ = ["StereoPair", "rectify_points", "stereo_pair"]
 @dataclass(frozen=True)
 class StereoPair:
     """Two cameras as ``cv2.stereoCalibrate`` and ``cv2.stereoRectify`` describe them.
+
+    Read by name (``pair.F``), or unpacked as OpenCV gives them, the nine
+    matrices in the order of ``stereoCalibrate``'s ``R, T, E, F`` and
+    ``stereoRectify``'s ``R1, R2, P1, P2, Q``:
+    ``R, T, E, F, R1, R2, P1, P2, Q = stereo_pair(rig)``.
 
     Attributes
     ----------
@@ -56,13 +62,28 @@ class StereoPair:
     image_size: tuple[int, int]
     names: tuple[str, str]
 
+    def __iter__(self) -> Iterator[np.ndarray]:
+        """``R, T, E, F, R1, R2, P1, P2, Q``, in that order (not ``image_size`` nor ``names``).
+
+        Examples
+        --------
+        >>> from sogdd.calib.rig.demo import demo_rig
+        >>> R, T, E, F, R1, R2, P1, P2, Q = stereo_pair(demo_rig())
+        >>> bool(np.allclose(E, _cross(T) @ R)), P2.shape, Q.shape
+        (True, (3, 4), (4, 4))
+        """
+        return iter((self.R, self.T, self.E, self.F, self.R1, self.R2, self.P1, self.P2, self.Q))
+
 
 def _cross(t: np.ndarray) -> np.ndarray:
     return np.array([[0.0, -t[2], t[1]], [t[2], 0.0, -t[0]], [-t[1], t[0], 0.0]])
 
 
 def stereo_pair(rig: RigCalibration, first: str | None = None, second: str | None = None) -> StereoPair:
-    """Two cameras of a rig as a stereo pair, in OpenCV's conventions.
+    """Two cameras of a rig as a stereo pair, in OpenCV's conventions: ``R, T, E, F, R1, R2, P1, P2, Q``.
+
+    The :class:`StereoPair` unpacks as those nine
+    (``R, T, E, F, R1, R2, P1, P2, Q = stereo_pair(rig)``) and holds them by name.
 
     By default the two cameras of a two-camera rig; ``first`` and ``second``
     name any two cameras of a larger one, with :math:`R = R_2 R_1^T`,
