@@ -4,7 +4,8 @@ CI has no GPU. numba's CUDA simulator runs the same kernel source (shared memory
 barriers, atomics) in Python threads; it must be switched on before numba.cuda
 is first imported, so the GPU side runs in one subprocess with
 NUMBA_ENABLE_CUDASIM=1 that saves its results, and the tests compare them with
-the CPU path here. The simulator is slow: images are tiny.
+the CPU path here. The simulator is slow: images are tiny, and the tests that read its results are
+marked ``slow`` (the one subprocess takes about a minute on two cores).
 """
 
 from __future__ import annotations
@@ -139,6 +140,7 @@ def _rel_err(gpu: np.ndarray, cpu: np.ndarray) -> np.ndarray:
     return np.abs(gpu - cpu)[big] / np.abs(cpu)[big]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name,shape,preset,kw", RESPONSE_CASES, ids=[c[0] for c in RESPONSE_CASES])
 def test_response_matches_cpu(sim, name, shape, preset, kw):
     cpu = sogdd.corner_response(shapes_image(shape), preset=preset, **kw)
@@ -153,6 +155,7 @@ def test_response_matches_cpu(sim, name, shape, preset, kw):
     assert np.abs(gpu[fin] - cpu[fin]).max() <= 1e-10 * np.abs(cpu[fin]).max()
 
 
+@pytest.mark.slow
 def test_detection_matches_cpu(sim):
     img = shapes_image((24, 31))
     for key, im in (("det", img), ("dev", np.round(img * 255).astype(np.uint8))):
@@ -166,6 +169,7 @@ def test_detection_matches_cpu(sim):
         assert np.abs(xy - cpu.xy).max() < (1e-6 if key == "det" else 1e-3)
 
 
+@pytest.mark.slow
 def test_hr_detection_matches_cpu(sim):
     """hr on the device: Gaussian window in the kernel, grey units, the X-junction and adaptive refinement."""
     cpu = sogdd.detect_corners(junction_image(), preset="hr")
@@ -177,6 +181,7 @@ def test_hr_detection_matches_cpu(sim):
         assert np.abs(sim[key + "_xy"] - cpu.xy).max() < 1e-6
 
 
+@pytest.mark.slow
 def test_pyramid_matches_cpu(sim):
     u8 = np.round(shapes_image((40, 50)) * 255).astype(np.uint8)  # level 1 holds a keypoint (17 px)
     cpu = sogdd.detect_corners(u8, threshold=1e7, levels=2, border=3)
@@ -186,6 +191,7 @@ def test_pyramid_matches_cpu(sim):
     assert np.abs(sim["lev_xy"] - cpu.xy).max() < 1e-6
 
 
+@pytest.mark.slow
 def test_coincident_points_merged_before_the_cut_as_on_cpu(sim):
     """Two peaks refined onto one point are one corner on the device too, and max_corners is refilled."""
     img = edge_triangle_image()
@@ -200,6 +206,7 @@ def test_coincident_points_merged_before_the_cut_as_on_cpu(sim):
         assert np.abs(xy - cpu.xy).max() < (1e-6 if key == "tri" else 1e-3)
 
 
+@pytest.mark.slow
 def test_detection_with_border_matches_cpu(sim):
     """Maxima on the last valid row or column are judged within the valid area, as on the CPU."""
     cpu = sogdd.detect_corners(shapes_image((24, 31)), threshold=1.0, border=5, nms_radius=2, subpixel=False)
@@ -207,6 +214,7 @@ def test_detection_with_border_matches_cpu(sim):
     np.testing.assert_array_equal(sim["border_xy"], cpu.xy)
 
 
+@pytest.mark.slow
 def test_device_stack_batch(sim):
     u8 = np.round(shapes_image((24, 31)) * 255).astype(np.uint8)
     for j, part in enumerate([u8[:, :16], u8[:, 15:]]):

@@ -14,7 +14,8 @@ them here, so a setting means the same on both:
    refinement (the latter needs the final neighbours), the drop of points that
    it moved out of the border or mask, and the merge: a point within
    :data:`~sogdd.select.refine.COINCIDENT` px of a stronger one is that one
-   (two local maxima of one vertex refine onto one point). The merge comes
+   (two local maxima of one vertex refine onto one point, or, where one
+   refinement is refused, to within half a pixel of it). The merge comes
    before the ``max_corners`` cut, which is refilled from the next candidates
    (:func:`sogdd.select.refine.first_distinct`), so ``max_corners=N`` gives N
    distinct corners where the image holds them; the local maxima themselves

@@ -66,15 +66,20 @@ __all__ = [
 #: points per thread below which gradient refinement stays on one thread
 _REFINE_CHUNK = 512
 
-#: points that sub-pixel refinement brings within this many px of a stronger one are that point.
+#: points that sub-pixel refinement leaves within this many px of a stronger one are that point.
 #: Two local maxima of Upsilon around one vertex (``nms_radius=1`` keeps maxima >= 2 px apart, and
-#: a plateau once) converge to one fixed point of the gradient refinement, to its tolerance: on the
-#: 12 shared repeatability photos the ``paper`` preset's coincident pairs lie within 1e-3 px (most
-#: within 1e-4 px, the iteration's ``tol`` 1e-5 px times its conditioning), ``hr``'s adaptive ones
-#: within 0.005 px, and no two distinct corners of any preset are closer than 0.2 px. 0.1 px lies
-#: in that gap, two orders of magnitude above the one and a factor 2 below the other, and far below
-#: the scale sigma ~ 1.1 px at which the measure can tell two corners apart.
-COINCIDENT = 0.1
+#: a plateau once) mostly converge to one fixed point of the gradient refinement, to its tolerance
+#: (within 1e-3 px). But a point that the refinement refuses (no convergence in ``max_iter`` steps,
+#: a singular window, a move beyond the half-window) keeps its quadratic peak, and a flat window can
+#: hold two fixed points: on the 12 shared repeatability photos, with a radius of 0.1 px, ``paper``
+#: kept 4 pairs 0.29-0.48 px apart (both points unrefined, one of each, or two fixed points), ``hr``
+#: 2 (0.21 and 0.49 px). Half a pixel, the radius, is the finest separation at which two points can be
+#: two corners of the sampled image: the image has one sample per pixel, the measure smooths at sigma
+#: ~ 1.1 px, and two refinement windows (7 x 7 in ``paper``) centred 0.5 px apart share 86 % of their
+#: pixels, so both positions are estimates of one corner from the same data. The closest distinct
+#: corners a pixel grid resolves, the two corners at the end of a 1-px line, are twice as far apart.
+#: The merge keeps the stronger point as it is: no position moves, the local maxima are the paper's.
+COINCIDENT = 0.5
 
 
 def refine_quadratic(
