@@ -41,7 +41,9 @@ def edge_links(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray) -> tuple[fl
     A link between label neighbours ``p, q`` of a true board runs along an edge
     between a dark and a light square: at ``t = 1/4, 1/2, 3/4`` of the way the
     image differs across the link, ``I(m + d n) - I(m - d n)`` (``n`` the link's
-    normal, ``d = max(0.1 |q - p|, 1)`` px), with one sign and at least
+    normal, ``d = max(0.15 |q - p|, 1)`` px: far enough from the edge that a blur
+    of a fifth of a cell leaves most of the contrast against the noise, and within
+    the 0.2 of a cell a code printed in the squares keeps clear), with one sign and at least
     :data:`EDGE_CONTRAST` of the median difference of the board's links along the
     same axis (``i`` or ``j``): a motion blur smears the edges across it and a tilt
     shortens the links of one axis, which lowers that axis's contrast (by 3.5
@@ -58,7 +60,7 @@ def edge_links(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray) -> tuple[fl
     v = q - p
     length = np.hypot(v[:, 0], v[:, 1])
     n = np.stack([-v[:, 1], v[:, 0]], axis=1) / np.maximum(length, 1e-9)[:, None]
-    d = np.maximum(0.1 * length, 1.0)[:, None] * n
+    d = np.maximum(0.15 * length, 1.0)[:, None] * n
     diff = np.stack([bilinear(grey, p + t * v + d) - bilinear(grey, p + t * v - d)
                      for t in (0.25, 0.5, 0.75)])
     scale = np.zeros(len(a))
