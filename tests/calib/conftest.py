@@ -500,3 +500,73 @@ def render():
     :func:`random_poses`, :func:`camera_for`, :func:`in_frame`,
     ``Camera`` and ``LEVELS``."""
     return Renderer()
+
+
+# ---------------------------------------------------------------------------------------------
+# the reports' figures as drawn, for the tests of their layout
+
+
+def _hidden_tick_labels(fig) -> set[int]:
+    """The ids of the tick labels whose place cannot be measured: beyond their axis's limits (kept, not
+    drawn), or of a 3-D axes."""
+    hidden = set()
+    for ax in fig.axes:
+        if hasattr(ax, "zaxis"):  # a 3-D axes places its tick labels while drawing: their extents are not kept
+            hidden |= {id(t) for axis in (ax.xaxis, ax.yaxis, ax.zaxis)
+                       for t in (*axis.get_majorticklabels(), *axis.get_minorticklabels())}
+            continue
+        for axis in (ax.xaxis, ax.yaxis):
+            lo, hi = sorted(axis.get_view_interval())
+            pairs = [*zip(axis.get_majorticklocs(), axis.get_majorticklabels()),
+                     *zip(axis.get_minorticklocs(), axis.get_minorticklabels())]
+            slack = 1e-9 * max(abs(lo), abs(hi), 1.0)
+            hidden |= {id(t) for loc, t in pairs if not lo - slack <= loc <= hi + slack}
+    return hidden
+
+
+def text_overlaps(fig) -> list[str]:
+    """Each drawn text of ``fig`` that leaves the figure, or runs over an axes other than its own (a colour
+    bar beside a title)."""
+    from matplotlib.text import Text
+
+    out = []
+    renderer = fig.canvas.get_renderer()
+    frame = fig.bbox
+    hidden = _hidden_tick_labels(fig)
+    for t in fig.findobj(Text):
+        if not t.get_visible() or not t.get_text().strip() or id(t) in hidden:
+            continue
+        box = t.get_window_extent(renderer)
+        if min(box.x0 - frame.x0, box.y0 - frame.y0, frame.x1 - box.x1, frame.y1 - box.y1) < -1:
+            out.append(f"{t.get_text()!r} leaves the figure")
+        own = t.axes
+        for ax in fig.axes:
+            if ax is not own and own is not None and ax.get_visible() and box.overlaps(ax.bbox):
+                out.append(f"{t.get_text()!r} runs over another axes")
+    return out
+
+
+@pytest.fixture
+def drawn_figures(monkeypatch):
+    """Every figure the reports save, by file name, drawn and kept open (``save_figure`` still writes it);
+    ``.overlaps(fig)``: :func:`text_overlaps`."""
+    import matplotlib.pyplot as plt
+
+    import sogdd.calib.figures as figures
+    import sogdd.calib.report_figures as report_figures
+    import sogdd.calib.rig.report as rig_report
+
+    kept: dict = {}
+
+    def keep(fig, path):
+        fig.canvas.draw()
+        if path.name in kept:  # another camera's figure of that name: the last one is kept
+            plt.close(kept[path.name])
+        kept[path.name] = fig
+        figures.atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=100, format="png"))
+
+    for module in (figures, report_figures, rig_report):
+        monkeypatch.setattr(module, "save_figure", keep)
+    yield SimpleNamespace(figures=kept, overlaps=text_overlaps)
+    for fig in kept.values():
+        plt.close(fig)

@@ -121,7 +121,7 @@ def test_views_csv_and_camera_json_account_for_every_input(cal, tmp_path):
     assert [r["view"] for r in rows] == [v.name for v in views]
     assert rows[3] == {"view": "bad.png", "corners_found": "0", "corners_used": "0", "rms": "", "used": "0",
                        "reason": "in/bad.png: not a readable image", "status": "unreadable", "precision_px": "",
-                       "weight": "", "source": ""}
+                       "weight": "", "source": "", "reasons": ""}
     assert rows[4]["view"] == "f3.png" and rows[4]["corners_found"] == "54"
     js = json.loads(files["camera.json"].read_text())
     assert js["rejected_views"]["bad.png"] == "in/bad.png: not a readable image"

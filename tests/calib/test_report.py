@@ -2,13 +2,18 @@
 
 from __future__ import annotations
 
+import dataclasses
+import re
+
 import cv2
 import numpy as np
 import pytest
 
 from sogdd.calib.cameras import project
+from sogdd.calib.demo import demo_calibration
 from sogdd.calib.fit import calibrate
-from sogdd.calib.report import write_report
+from sogdd.calib.report import OVERLAY_WIDTH, write_report
+from sogdd.calib.report_figures import camera_poses_figure, distortion_field, residual_histogram
 from sogdd.calib.targets.board import Board
 from sogdd.calib.verdict import coverage, verdict
 
@@ -96,3 +101,82 @@ def test_verdict_says_when_the_board_never_tilts(synthetic):
     assert "the board faces the camera in every view" in _texts(cal)
     tilted = calibrate(_boards(12, noise=0.05, seed=31), SIZE)
     assert "faces the camera" not in _texts(tilted)
+
+
+# --------------------------------------------------------------------------------------------------
+# the figures a reader of MATLAB's Camera Calibrator or mrcal looks for
+
+
+def _demo_page(tmp_path, images=None):
+    cal = demo_calibration()
+    return cal, write_report(cal, tmp_path / "out", images=images)
+
+
+def test_each_bar_of_the_error_chart_links_its_view(tmp_path):
+    """The image map has a column per view over its bar, each linking to an anchor the page holds."""
+    cal, page = _demo_page(tmp_path)
+    text = page.read_text()
+    chart = cv2.imread(str(page.parent / "report" / "errors_per_view.png"))
+    assert "usemap='#view-errors'" in text and '<map name="view-errors">' in text
+    areas = re.findall(r'<area shape="rect" coords="(\d+),(\d+),(\d+),(\d+)" href="#view-(\d+)"', text)
+    assert [int(a[4]) for a in areas] == list(range(len(cal.names)))
+    for x0, y0, x1, y1, v in (tuple(map(int, a)) for a in areas):
+        assert f'<figure id="view-{v}">' in text and cal.names[v] in text
+        assert 0 <= x0 < x1 <= chart.shape[1] and 0 <= y0 < y1 <= chart.shape[0]
+        bottom = chart[y1 - 3, (x0 + x1) // 2]  # just above the axis: the bar, blue, where the view was used
+        is_bar = bool(np.all(np.abs(bottom.astype(int) - (180, 119, 31)) < 30))  # tab:blue in BGR
+        assert is_bar == bool(cal.view_used[v]), v
+    assert chart.shape[1] <= 1084  # the page's column: the map's coordinates are the picture's own
+
+
+def test_thumbnails_link_to_the_views_at_the_image_size(tmp_path):
+    images = [np.full((480, 640), 100, np.uint8)] * 9
+    cal, page = _demo_page(tmp_path, images)
+    text = page.read_text()
+    for v in range(len(cal.names)):
+        assert f'<a href="report/overlay_{v:04d}.png"><img src="report/view_{v:04d}.png"' in text
+        full = cv2.imread(str(page.parent / "report" / f"overlay_{v:04d}.png"))
+        assert full.shape[:2] == (480, 640)
+    full = cv2.imread(str(page.parent / "report" / "overlay_0000.png"))
+    projected = np.all(full == (255, 0, 255), axis=2)  # each corner's projection, a magenta cross
+    assert projected.sum() > 54
+    big = dataclasses.replace(cal, image_size=(2560, 1920))  # a larger sensor: the overlay is capped
+    wide = write_report(big, tmp_path / "wide", images=[np.zeros((1920, 2560), np.uint8)] * 9)
+    assert cv2.imread(str(wide.parent / "report" / "overlay_0001.png")).shape[1] == OVERLAY_WIDTH < 2560
+
+
+def test_the_distortion_map_peaks_at_the_frame_corner_as_the_model_says(tmp_path, drawn_figures):
+    """The map's maximum is the model's distortion at a corner of the frame: OpenCV's inverse of the lens
+    (cv2.undistortPoints, iterated to convergence) projected by the pinhole of the same K."""
+    cal, page = _demo_page(tmp_path)
+    assert (page.parent / "report" / "distortion.png").stat().st_size > 5000
+    w, h = cal.image_size
+    corners = np.array([[0, 0], [w - 1, 0], [0, h - 1], [w - 1, h - 1]], float)
+    stop = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 200, 1e-14)
+    ideal = cv2.undistortPoints(corners[:, None], cal.K, cal.dist, None, cal.K, criteria=stop).reshape(-1, 2)
+    expected = np.max(np.hypot(*(corners - ideal).T))
+    field = distortion_field(cal)
+    assert field.max == pytest.approx(expected, rel=1e-4)
+    assert expected > 20  # k1 = -0.2 at 640 x 480: tens of pixels at the corners, none at the centre
+    assert field.magnitude[len(field.ys) // 2, len(field.xs) // 2] < 0.5
+    assert f"up to {expected:.2f} px over the frame" in page.read_text()
+    assert f"max {expected:.2f} px" in drawn_figures.figures["distortion.png"].axes[0].get_title()
+
+
+def test_the_histogram_counts_every_used_corner_and_the_poses_every_used_view(tmp_path, drawn_figures):
+    cal, page = _demo_page(tmp_path)
+    text = page.read_text()
+    for name in ("residual_histogram.png", "poses.png", "errors_per_view.png", "distortion.png"):
+        assert f"report/{name}" in text and (page.parent / "report" / name).stat().st_size > 5000
+    assert residual_histogram(cal, tmp_path / "h.png") == 2 * cal.n_corners_used
+    assert camera_poses_figure(cal, tmp_path / "p.png") == cal.n_used == 8
+    poses = drawn_figures.figures["p.png"].axes[0]
+    assert len(poses.lines) == 8 + 1 + 4  # the boards, then the camera's frustum: its far frame, 4 edges
+    assert [t.get_text() for t in poses.get_legend().get_texts()] == ["camera"]
+
+
+def test_no_title_or_label_leaves_its_figure_or_runs_over_a_colour_bar(tmp_path, drawn_figures):
+    _demo_page(tmp_path)
+    assert len(drawn_figures.figures) >= 7
+    for name, fig in drawn_figures.figures.items():
+        assert drawn_figures.overlaps(fig) == [], name

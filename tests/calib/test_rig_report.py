@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import dataclasses
+import re
 
 import numpy as np
 import pytest
 
 from sogdd.calib.detection import Thumbnail
+from sogdd.calib.model_selection import CandidateScore, ModelSelection
+from sogdd.calib.report import selection_table
 from sogdd.calib.rig.demo import DEMO_RIG, demo_rig, demo_rig_boards
 from sogdd.calib.rig.files import rig_dict
 from sogdd.calib.rig.fit import calibrate_rig
@@ -91,23 +94,59 @@ def test_the_report_shows_the_figures_rig_json_holds(tmp_path):
     assert check.points[0].keys() == check.points[1].keys()
 
 
-def test_a_model_selection_table_is_shown(tmp_path):
-    @dataclasses.dataclass
-    class Row:
-        model: str
-        cv_rms: float
-
-    @dataclasses.dataclass
-    class Selection:
-        chosen: str
-        table: tuple
-        rule: str
-
-    rig = dataclasses.replace(demo_rig(), model_selection={
-        "left": Selection("pinhole4", (Row("pinhole4", 0.051), Row("pinhole", 0.052)),
-                          "the simplest within noise")})
+def test_a_model_selection_table_is_shown_as_in_the_camera_report(tmp_path):
+    """Fixed decimals, the chosen model marked, "within noise" in words: no True/False, no e-notation."""
+    rows = (CandidateScore("pinhole4", 4, 0.0501, 0.051, 0.0012, 1.6e-6, 8.4e-6, True),
+            CandidateScore("pinhole", 5, 0.0500, 0.051, 0.0011, 0.0, 0.0, True),
+            CandidateScore("rational", 8, 0.0499, 0.7225, 0.3777, 0.7084, 0.7408, False))
+    sel = ModelSelection("pinhole4", rows, (), "the simplest within noise")
+    rig = dataclasses.replace(demo_rig(), model_selection={"left": sel})
     text = write_rig_report(rig, tmp_path).read_text()
-    assert "Lens model chosen by the data" in text and "pinhole4" in text and "0.051" in text
+    table = text.split("Lens model chosen by the data")[1]
+    assert "<h3>left: pinhole4</h3>" in table and "<b>pinhole4</b>" in table
+    assert "chosen" in table and "within noise" in table and "0.0510 &plusmn; 0.0012" in table
+    assert "True" not in table and "False" not in table and not re.search(r"\de-\d", table)
+    assert selection_table(sel) in table  # the one-camera report's table, not a second one
+
+
+def test_no_title_runs_under_a_colour_bar_nor_leaves_its_figure(tmp_path, drawn_figures):
+    write_rig_report(demo_rig(), tmp_path)
+    names = set(drawn_figures.figures)
+    assert {"uncertainty_left.png", "uncertainty_right.png", "extrinsics.png", "rectified_right.png"} <= names
+    for name, fig in drawn_figures.figures.items():
+        assert drawn_figures.overlaps(fig) == [], name
+
+
+def test_the_cameras_are_named_in_a_legend_not_on_top_of_each_other(tmp_path, drawn_figures):
+    rig = demo_rig()
+    write_rig_report(rig, tmp_path)
+    ax = drawn_figures.figures["extrinsics.png"].axes[0]
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == [c.name for c in rig.cameras]
+    assert len(ax.texts) == 0  # no label at the cameras' centres, a baseline apart at the figure's scale
+
+
+def test_no_marker_is_drawn_outside_a_rectified_image(tmp_path, drawn_figures, monkeypatch):
+    """A corner the rectification maps off the picture is not drawn, and the picture keeps its frame."""
+    import sogdd.calib.rig.report as module
+
+    def far_off(rig, name):
+        check = rectified_pair(rig, name)
+        other = dict(check.points[1])
+        other[(99, 99)] = np.array([-400.0, 2000.0])  # far outside the rectified image
+        return dataclasses.replace(check, points=(check.points[0], other))
+
+    monkeypatch.setattr(module, "rectified_pair", far_off)
+    thumbs = {c.name: [Thumbnail(np.full((180, 240), 128, np.uint8), 0.375)] * len(demo_rig().frames)
+              for c in demo_rig().cameras}
+    write_rig_report(demo_rig(), tmp_path, thumbnails=thumbs)
+    fig = drawn_figures.figures["rectified_right.png"]
+    for ax in fig.axes:
+        x0, x1, y1, y0 = ax.get_images()[0].get_extent()
+        assert ax.get_xlim() == (x0, x1) and ax.get_ylim() == (y1, y0)
+        markers = [line for line in ax.lines if line.get_marker() == "+"]
+        xy = np.concatenate([line.get_xydata() for line in markers])
+        assert len(xy) == 54  # the board's corners, without the one off the picture
+        assert np.all((xy >= [x0, y0]) & (xy <= [x1, y1]))
 
 
 @pytest.mark.parametrize("name", ["left", "right"])

@@ -147,8 +147,9 @@ def test_calibrate_into_checks_the_output_folder_before_any_work(inputs, tmp_pat
 
 def test_the_report_never_reads_an_image_file(inputs, tmp_path, monkeypatch):
     reads = []
-    real, imread = detection.read_image, cv2.imread
-    monkeypatch.setattr(detection, "read_image", lambda p, **kw: reads.append(p) or real(p, **kw))
+    real, imread = detection.read_image_and_orientation, cv2.imread
+    monkeypatch.setattr(detection, "read_image_and_orientation",
+                        lambda p, **kw: reads.append(p) or real(p, **kw))
     res = calibrate_images(inputs, "chessboard:9x6")
     assert sorted(map(str, reads)) == sorted(str(p) for p in inputs.iterdir())  # each once
     import sogdd
@@ -193,7 +194,9 @@ def test_a_rerun_with_fewer_views_leaves_no_stale_figures(result, inputs, render
     few = calibrate_images([rendered_frames / f"f{k}.png" for k in range(3)], "chessboard:9x6")
     write_outputs(few, out)
     assert sorted(p.name for p in (out / "report").iterdir()) == [
-        "coverage.png", "residuals.png", "view_0000.png", "view_0001.png", "view_0002.png"]
+        "coverage.png", "distortion.png", "errors_per_view.png", "overlay_0000.png", "overlay_0001.png",
+        "overlay_0002.png", "poses.png", "residual_histogram.png", "residuals.png", "view_0000.png",
+        "view_0001.png", "view_0002.png"]
     assert len(list(csv.DictReader(open(out / "views.csv")))) == 3
     assert [p.name for p in tmp_path.iterdir()] == ["calib"]  # no folder left beside it
 
@@ -290,14 +293,15 @@ KILLER = '''
 import os, signal, sys
 from sogdd.calib import calibrate_images, detection
 
-real = detection.read_image
+real = detection.read_image_and_orientation
 
 def read_or_die(path, **kw):  # the out-of-memory killer, deterministically, in the worker
     if str(path).endswith("f3.png"):
         os.kill(os.getpid(), signal.SIGKILL)
     return real(path, **kw)
 
-detection.read_image = read_or_die  # forked workers inherit it (this fresh process ran no parallel code)
+# forked workers inherit it (this fresh process ran no parallel code)
+detection.read_image_and_orientation = read_or_die
 res = calibrate_images(sys.argv[1], "chessboard:9x6", jobs=2)
 for v in res.views:
     print(v.name, v.status, v.reason, sep="|")

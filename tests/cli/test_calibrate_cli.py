@@ -275,7 +275,9 @@ def test_a_rerun_with_fewer_views_leaves_no_stale_figures(frames, tmp_path, caps
                            "--out", out)
     assert code == _done(text), err
     assert sorted(p.name for p in (out / "report").iterdir()) == [
-        "coverage.png", "residuals.png", "view_0000.png", "view_0001.png", "view_0002.png"]
+        "coverage.png", "distortion.png", "errors_per_view.png", "overlay_0000.png", "overlay_0001.png",
+        "overlay_0002.png", "poses.png", "residual_histogram.png", "residuals.png", "view_0000.png",
+        "view_0001.png", "view_0002.png"]
     assert [p.name for p in tmp_path.iterdir()] == ["calib"]
 
 

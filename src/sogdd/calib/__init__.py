@@ -13,9 +13,12 @@ A client of the core (:mod:`sogdd.detector` and its stages); the core never impo
 :mod:`.result`: :class:`Calibration`, the result with its diagnostics.
 :mod:`.detection`: boards in image files, over many files (each image read once).
 :mod:`.session`: :func:`calibrate_images`, image files to a camera and every view's fate; its output folder.
+:mod:`.video`: a calibration's views chosen from a video (sharp, new poses, new coverage), and its fit.
 :mod:`.verdict`: what a calibration is worth, in plain words.
 :mod:`.drift`: :func:`~.drift.check_calibration`, new views checked against a stored camera or rig.
 :mod:`.files`: camera.yaml (OpenCV FileStorage), camera.json, views.csv, corners.csv.
+:mod:`.figures`: the figure helpers the reports share (pyplot, saving a PNG, cameras and board poses in 3-D).
+:mod:`.report_figures`: the one-camera report's figures (errors per view, residuals, distortion field, poses).
 :mod:`.report`: the HTML report with its figures.
 :mod:`.demo`: a small known calibration for examples.
 :mod:`.rig`: camera rigs, several cameras calibrated together (:func:`~sogdd.calib.rig.calibrate_rig`).

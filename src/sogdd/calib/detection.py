@@ -14,14 +14,14 @@ from __future__ import annotations
 import os
 import sys
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Literal
 
 import cv2
 import numpy as np
 
 from ..collection import run_tasks
-from ..image.files import max_pixels_limit, opencv_message, read_image
+from ..image.files import max_pixels_limit, opencv_message, read_image_and_orientation
 from ..image.grey import to_gray255
 from ..image.validate import validate_image
 from .result import Calibration
@@ -31,7 +31,7 @@ from .targets.spec import BoardSpec, view_boards
 
 __all__ = ["BOARD_CHOICES", "READ_OPTIONS", "SMALL_CELL", "THUMB_WIDTH", "BoardChoice", "Thumbnail",
            "ViewRecord", "ViewResult", "ViewStatus", "cell_size", "check_read_options", "detect_files",
-           "detect_view", "make_thumbnail", "pick_boards", "view_records"]
+           "detect_view", "make_thumbnail", "on_sensor_grid", "pick_boards", "view_records"]
 
 #: the keyword arguments of :func:`sogdd.read_image` that ``read_options`` may hold
 READ_OPTIONS = ("max_pixels", "allow_corrupt", "ignore_orientation")
@@ -64,7 +64,8 @@ class ViewRecord:
     view; ``view`` is its index in the calibration's views (``Calibration.names``),
     None for an image that could not be read and for an ignored board beside
     its image's view (:func:`pick_boards`), whose corners found ``corners``
-    counts (the calibration counts those of its views).
+    counts (the calibration counts those of its views); ``choice`` says why a
+    video's frame was chosen as a view (:mod:`sogdd.calib.video`), "" for an image.
     """
 
     name: str
@@ -73,6 +74,7 @@ class ViewRecord:
     reason: str = ""
     view: int | None = None
     corners: int | None = None
+    choice: str = ""
 
 
 def view_records(cal: Calibration) -> list[ViewRecord]:
@@ -137,7 +139,9 @@ class ViewResult:
     specification; ``other_size`` is the (columns, rows) of a complete board of
     another size than the specification's (a board that was seen and ignored);
     ``thumbnail`` is the small grey picture the report draws the detections on
-    (None when not asked for or when the image could not be read).
+    (None when not asked for or when the image could not be read);
+    ``orientation`` the file's EXIF orientation (1-8, 1 when none), applied
+    unless ``read_options`` said ``ignore_orientation``.
     """
 
     path: str
@@ -147,6 +151,7 @@ class ViewResult:
     seen: str = ""
     other_size: tuple[int, int] | None = None
     thumbnail: Thumbnail | None = None
+    orientation: int = 1
 
 
 def check_read_options(read_options: Mapping | None) -> dict:
@@ -228,10 +233,11 @@ def pick_boards(boards: Sequence[Board], spec: BoardSpec, choice: BoardChoice = 
     return tuple(boards[k] for k in views), tuple((boards[k], why) for k, why in ignored)
 
 
-def _read(path: str, read_options: Mapping | None) -> np.ndarray:
-    """The image file as read (:func:`sogdd.read_image`), checked by the core's rules; the detectors make it
-    grey, once, by the core's conversion."""
-    return validate_image(read_image(path, **(read_options or {})))
+def _read(path: str, read_options: Mapping | None) -> tuple[np.ndarray, int]:
+    """The image file as read (:func:`sogdd.read_image`), checked by the core's rules, and its EXIF
+    orientation; the detectors make it grey, once, by the core's conversion."""
+    image, turn = read_image_and_orientation(path, **(read_options or {}))
+    return validate_image(image), turn
 
 
 def detect_view(path: str | os.PathLike, spec: BoardSpec, read_options: Mapping | None = None,
@@ -261,7 +267,7 @@ def detect_view(path: str | os.PathLike, spec: BoardSpec, read_options: Mapping 
     """
     path = str(path)
     try:
-        image = _read(path, read_options)
+        image, turn = _read(path, read_options)
     except (ValueError, OSError, cv2.error) as exc:
         msg = opencv_message(exc) if isinstance(exc, cv2.error) else " ".join(str(exc).split())
         return ViewResult(path, error=msg if path in msg else f"{path}: {msg}")
@@ -271,7 +277,7 @@ def detect_view(path: str | os.PathLike, spec: BoardSpec, read_options: Mapping 
     thumb = make_thumbnail(image, thumb_width) if thumb_width else None
     found = view_boards(image, spec)
     return ViewResult(path, measure_precision(image, found.boards), size, seen=found.seen,
-                      other_size=found.other_size, thumbnail=thumb)
+                      other_size=found.other_size, thumbnail=thumb, orientation=turn)
 
 
 def _died(a: tuple, message: str) -> ViewResult:
@@ -312,3 +318,33 @@ def detect_files(paths: Sequence[str | os.PathLike], spec: BoardSpec, *, jobs: i
         for bar in bars:
             bar.close()
     return [results[n] for n in names]
+
+
+def on_sensor_grid(results: Sequence[ViewResult], spec: BoardSpec, *, jobs: int = 1,
+                   scheduler: str | None = None, progress: bool = False, read_options: Mapping | None = None,
+                   thumb_width: int | None = THUMB_WIDTH) -> tuple[list[ViewResult], str]:
+    """The views of one camera on one pixel grid: ``(results, note)``.
+
+    A camera's intrinsics live on its sensor's pixel grid. When every readable
+    image has the same EXIF orientation, the results are returned as they are (the
+    orientation applied, as :func:`sogdd.read_image` does) and ``note`` is "".
+    When they differ (a phone or tablet turned between shots), the images whose
+    orientation was applied are read and searched again without it
+    (:func:`detect_files`, ``ignore_orientation``), so that every view is on the
+    sensor's grid, and ``note`` says so, naming the orientations seen
+    (``ignore_orientation`` given: the results as they are, on that grid already).
+    """
+    opts = check_read_options(read_options)
+    turns = tuple(sorted({r.orientation for r in results if not r.error}))
+    if len(turns) < 2 or opts.get("ignore_orientation"):
+        return list(results), ""
+    again = [i for i, r in enumerate(results) if not r.error and r.orientation != 1]
+    redone = detect_files([results[i].path for i in again], spec, jobs=jobs, scheduler=scheduler,
+                          progress=progress, read_options={**opts, "ignore_orientation": True},
+                          thumb_width=thumb_width)
+    out = list(results)
+    for i, r in zip(again, redone):
+        out[i] = replace(r, path=results[i].path)
+    return out, ("calibrated on the sensor's pixel grid: the images' EXIF orientations differ "
+                 f"({', '.join(map(str, turns))}), so none was applied; the camera matrix is the sensor's, "
+                 "for the images as stored (cv2.IMREAD_IGNORE_ORIENTATION)")

@@ -57,6 +57,9 @@ def calibration_dict(cal: Calibration, views: Sequence[ViewRecord] | None = None
     ``rejected_views`` holds every one not used, the images that could not be
     read too; without it, the views of ``cal``.
 
+    ``pixel_grid`` is :attr:`~sogdd.calib.Calibration.pixel_grid`: ``"image"``, or ``"sensor"`` when the
+    images' EXIF orientations differed and none was applied (a note in ``notes`` says which).
+
     Examples
     --------
     >>> from sogdd.calib.demo import demo_calibration
@@ -69,6 +72,7 @@ def calibration_dict(cal: Calibration, views: Sequence[ViewRecord] | None = None
         "model": cal.model,
         "image_width": int(cal.image_size[0]),
         "image_height": int(cal.image_size[1]),
+        "pixel_grid": cal.pixel_grid,
         "camera_matrix": [[float(v) for v in row] for row in cal.K],
         "distortion_coefficients": [float(v) for v in cal.dist],
         "distortion": cal.coefficients(),
@@ -235,7 +239,8 @@ def _sig(v: float) -> str:
 
 def write_views_csv(cal: Calibration, path: str | os.PathLike, *,
                     views: Sequence[ViewRecord] | None = None) -> Path:
-    """``view,corners_found,corners_used,rms,used,reason,status,precision_px,weight,source``: one row per view.
+    """``view,corners_found,corners_used,rms,used,reason,status,precision_px,weight,source,reasons``: a row
+    per view.
 
     ``rms`` is over the used corners (all corners of a rejected view, from its
     pose re-estimated with the final camera; empty without a pose); ``used`` is
@@ -253,25 +258,27 @@ def write_views_csv(cal: Calibration, path: str | os.PathLike, *,
     ``source`` names the detector that proposed the view's board
     (``Board.source``: ``sogdd``, ``opencv`` or ``opencv-sb`` for a chessboard,
     whose corners sogdd measured and checked whatever the source; ``charuco``),
-    empty without a board. With ``views`` (every input's fate, :attr:`sogdd.calib.ImageCalibration.views`)
+    empty without a board. ``reasons`` says why a video's frame was chosen
+    (:attr:`~sogdd.calib.detection.ViewRecord.choice`), empty for an image. With ``views``
+    (every input's fate, :attr:`sogdd.calib.ImageCalibration.views`)
     every input is a row, the images that could not be read too; without it,
     the views of ``cal``.
     """
     if views is None:
         views = view_records(cal)
     rows: list[list] = [["view", "corners_found", "corners_used", "rms", "used", "reason", "status",
-                         "precision_px", "weight", "source"]]
+                         "precision_px", "weight", "source", "reasons"]]
     for row in views:
         v = row.view
         if v is None:
-            rows.append([row.name, row.corners or 0, 0, "", 0, row.reason, row.status, "", "", ""])
+            rows.append([row.name, row.corners or 0, 0, "", 0, row.reason, row.status, "", "", "", row.choice])
             continue
         b, used = cal.boards[v], cal.corner_used[v]
         w = cal.corner_weights(v)
         rows.append([row.name, 0 if b is None else len(b), 0 if used is None else int(used.sum()),
                      _fmt(cal.view_rms[v]), int(bool(cal.view_used[v])), row.reason, row.status,
                      _sig(view_precision(b)), "" if w is None or len(w) == 0 else _fmt(float(np.median(w)), 3),
-                     "" if b is None else b.source])
+                     "" if b is None else b.source, row.choice])
     path = Path(path)
     write_text(path, _csv(rows))
     return path

@@ -1,10 +1,13 @@
 """A calibration's report page: HTML with PNG figures and a verdict in plain words.
 
-The page shows every view's detections as a thumbnail (used corners green,
-rejected ones red), the residual vectors magnified, where the corners fell in
-the frame, the cross-validation difference map, the lens models compared
-(``model="auto"``), and :func:`verdict`: what is
-wrong with the calibration, if anything, and what to do about it.
+The page shows :func:`verdict` (what is wrong with the calibration, if anything,
+and what to do about it), the camera, the lens models compared
+(``model="auto"``), each view's RMS as a bar chart whose bars link to the views,
+the residual vectors magnified and their histogram, where the corners fell in
+the frame, the cross-validation difference map, the chosen model's distortion
+field, the board poses in 3-D, and every view's detections as a thumbnail (used
+corners green, rejected ones red) that links to the same overlay at the image's
+size (:data:`OVERLAY_WIDTH` px at most) with each corner's projection.
 
 The report never reads an image file: the thumbnails come from :class:`Thumbnail`
 objects made where the image was read for detection (:mod:`.detection`), or from
@@ -21,96 +24,35 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from ..formats.safe_write import atomic_write, write_bytes, write_text
+from ..formats.safe_write import write_bytes, write_text
 from .detection import THUMB_WIDTH, Thumbnail, ViewRecord, make_thumbnail, view_records
+from .figures import pyplot, save_figure
+from .model_selection import ModelSelection
+from .report_figures import (
+    camera_poses_figure,
+    coverage_figure,
+    cross_validation_figure,
+    distortion_figure,
+    residual_figure,
+    residual_histogram,
+    view_errors_figure,
+)
 from .result import Calibration
-from .verdict import coverage, cv_inside, used_points, verdict
+from .verdict import cv_inside, verdict
 
-__all__ = ["pyplot", "save_figure", "write_report"]
+__all__ = ["OVERLAY_WIDTH", "pyplot", "save_figure", "selection_table", "write_report"]
+
+#: the widest full-size overlay (px): an image wider than this is drawn at this width
+OVERLAY_WIDTH = 1600
 
 # --------------------------------------------------------------------------------------------------
-# figures
+# pictures of the views
 
 
-def pyplot():
-    """``matplotlib.pyplot`` on the Agg backend (no display needed), imported when a figure is drawn."""
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
-def save_figure(fig, path: Path) -> None:
-    """Write a figure as a PNG (100 dpi), atomically, and close it."""
-    atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=100, format="png"))
-    pyplot().close(fig)
-
-
-def _residual_figure(cal: Calibration, path: Path) -> None:
-    plt = pyplot()
-    w, h = cal.image_size
-    fig, ax = plt.subplots(figsize=(8, 8 * h / w + 0.6))
-    used, bad = [], []
-    for b, r, u in zip(cal.boards, cal.residuals, cal.corner_used):
-        if b is None or r is None:
-            continue
-        used.append(np.c_[b.image_points[u], r[u]])
-        bad.append(np.c_[b.image_points[~u], r[~u]])
-    U = np.concatenate(used) if used else np.zeros((0, 4))
-    B = np.concatenate(bad) if bad else np.zeros((0, 4))
-    typical = np.percentile(np.hypot(U[:, 2], U[:, 3]), 95) if len(U) else 1.0
-    gain = 0.04 * w / max(typical, 1e-9)  # the 95th percentile arrow is 4% of the width
-    for arr, colour, lab in ((U, "tab:blue", "used"), (B, "tab:red", "rejected")):
-        if len(arr):
-            ax.quiver(arr[:, 0], arr[:, 1], arr[:, 2] * gain, arr[:, 3] * gain, color=colour, angles="xy",
-                      scale_units="xy", scale=1, width=0.002, label=f"{lab} ({len(arr)})")
-    ax.set_xlim(0, w)
-    ax.set_ylim(h, 0)
-    ax.set_aspect("equal")
-    ax.set_title(f"residuals (observed - projected) x{gain:.0f}; RMS {cal.rms:.3f} px")
-    ax.legend(loc="upper right", fontsize=8)
-    save_figure(fig, path)
-
-
-def _coverage_figure(cal: Calibration, path: Path) -> None:
-    plt = pyplot()
-    w, h = cal.image_size
-    counts, covered, edge = coverage(cal)
-    fig, ax = plt.subplots(figsize=(8, 8 * h / w + 0.6))
-    ax.imshow(counts > 0, extent=(0, w, h, 0), cmap="Greens", vmin=0, vmax=2, alpha=0.6)
-    p = used_points(cal)
-    ax.plot(p[:, 0], p[:, 1], ".", ms=1.5, color="k")
-    ax.set_xlim(0, w)
-    ax.set_ylim(h, 0)
-    ax.set_title(f"coverage: {len(p)} used corners; {covered:.0%} of cells, {edge:.0%} of border cells")
-    save_figure(fig, path)
-
-
-def _cross_validation_figure(cal: Calibration, path: Path) -> bool:
-    cv = cal.cross_validation
-    if cv is None:
-        return False
-    plt = pyplot()
-    d = cv.difference
-    w, h = cal.image_size
-    fig, ax = plt.subplots(figsize=(8, 8 * h / w + 0.6))
-    top = max(2 * cv_inside(cv)[1], 1e-3)  # the colours for the data's region; beyond it saturates
-    im = ax.imshow(d.distance, extent=(d.xs[0], d.xs[-1], d.ys[-1], d.ys[0]), cmap="viridis", vmin=0,
-                   vmax=min(top, float(np.nanmax(d.distance))))
-    fig.colorbar(im, ax=ax, label="px")
-    if d.within is not None:  # the corners' hull: the region the data supports
-        ax.contour(d.xs, d.ys, d.within.astype(float), levels=[0.5], colors="w", linewidths=1.5)
-    mean, mx = cv_inside(cv)
-    ax.set_title(f"cross-validation: {mean:.3f} px mean, {mx:.3f} max inside the corners' hull (white);\n"
-                 f"whole frame {d.mean:.3f} mean, {d.max:.3g} max", fontsize=9)
-    save_figure(fig, path)
-    return True
-
-
-def _thumbnail(image, board, used, width: int, size: tuple[int, int]) -> np.ndarray:
-    """The view's thumbnail (a :class:`Thumbnail`, an image array or None: grey) with its detections."""
+def _thumbnail(image, board, used, width: int, size: tuple[int, int],
+               residual: np.ndarray | None = None) -> np.ndarray:
+    """The view's picture (a :class:`Thumbnail`, an image array or None: grey) ``width`` px wide with its
+    detections; with ``residual``, each corner's projection (observed - residual) as a cross too."""
     if image is None:
         w, h = size
         thumb = Thumbnail(np.full((max(1, round(h * width / w)), width), 200, np.uint8), width / w)
@@ -121,16 +63,21 @@ def _thumbnail(image, board, used, width: int, size: tuple[int, int]) -> np.ndar
     if thumb.image.shape[1] != width:  # made at another width: the picture and the points follow
         f = width / thumb.image.shape[1]
         small = cv2.resize(thumb.image, (width, max(1, round(thumb.image.shape[0] * f))),
-                           interpolation=cv2.INTER_AREA)
+                           interpolation=cv2.INTER_AREA if f < 1 else cv2.INTER_LINEAR)
         thumb = Thumbnail(small, thumb.scale * f)
     s = thumb.scale
     vis = cv2.cvtColor(thumb.image, cv2.COLOR_GRAY2BGR)
     if board is not None:
+        dot = max(2, min(5, round(2 * width / THUMB_WIDTH)))  # the dots grow with the picture, a little
         u = np.ones(len(board), bool) if used is None else used
         for (x, y), ok in zip((board.image_points + 0.5) * s - 0.5, u):
-            cv2.circle(vis, (round(x), round(y)), 2, (0, 180, 0) if ok else (0, 0, 255), -1, cv2.LINE_AA)
+            cv2.circle(vis, (round(x), round(y)), dot, (0, 180, 0) if ok else (0, 0, 255), -1, cv2.LINE_AA)
+        if residual is not None:
+            for x, y in (board.image_points - residual + 0.5) * s - 0.5:
+                if np.isfinite(x) and np.isfinite(y):
+                    cv2.drawMarker(vis, (round(x), round(y)), (255, 0, 255), cv2.MARKER_CROSS, 3 * dot, 1)
         origin = (board.image_points[np.argmin(board.labels.sum(axis=1))] + 0.5) * s - 0.5
-        cv2.circle(vis, (round(origin[0]), round(origin[1])), 5, (255, 0, 0), 1, cv2.LINE_AA)
+        cv2.circle(vis, (round(origin[0]), round(origin[1])), 5 * dot // 2, (255, 0, 0), 1, cv2.LINE_AA)
     return vis
 
 
@@ -157,7 +104,7 @@ def write_report(cal: Calibration, out_dir: str | os.PathLike, *, images: Sequen
         Created if needed.
     images : sequence, optional
         Per view of ``cal``, a :class:`Thumbnail`, an image array, or None, for
-        the thumbnails; without it the detections are drawn on grey. Files are
+        the pictures; without it the detections are drawn on grey. Files are
         never read here.
     views : sequence of ViewRecord, optional
         Every input's fate (:attr:`sogdd.calib.ImageCalibration.views`): the page
@@ -165,7 +112,8 @@ def write_report(cal: Calibration, out_dir: str | os.PathLike, *, images: Sequen
         views of ``cal`` (:func:`~sogdd.calib.detection.view_records`).
     title : str
     thumb_width : int
-        Thumbnail width in px.
+        Thumbnail width in px. Each thumbnail links to the view's overlay at the
+        image's width (at most :data:`OVERLAY_WIDTH`), ``report/overlay_NNNN.png``.
 
     Returns
     -------
@@ -180,30 +128,44 @@ def write_report(cal: Calibration, out_dir: str | os.PathLike, *, images: Sequen
     ...     page = write_report(demo_calibration(), d)
     ...     text = page.read_text()
     ...     pngs = sorted(p.name for p in (page.parent / "report").glob("*.png"))
-    >>> "Verdict" in text, pngs[:3]
-    (True, ['coverage.png', 'cross_validation.png', 'residuals.png'])
+    >>> "Verdict" in text, pngs[:4]
+    (True, ['coverage.png', 'cross_validation.png', 'distortion.png', 'errors_per_view.png'])
     """
     if images is not None and len(images) != len(cal.names):
         raise ValueError(f"{len(images)} images for {len(cal.names)} views")
     out = Path(out_dir)
     figs = out / "report"
     figs.mkdir(parents=True, exist_ok=True)
-    _residual_figure(cal, figs / "residuals.png")
-    _coverage_figure(cal, figs / "coverage.png")
-    has_cv = _cross_validation_figure(cal, figs / "cross_validation.png")
-    thumbs = []
+    residual_figure(cal, figs / "residuals.png")
+    residual_histogram(cal, figs / "residual_histogram.png")
+    areas = view_errors_figure(cal, figs / "errors_per_view.png")
+    coverage_figure(cal, figs / "coverage.png")
+    has_cv = cross_validation_figure(cal, figs / "cross_validation.png")
+    field = distortion_figure(cal, figs / "distortion.png")
+    camera_poses_figure(cal, figs / "poses.png")
+    full_width = min(cal.image_size[0], OVERLAY_WIDTH)
     for v in range(len(cal.names)):
-        f = f"view_{v:04d}.png"
         img = images[v] if images is not None else None
-        _write_png(figs / f, _thumbnail(img, cal.boards[v], cal.corner_used[v], thumb_width, cal.image_size))
-        thumbs.append(f)
+        b, u, r = cal.boards[v], cal.corner_used[v], cal.residuals[v]
+        _write_png(figs / f"view_{v:04d}.png", _thumbnail(img, b, u, thumb_width, cal.image_size))
+        _write_png(figs / f"overlay_{v:04d}.png", _thumbnail(img, b, u, full_width, cal.image_size, r))
     page = out / "report.html"
-    write_text(page, _html(cal, title, _cards(cal, thumbs, views), has_cv))
+    body = _html(cal, title, _cards(cal, views), has_cv, _image_map(cal, areas), field.max)
+    write_text(page, body)
     return page
 
 
-def _cards(cal: Calibration, thumbs: list[str], views) -> list[str]:
-    """A figure per view (per input with ``views``: one that could not be read has no picture)."""
+def _image_map(cal: Calibration, areas) -> str:
+    """The bar chart's image map: each view's column links to its card (``#view-N``)."""
+    esc = html.escape
+    rows = "".join(f'<area shape="rect" coords="{x0},{y0},{x1},{y1}" href="#view-{v}" '
+                   f'alt="{esc(cal.names[v])}" title="{esc(cal.names[v])}">' for v, (x0, y0, x1, y1) in areas)
+    return f'<map name="view-errors">{rows}</map>'
+
+
+def _cards(cal: Calibration, views) -> list[str]:
+    """A figure per view (per input with ``views``: one that could not be read has no picture); a view of
+    ``cal`` carries the anchor ``view-N`` and its thumbnail links to its full-size overlay."""
     esc = html.escape
     cards = []
     for row in view_records(cal) if views is None else views:
@@ -214,9 +176,11 @@ def _cards(cal: Calibration, thumbs: list[str], views) -> list[str]:
             cards.append(f'<figure class="none"><div>no picture</div><figcaption>{esc(row.name)}<br>'
                          f"{esc(state)}</figcaption></figure>")
             continue
-        rms = cal.view_rms[row.view]
-        cap = f"{esc(row.name)}<br>{'' if not np.isfinite(rms) else f'RMS {rms:.3f} px, '}{esc(state)}"
-        cards.append(f'<figure><img src="report/{thumbs[row.view]}" alt="{esc(row.name)}">'
+        v = row.view
+        rms = cal.view_rms[v]
+        cap = f"{v}: {esc(row.name)}<br>{'' if not np.isfinite(rms) else f'RMS {rms:.3f} px, '}{esc(state)}"
+        cards.append(f'<figure id="view-{v}"><a href="report/overlay_{v:04d}.png">'
+                     f'<img src="report/view_{v:04d}.png" alt="{esc(row.name)}"></a>'
                      f"<figcaption>{cap}</figcaption></figure>")
     return cards
 
@@ -230,30 +194,45 @@ def _camera_table(cal: Calibration) -> str:
     return f"<table><tr><th>parameter</th><th>value</th><th>std</th></tr>{cells}</table>"
 
 
-def _selection_table(cal: Calibration) -> str:
-    """The model selection's table (``model="auto"``), or "" without one."""
-    sel = cal.model_selection
+def _num(v: float, digits: int = 4) -> str:
+    """A score to fixed decimals: "failed" for inf, "" for NaN."""
+    return f"{v:.{digits}f}" if np.isfinite(v) else ("failed" if v == np.inf else "")
+
+
+def _pm(value: float, se: float) -> str:
+    return _num(value) + (f" &plusmn; {_num(se)}" if np.isfinite(se) else "")
+
+
+def selection_table(sel: ModelSelection | None) -> str:
+    """A model selection's table as HTML (both reports show it): fixed decimals, the chosen model in bold
+    and marked "chosen", the others "within noise" or not; "" without a selection.
+
+    Examples
+    --------
+    >>> from sogdd.calib.model_selection import CandidateScore, ModelSelection
+    >>> rows = (CandidateScore("pinhole4", 4, 0.05, 0.0512, 0.001, 0.0, 0.0, True),
+    ...         CandidateScore("rational", 8, 0.049, 0.0601, 0.002, 0.0089, 0.001, False))
+    >>> t = selection_table(ModelSelection("pinhole4", rows, (), "the fewest coefficients within noise"))
+    >>> "<b>pinhole4</b>" in t, "0.0512" in t, "True" in t, "e-" in t
+    (True, True, False, False)
+    """
     if sel is None:
         return ""
-
-    def num(v: float, d: int = 4) -> str:
-        return f"{v:.{d}f}" if np.isfinite(v) else ("failed" if v == np.inf else "")
-
     rows = "".join(
-        f"<tr><td>{html.escape(r.model)}</td><td>{r.n_coefficients}</td><td>{num(r.fit_rms)}</td>"
-        f"<td>{num(r.cv_rms)}{' &plusmn; ' + num(r.cv_se) if np.isfinite(r.cv_se) else ''}</td>"
-        f"<td>{num(r.difference)}{' &plusmn; ' + num(r.difference_se) if np.isfinite(r.difference_se) else ''}"
-        f"</td><td>{'chosen' if r.model == sel.chosen else ('within noise' if r.within_noise else '')}</td>"
+        f"<tr><td>{f'<b>{html.escape(r.model)}</b>' if r.model == sel.chosen else html.escape(r.model)}</td>"
+        f"<td>{r.n_coefficients}</td><td>{_num(r.fit_rms)}</td>"
+        f"<td>{_pm(r.cv_rms, r.cv_se)}</td><td>{_pm(r.difference, r.difference_se)}</td>"
+        f"<td>{'chosen' if r.model == sel.chosen else ('within noise' if r.within_noise else '')}</td>"
         f"<td style='text-align:left'>{html.escape(r.note)}</td></tr>" for r in sel.table)
     notes = "".join(f"<li>{html.escape(n)}</li>" for n in sel.notes)
-    return ("<h2>Lens model</h2>"
-            f"<p>{html.escape(sel.rule[:1].upper() + sel.rule[1:])}.</p>"
+    return (f"<p>{html.escape(sel.rule[:1].upper() + sel.rule[1:])}.</p>"
             "<table><tr><th>model</th><th>coefficients</th><th>fit RMS (px)</th>"
             "<th>cross-validated RMS &plusmn; SE (px)</th><th>difference to the best &plusmn; SE</th><th></th>"
             f"<th></th></tr>{rows}</table>" + (f"<ul>{notes}</ul>" if notes else ""))
 
 
-def _html(cal: Calibration, title: str, cards: list[str], has_cv: bool) -> str:
+def _html(cal: Calibration, title: str, cards: list[str], has_cv: bool, image_map: str,
+          distortion_max: float) -> str:
     esc = html.escape
     colours = {"ok": "#1a7f37", "warn": "#9a6700", "bad": "#cf222e"}
     items = "".join(f'<li style="color:{colours[lv]}"><b>{lv}</b>: {esc(t)}</li>' for lv, t in verdict(cal))
@@ -261,17 +240,34 @@ def _html(cal: Calibration, title: str, cards: list[str], has_cv: bool) -> str:
     summary = (f"{cal.model} model, {cal.image_size[0]}x{cal.image_size[1]}, {cal.n_used} of {len(cal.names)} "
                f"views and {cal.n_corners_used} corners used, RMS {cal.rms:.4f} px"
                + (", cross-validation {:.3f} px mean / {:.3f} px max inside the corners' hull"
-                  .format(*cv_inside(cv)) if cv is not None else ""))
-    cvfig = ('<h2>Cross-validation</h2><p>Two calibrations from the interleaved halves of the used views; the '
-             'map shows how far apart they put the same rays (a rotation between them fitted).</p>'
-             '<img src="report/cross_validation.png" alt="cross-validation difference">') if has_cv else ""
-    style = ("body{font-family:sans-serif;max-width:1100px;margin:auto}figure{display:inline-block;margin:4px;"
-             "font-size:11px;width:250px;vertical-align:top}figure.none div{width:240px;height:60px;"
+                  .format(*cv_inside(cv)) if cv is not None else "")
+               + ("; on the sensor's pixel grid (EXIF orientations differ)" * (cal.pixel_grid == "sensor")))
+    cvfig = ('<h2 id="cross-validation">Cross-validation</h2><p>Two calibrations from the interleaved halves '
+             'of the used views; the map shows how far apart they put the same rays (a rotation between them '
+             'fitted).</p><img src="report/cross_validation.png" alt="cross-validation difference">'
+             ) if has_cv else ""
+    selection = ("<h2 id='lens-model'>Lens model</h2>" + selection_table(cal.model_selection)
+                 if cal.model_selection is not None else "")
+    style = ("body{font-family:sans-serif;max-width:1100px;margin:auto;padding:0 8px}"
+             "img{max-width:100%;height:auto}img[usemap]{max-width:none}"
+             "figure{display:inline-block;margin:4px;font-size:11px;width:250px;vertical-align:top}"
+             "figure:target{outline:3px solid #0969da}figure.none div{width:240px;height:60px;"
              "background:#eee;text-align:center;line-height:60px}td,th{padding:2px 8px;text-align:right}")
     return (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{esc(title)}</title>"
-            f"<style>{style}</style></head><body><h1>{esc(title)}</h1><p>{esc(summary)}</p><h2>Verdict</h2><ul>{items}</ul>"
-            f"<h2>Camera</h2>{_camera_table(cal)}{_selection_table(cal)}"
-            "<h2>Residuals</h2><img src='report/residuals.png' alt='residual vectors'>"
-            "<h2>Coverage</h2><img src='report/coverage.png' alt='coverage'>"
-            f"{cvfig}<h2>Views</h2><p>Green: corners used; red: rejected; blue ring: the board's label origin."
+            f"<style>{style}</style></head><body><h1>{esc(title)}</h1><p>{esc(summary)}</p>"
+            f"<h2 id='verdict'>Verdict</h2><ul>{items}</ul>"
+            f"<h2 id='camera'>Camera</h2>{_camera_table(cal)}{selection}"
+            "<h2 id='view-errors'>Error per view</h2><p>Each view's RMS reprojection error; click a bar for "
+            "the view.</p><img src='report/errors_per_view.png' usemap='#view-errors' alt='RMS per view'>"
+            f"{image_map}"
+            "<h2 id='residuals'>Residuals</h2><img src='report/residuals.png' alt='residual vectors'>"
+            "<img src='report/residual_histogram.png' alt='residual histogram'>"
+            "<h2 id='coverage'>Coverage</h2><img src='report/coverage.png' alt='coverage'>"
+            f"{cvfig}<h2 id='distortion'>Distortion</h2><p>Where the {esc(cal.model)} model puts each pixel's "
+            f"ray against a pinhole camera of the same K: up to {distortion_max:.2f} px over the frame.</p>"
+            "<img src='report/distortion.png' alt='distortion field'>"
+            "<h2 id='poses'>Board poses</h2><img src='report/poses.png' alt='camera and board poses'>"
+            "<h2 id='views'>Views</h2><p>Green: corners used; red: rejected; blue ring: the board's label "
+            "origin. Click a picture for the view at the image's size, each corner's projection a magenta "
+            "cross."
             f"</p>{''.join(cards)}</body></html>\n")

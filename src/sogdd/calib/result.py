@@ -78,6 +78,11 @@ class Calibration:
         which the fit's corner weights are relative to
         (:mod:`~sogdd.calib.weighting`); NaN when the boards carry none (the
         fit is then unweighted).
+    pixel_grid : str
+        The pixel grid ``K`` is on: ``"image"``, the images as read (their one
+        EXIF orientation applied, as ``cv2.imread`` does), or ``"sensor"``, their
+        stored pixel order, when the images' orientations differed
+        (:func:`~sogdd.calib.detection.on_sensor_grid`; a note says so).
     """
 
     model: CameraModel
@@ -103,6 +108,7 @@ class Calibration:
     std_note: str = ""
     model_selection: ModelSelection | None = None
     typical_precision: float = float("nan")
+    pixel_grid: str = "image"
 
     @property
     def n_used(self) -> int:

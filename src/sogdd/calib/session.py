@@ -58,6 +58,7 @@ from .detection import (
     ViewResult,
     check_read_options,
     detect_files,
+    on_sensor_grid,
     pick_boards,
 )
 from .files import FILES, write_calibration
@@ -74,7 +75,8 @@ __all__ = ["OUTPUTS", "ImageCalibration", "ParameterError", "calibrate_images", 
 
 #: what :func:`write_outputs` writes: the four files, report.html and the report/ folder of figures
 OUTPUTS = (*FILES, "report.html", "report")
-_FIGURE = re.compile(r"(view_\d{4,}|residuals|coverage|cross_validation)\.png")
+_FIGURE = re.compile(r"((view|overlay)_\d{4,}|residuals|residual_histogram|errors_per_view|coverage"
+                     r"|cross_validation|distortion|poses)\.png")
 #: the figures of a rig's report (:mod:`sogdd.calib.rig.report`), and its cameras' folders
 _RIG_FIGURE = re.compile(r"(extrinsics|errors|(uncertainty|rectified)_[A-Za-z0-9_-]+)\.png")
 _CAMERA_FOLDER = re.compile(r"[A-Za-z0-9_-]+")
@@ -289,14 +291,16 @@ def calibrate_images(
     opts = check_read_options(read_options)
     paths = _expand(images, recursive)
     names = relative_names(paths)  # collisions fail before any work
-    results = detect_files(paths, spec, jobs=jobs, scheduler=scheduler, progress=progress, read_options=opts,
-                           thumb_width=THUMB_WIDTH if thumbnails else None)
+    run = dict(jobs=jobs, scheduler=scheduler, progress=progress, read_options=opts,
+               thumb_width=THUMB_WIDTH if thumbnails else None)
+    results, grid = on_sensor_grid(detect_files(paths, spec, **run), spec, **run)  # turned between shots
     picked = [pick_boards(r.boards, spec, boards) for r in results]
     results = [replace(r, boards=kept) for r, (kept, _) in zip(results, picked)]
     check_detections(results, spec)
     views, vnames, owners = _views(results, names)
     cal = calibrate(views, common_image_size(results), square=float(square) * spec.label_step, model=model,
                     names=vnames, reject=reject, min_views=min_views)
+    cal = replace(cal, pixel_grid="sensor", notes=(*cal.notes, grid)) if grid else cal
     records = _records(results, names, cal, spec, [ignored for _, ignored in picked])
     return ImageCalibration(cal, spec, tuple(records), tuple(results[i].thumbnail for i in owners))
 

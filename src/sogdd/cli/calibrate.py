@@ -2,6 +2,7 @@
 
   sogdd calibrate 'frames/*.jpg' --board chessboard:9x6 --square 25 --out calib/
   sogdd calibrate --camera left 'left/*.jpg' --camera right 'right/*.jpg' --board chessboard:9x6 --out rig/
+  sogdd calibrate take1.mp4 --board chessboard:9x6 --square 25 --max-views 40 --out calib/
 
 Boards (--board):
   chessboard:COLSxROWS          COLS x ROWS *inner* corners (OpenCV's patternSize:
@@ -31,6 +32,12 @@ any work. Exit codes: 0 done; 2 an error (nothing written) or an unreadable inpu
 3 the verdict is bad (the outputs written all the same; --json: verdict_level);
 130 Ctrl-C and 143 SIGTERM, --out left as it was.
 
+A video (.mp4, .avi, .mov, .mkv, ...: one file, alone) is read with OpenCV, every
+--video-step-th frame searched, and at most --max-views frames chosen as views:
+sharp (corner precision within 2x of the video's best), at a pose far from every
+frame taken, the most new coverage of the frame first; views.csv names each
+frame (take1.mp4#frame000123) and its reasons. A rig of videos is not supported yet.
+
 A rig of two or more cameras: --camera NAME PATTERN... once per camera instead
 of the images; how its frames are matched and what it writes is below.
 """
@@ -52,7 +59,7 @@ if TYPE_CHECKING:  # the command imports the library when it runs (sogdd --help 
 #: the library's words for its parameters (:class:`sogdd.calib.session.ParameterError`), as this command
 #: names them: its errors say what the library's say, with the flags
 WORDS = {"board": "--board", "boards": "--boards", "square": "--square", "jobs": "--jobs",
-         "min_views": "--min-views", **RIG_WORDS}
+         "min_views": "--min-views", "max_views": "--max-views", "video_step": "--video-step", **RIG_WORDS}
 
 
 def configure(p: argparse.ArgumentParser) -> None:
@@ -76,6 +83,9 @@ def configure(p: argparse.ArgumentParser) -> None:
     p.add_argument("--scheduler", metavar="ADDRESS", help="detect on a Dask distributed scheduler "
                    "(pip install 'sogdd[distributed]')")
     p.add_argument("--min-views", type=int, default=3, help="fewest views with a board to calibrate")
+    p.add_argument("--max-views", type=int, default=40, help="a video: most frames taken as views (default 40)")
+    p.add_argument("--video-step", type=int, default=None, metavar="K",
+                   help="a video: search every K-th frame (default: at most 400 frames searched)")
     p.add_argument("--no-reject", dest="reject", action="store_false",
                    help="keep every corner and view (by default outliers are rejected)")
     p.add_argument("--no-report", dest="report", action="store_false",
@@ -109,20 +119,42 @@ def run(args: argparse.Namespace) -> int:
 
 def _run(args: argparse.Namespace) -> int:
     from ..calib.session import calibrate_into
+    from ..calib.video import is_video
 
     spec, reading = _board(args.board), read_options(args)
     if args.cameras:
+        if any(is_video(p) for cam in args.cameras for p in cam[1:]):
+            raise ValueError("a rig of videos (one per camera) is not supported yet; give each camera's frames "
+                             "as images")
         return run_rig(args, spec, reading)
     if not args.images:
         raise ValueError("no images: give the image files, or --camera NAME PATTERN... per camera of a rig")
     if args.allow_missing_frames:
         raise ValueError("--allow-missing-frames is for a rig (--camera NAME PATTERN... per camera)")
+    if any(map(is_video, args.images)):
+        return _run_video(args, spec)
     return run_calibration(
         args.out,
         lambda: calibrate_into(args.images, args.out, spec, boards=args.boards, square=args.square,
                                model=args.model, jobs=args.jobs, scheduler=args.scheduler,
                                min_views=args.min_views, reject=args.reject, recursive=args.recursive,
                                read_options=reading, report=args.report, progress=not args.quiet),
+        lambda result, written: _summary(args, result, written))
+
+
+def _run_video(args: argparse.Namespace, spec: BoardSpec) -> int:
+    """``sogdd calibrate VIDEO``: the frames chosen (:func:`sogdd.calib.video.calibrate_video_into`)."""
+    from ..calib.video import calibrate_video_into
+
+    if len(args.images) != 1:
+        raise ValueError(f"a video is calibrated alone: give one video file, not {len(args.images)} inputs")
+    if args.boards != "best":
+        raise ValueError("--boards all is for images; a video's frame gives one view")
+    return run_calibration(
+        args.out,
+        lambda: calibrate_video_into(args.images[0], args.out, spec, square=args.square, model=args.model,
+                                     min_views=args.min_views, reject=args.reject, max_views=args.max_views,
+                                     step=args.video_step, report=args.report, progress=not args.quiet),
         lambda result, written: _summary(args, result, written))
 
 
@@ -140,6 +172,7 @@ def _summary(args: argparse.Namespace, result, written: dict) -> list[tuple[str,
         print_json({"out": args.out, "files": sorted(str(p) for p in written.values()), "model": cal.model,
                     "fx": K[0, 0], "fy": K[1, 1], "cx": K[0, 2], "cy": K[1, 2], "dist": cal.dist.tolist(),
                     "rms": cal.rms, "views_used": cal.n_used, "views": len(cal.names),
+                    "pixel_grid": cal.pixel_grid,
                     "cross_validation_mean": None if cv is None else cv.mean,
                     "cross_validation_mean_within": None if cv is None else cv.mean_within,
                     "model_selection": selection_dict(cal.model_selection),
@@ -153,6 +186,8 @@ def _summary(args: argparse.Namespace, result, written: dict) -> list[tuple[str,
              f"RMS {cal.rms:.4f} px, {cal.n_used} of {len(cal.names)} views used"
              + (f", cross-validation {cv.mean_within:.3f} px inside the corners ({cv.mean:.3g} over the frame)"
                 if cv is not None else "")]
+    if cal.pixel_grid == "sensor":  # the images' EXIF orientations differed: the note says which
+        lines += [f"  note: {n}" for n in cal.notes if n.startswith("calibrated on the sensor's pixel grid")]
     sel = cal.model_selection
     if sel is not None and sel.folds:
         lines.append("  models (cross-validated RMS px): " + ", ".join(

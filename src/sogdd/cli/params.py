@@ -137,7 +137,7 @@ def add_read_arguments(parser: argparse.ArgumentParser) -> None:
     g = parser.add_argument_group("reading images")
     g.add_argument("--max-pixels", type=_integer, default=None, metavar="N",
                    help="refuse images larger than N pixels, from the file header before decoding "
-                   "[default: $SOGDD_MAX_PIXELS or 2^28]")
+                   "[default: $SOGDD_MAX_PIXELS or 2^27 = 134 Mpx]")
     g.add_argument("--allow-corrupt", action="store_true",
                    help="use images whose decoder reports corrupt or truncated data")
     g.add_argument("--ignore-orientation", action="store_true",

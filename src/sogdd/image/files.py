@@ -23,10 +23,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from .header import probe
+from .header import Header, read_header
 
-__all__ = ["DEFAULT_MAX_PIXELS", "IMAGE_SUFFIXES", "list_images", "max_pixels_limit", "opencv_message",
-           "read_image"]
+__all__ = ["DEFAULT_MAX_PIXELS", "IMAGE_SUFFIXES", "PEAK_BYTES_FIXED", "PEAK_BYTES_PER_PIXEL", "list_images",
+           "max_pixels_limit", "opencv_message", "read_image", "read_image_and_orientation", "undo_orientation"]
 
 # file suffixes that folder expansion treats as images (what cv2.imdecode reads)
 IMAGE_SUFFIXES = frozenset(
@@ -35,7 +35,15 @@ IMAGE_SUFFIXES = frozenset(
      ".avif"}
 )
 
-DEFAULT_MAX_PIXELS = 2**28
+#: the most memory the calibration's detection of one view holds (reading, the grey image, the board search,
+#: the corners' precision; :func:`sogdd.calib.detection.detect_view`): this many bytes per image pixel plus
+#: :data:`PEAK_BYTES_FIXED`, measured on 1 to 256 Mpx frames, flat, noise and boards, grey and colour
+#: (``benchmarks/bench_memory.py``; docs/user-guide/reading-images.md)
+PEAK_BYTES_PER_PIXEL = 32
+PEAK_BYTES_FIXED = 100 * 2**20
+#: the default pixel limit, 2**27 (134 Mpx): a worker then holds at most 4.4 GB, two (``--jobs 2``) 8.8 GB,
+#: which a 2-core machine of 24 GB holds with room to spare
+DEFAULT_MAX_PIXELS = 2**27
 _FRAME_RE = re.compile(r"^(.*)\[(\d+)\]$")
 _STDERR_LOCK = threading.Lock()
 # what the decoders (libjpeg, libpng, libtiff, libwebp, OpenCV) say about damaged data
@@ -72,11 +80,12 @@ def list_images(folder: str | os.PathLike, *, recursive: bool = False) -> list[P
 
 
 def max_pixels_limit(max_pixels: int | None = None) -> int:
-    """The pixel limit in force: ``max_pixels``, else ``$SOGDD_MAX_PIXELS``, else 2**28.
+    """The pixel limit in force: ``max_pixels``, else ``$SOGDD_MAX_PIXELS``, else :data:`DEFAULT_MAX_PIXELS`
+    (2**27).
 
     Examples
     --------
-    >>> max_pixels_limit() == 2**28 or "SOGDD_MAX_PIXELS" in os.environ
+    >>> max_pixels_limit() == 2**27 or "SOGDD_MAX_PIXELS" in os.environ
     True
     >>> max_pixels_limit(0)
     Traceback (most recent call last):
@@ -163,16 +172,16 @@ def _decode(data: bytes, flags: int, frame: int | None) -> tuple[np.ndarray | No
     return img, "\n".join(x for x in (text.strip(), err) if x)
 
 
-def _check_header(p: Path, data: bytes, limit: int, frame: int | None) -> bool:
+def _check_header(p: Path, data: bytes, limit: int, frame: int | None) -> Header | None:
     """Refuse what the header declares past the limit, or an unnamed frame of a multi-frame file;
-    ``False`` when no header was read (the decoded size is then checked)."""
+    ``None`` when no header was read (the decoded size is then checked)."""
     try:
-        head = probe(data)
+        head = read_header(data)
     except ValueError as exc:
         raise ValueError(f"{p}: {exc}") from None
     if head is None:
-        return False
-    w, h, frames = head
+        return None
+    w, h, frames = head.width, head.height, head.frames
     _check_size(p, w, h, limit)
     if frames > 1 and frame is None:
         raise ValueError(
@@ -180,7 +189,7 @@ def _check_header(p: Path, data: bytes, limit: int, frame: int | None) -> bool:
         )
     if frame is not None and frame >= frames:
         raise ValueError(f"{p}: frame {frame} requested, the file has {frames}")
-    return True
+    return head
 
 
 def _check_size(p: Path, w: int, h: int, limit: int) -> None:
@@ -198,7 +207,8 @@ def read_image(
     allow_corrupt: bool = False,
     ignore_orientation: bool = False,
 ) -> np.ndarray:
-    """Read an image file as a numpy array (grey or RGB), keeping its bit depth.
+    """Read an image file as a numpy array (grey or RGB), keeping its bit depth
+    (:func:`read_image_and_orientation` also says the file's EXIF orientation).
 
     Parameters
     ----------
@@ -211,13 +221,14 @@ def read_image(
         any decoding (decompression bombs), or after it for the few formats
         whose header Pillow does not read (HDR, EXR, PAM; OpenCV's own limit
         of 2**30 pixels then bounds the decoding). Default
-        ``$SOGDD_MAX_PIXELS`` or 2**28 (268 Mpx).
+        ``$SOGDD_MAX_PIXELS`` or 2**27 (134 Mpx; :data:`DEFAULT_MAX_PIXELS`).
     allow_corrupt : bool
         Accept an image whose decoder reported corrupt or truncated data
         (default: a ``ValueError``). Decoder messages never reach stderr.
     ignore_orientation : bool
-        Keep the stored pixel order. By default the EXIF orientation is applied,
-        as ``cv2.imread`` does, so corners are in the frame ``cv2.imread`` returns.
+        Keep the stored pixel order (a TIFF's too, which OpenCV turns whatever its
+        flags). By default the EXIF orientation is applied, as ``cv2.imread``
+        does, so corners are in the frame ``cv2.imread`` returns.
 
     Raises ``ValueError`` (one line naming the file) for a missing, unreadable,
     oversized, multi-frame or corrupt file. An alpha channel is dropped.
@@ -239,12 +250,38 @@ def read_image(
     ...
     ValueError: ...missing.png: no such file
     """
+    return read_image_and_orientation(path, max_pixels=max_pixels, allow_corrupt=allow_corrupt,
+                                      ignore_orientation=ignore_orientation)[0]
+
+
+def read_image_and_orientation(
+    path: str | os.PathLike,
+    *,
+    max_pixels: int | None = None,
+    allow_corrupt: bool = False,
+    ignore_orientation: bool = False,
+) -> tuple[np.ndarray, int]:
+    """:func:`read_image`, and the file's EXIF orientation (1-8; 1 when it has none), which was applied
+    unless ``ignore_orientation``.
+
+    Examples
+    --------
+    >>> import io, tempfile
+    >>> from PIL import Image
+    >>> exif = Image.Exif()
+    >>> exif[0x0112] = 6  # stored 6 x 4, shown turned a quarter clockwise
+    >>> path = Path(tempfile.mkdtemp()) / "turned.png"
+    >>> Image.new("L", (6, 4)).save(path, exif=exif.tobytes())
+    >>> img, turn = read_image_and_orientation(path)
+    >>> img.shape, turn, read_image_and_orientation(path, ignore_orientation=True)[0].shape
+    ((6, 4), 6, (4, 6))
+    """
     p, frame = _split_frame(path)
     limit = max_pixels_limit(max_pixels)
     data = _read_bytes(p)
     if not data:
         raise ValueError(f"{p}: empty file")
-    checked = _check_header(p, data, limit, frame)
+    head = _check_header(p, data, limit, frame)
     flags = cv2.IMREAD_ANYCOLOR | cv2.IMREAD_ANYDEPTH
     if ignore_orientation:
         flags |= cv2.IMREAD_IGNORE_ORIENTATION
@@ -256,7 +293,7 @@ def read_image(
     if img is None:
         why = f": {first}" if first else " (corrupt or unsupported format)"
         raise ValueError(f"{p}: not a readable image{why}")
-    if not checked:  # a format whose header Pillow does not read: OpenCV's own limit bounded the decoding
+    if head is None:  # a format whose header Pillow does not read: OpenCV's own limit bounded the decoding
         _check_size(p, img.shape[1], img.shape[0], limit)
     if _CORRUPT_RE.search(log) and not allow_corrupt:
         raise ValueError(f"{p}: corrupt or truncated image data ({first}); --allow-corrupt to use it anyway")
@@ -264,7 +301,27 @@ def read_image(
         img = cv2.cvtColor(img, cv2.COLOR_BGR2RGB, dst=img)  # in place: no second copy of a large photo
     elif img.ndim == 3 and img.shape[2] == 4:
         img = cv2.cvtColor(img, cv2.COLOR_BGRA2RGB)
-    return img
+    turn = 1 if head is None else head.orientation
+    if ignore_orientation and head is not None and head.format == "TIFF" and turn > 1 and (
+            turn < 5 or img.shape[:2] == (head.width, head.height)):
+        img = undo_orientation(img, turn)  # OpenCV turns a TIFF whatever its flags (tests/image check it)
+    return img, turn
+
+
+def undo_orientation(image: np.ndarray, orientation: int) -> np.ndarray:
+    """The stored pixels of an image shown with EXIF ``orientation`` applied (1-8): the inverse transform.
+
+    Examples
+    --------
+    >>> a = np.arange(6).reshape(2, 3)
+    >>> undo_orientation(np.rot90(a, -1), 6).tolist()  # 6: shown turned a quarter clockwise
+    [[0, 1, 2], [3, 4, 5]]
+    """
+    img = np.asarray(image)
+    undo = {2: lambda a: a[:, ::-1], 3: lambda a: a[::-1, ::-1], 4: lambda a: a[::-1],
+            5: lambda a: a.swapaxes(0, 1), 6: lambda a: np.rot90(a, 1),
+            7: lambda a: a[::-1, ::-1].swapaxes(0, 1), 8: lambda a: np.rot90(a, -1)}.get(int(orientation))
+    return img if undo is None else np.ascontiguousarray(undo(img))
 
 
 def opencv_message(exc: BaseException) -> str:

@@ -17,7 +17,7 @@ file the same way (each registered plugin's ``accept`` test on the first 16
 bytes, then its header parser) and then applies Pillow's own decompression-bomb
 limit, a process-wide setting (``Image.MAX_IMAGE_PIXELS``, 89 Mpx, an error
 past 179 Mpx) that raises without telling the size. sogdd's limit is per call
-(``max_pixels``, default 268 Mpx) and its message names the size, so the size
+(``max_pixels``, default 134 Mpx) and its message names the size, so the size
 is read without Pillow's check rather than by changing a setting every other
 user of Pillow in the process shares.
 """
@@ -27,10 +27,11 @@ from __future__ import annotations
 import io
 import struct
 import warnings
+from typing import NamedTuple
 
 from PIL import Image, UnidentifiedImageError
 
-__all__ = ["probe"]
+__all__ = ["Header", "probe", "read_header"]
 
 # formats whose frames OpenCV reads (cv2.imdecodemulti); Pillow also counts the
 # pictures of an MPO (JPEG) file, which OpenCV decodes as one image
@@ -40,8 +41,24 @@ _NOT_THIS_FORMAT = (SyntaxError, IndexError, TypeError, ValueError, struct.error
                     UnidentifiedImageError)
 
 
+#: the EXIF orientation tag
+_ORIENTATION = 0x0112
+
+
+class Header(NamedTuple):
+    """What an image file's header declares: ``width`` and ``height`` as stored (before any EXIF
+    orientation), ``frames``, the EXIF ``orientation`` (1-8, 1 when none) and Pillow's ``format``."""
+
+    width: int
+    height: int
+    frames: int
+    orientation: int
+    format: str
+
+
 def probe(data: bytes) -> tuple[int, int, int] | None:
-    """``(width, height, frames)`` declared by the header of an encoded image, or ``None``.
+    """``(width, height, frames)`` declared by the header of an encoded image, or ``None``
+    (:func:`read_header`'s first three).
 
     ``width`` and ``height`` are those of the first frame, or of the canvas of
     an animation (which bounds every frame); ``None`` for data Pillow does not
@@ -55,6 +72,29 @@ def probe(data: bytes) -> tuple[int, int, int] | None:
     >>> probe(b"not an image") is None
     True
     """
+    head = read_header(data)
+    return None if head is None else (head.width, head.height, head.frames)
+
+
+def read_header(data: bytes) -> Header | None:
+    """The :class:`Header` of an encoded image, or ``None`` for data Pillow does not identify as an image.
+
+    ``width`` and ``height`` are those of the stored pixels (a TIFF's too, which
+    Pillow reports turned by its orientation). The orientation is read from the
+    EXIF data the header holds (JPEG, WebP, PNG with its ``eXIf`` chunk before the
+    pixels, TIFF's tag), never by decoding.
+
+    Examples
+    --------
+    >>> import io
+    >>> from PIL import Image
+    >>> exif = Image.Exif()
+    >>> exif[0x0112] = 6
+    >>> buf = io.BytesIO()
+    >>> Image.new("L", (5, 3)).save(buf, "JPEG", exif=exif.tobytes())
+    >>> read_header(buf.getvalue())
+    Header(width=5, height=3, frames=1, orientation=6, format='JPEG')
+    """
     with warnings.catch_warnings():  # what Pillow says of a damaged header, the decoder says again
         warnings.simplefilter("ignore")
         try:
@@ -64,7 +104,28 @@ def probe(data: bytes) -> tuple[int, int, int] | None:
         if im is None:
             return None
         with im:
-            return (*im.size, _frames(im))
+            (w, h), turn = im.size, _orientation(im)
+            if im.format == "TIFF" and turn >= 5:  # Pillow gives a TIFF's size turned by its orientation
+                w, h = h, w
+            return Header(int(w), int(h), _frames(im), turn, str(im.format))
+
+
+def _orientation(im: Image.Image) -> int:
+    """The EXIF orientation the header holds (1 when none or not 1-8); ``Image.getexif`` is not used: for a
+    PNG whose ``eXIf`` chunk follows the pixels it decodes them."""
+    try:
+        if im.format == "TIFF":
+            value = im.tag_v2.get(_ORIENTATION)
+        else:
+            raw = im.info.get("exif")
+            if not raw:
+                return 1
+            exif = Image.Exif()
+            exif.load(raw)
+            value = exif.get(_ORIENTATION)
+    except _NOT_THIS_FORMAT:
+        return 1
+    return int(value) if isinstance(value, int) and 1 <= value <= 8 else 1
 
 
 def _frames(im: Image.Image) -> int:

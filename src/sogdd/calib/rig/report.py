@@ -24,7 +24,8 @@ import numpy as np
 from ...formats.safe_write import write_text
 from ..cameras import lens
 from ..detection import Thumbnail, ViewRecord
-from ..report import pyplot, save_figure, write_report
+from ..figures import COLOURS, PlacedCamera, board_outline, poses_figure, pyplot, save_figure
+from ..report import selection_table, write_report
 from .result import RigCalibration, RigCamera
 from .stereo import StereoPair, rectify_points, stereo_pair
 from .uncertainty import projection_uncertainty
@@ -32,73 +33,32 @@ from .verdict import rig_verdict
 
 __all__ = ["RectifiedPair", "rectified_pair", "write_rig_report"]
 
-_COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown")
-
-
-def _board_outline(cam_board, rvec, tvec, square: float) -> np.ndarray | None:
-    """The board's corner rectangle (5, 3) in the first camera's frame, from its labels' extent."""
-    if cam_board is None or not np.all(np.isfinite(rvec)):
-        return None
-    lab = cam_board.labels
-    (i0, j0), (i1, j1) = lab.min(axis=0), lab.max(axis=0)
-    quad = np.array([(i0, j0, 0), (i1, j0, 0), (i1, j1, 0), (i0, j1, 0), (i0, j0, 0)], float) * square
-    R, _ = cv2.Rodrigues(np.asarray(rvec, float))
-    return quad @ R.T + np.asarray(tvec, float)
-
-
 def _extrinsics_figure(rig: RigCalibration, path: Path) -> None:
-    plt = pyplot()
-    fig = plt.figure(figsize=(8, 6))
-    ax = fig.add_subplot(projection="3d")
-    # shown with x right, z (depth) into the page and y down, as the cameras see it
-    def show(p):
-        return p[..., 0], p[..., 2], -p[..., 1]
-
-    pts = []
+    """The cameras and the board's poses in the first camera's frame
+    (:func:`~sogdd.calib.figures.poses_figure`)."""
+    outlines = []
     for f in np.flatnonzero(rig.frame_used):
         board = next((c.calibration.boards[f] for c in rig.cameras if c.calibration.boards[f] is not None),
                      None)
-        q = _board_outline(board, rig.rvecs[f], rig.tvecs[f], rig.square)
+        q = board_outline(board, rig.rvecs[f], rig.tvecs[f], rig.square)
         if q is not None:
-            ax.plot(*show(q), color="0.5", lw=0.8)
-            pts.append(q)
-    scale = 0.15 * (np.ptp(np.concatenate(pts), axis=0).max() if pts else 1.0)
-    for k, cam in enumerate(rig.cameras):
-        centre = -cam.R.T @ cam.T  # the camera's centre in the first camera's frame
-        w, h = cam.image_size
-        frame = np.array([[0, 0, 1], [w, 0, 1], [w, h, 1], [0, h, 1], [0, 0, 1]], float)
-        rays = np.linalg.solve(cam.K, frame.T).T
-        far = centre + (rays * scale) @ cam.R  # R^T applied to each ray
-        colour = _COLOURS[k % len(_COLOURS)]
-        ax.plot(*show(far), color=colour)
-        for corner in far[:4]:
-            ax.plot(*show(np.array([centre, corner])), color=colour, lw=0.8)
-        ax.text(*show(centre), f" {cam.name}", color=colour)
-        pts.append(np.array([centre]))
-    allp = np.concatenate(pts)
-    lo, hi = allp.min(axis=0), allp.max(axis=0)
-    mid, half = (lo + hi) / 2, max(float(np.max(hi - lo)) / 2, 1e-9)
-    ax.set_xlim(mid[0] - half, mid[0] + half)
-    ax.set_ylim(mid[2] - half, mid[2] + half)
-    ax.set_zlim(-mid[1] - half, -mid[1] + half)
-    ax.set_xlabel("x")
-    ax.set_ylabel("z (depth)")
-    ax.set_zlabel("-y")
-    ax.set_title(f"cameras and {int(np.sum(rig.frame_used))} board poses, in {rig.cameras[0].name}'s frame")
-    save_figure(fig, path)
+            outlines.append(q)
+    cams = [PlacedCamera(c.name, c.K, c.R, c.T, c.image_size) for c in rig.cameras]
+    poses_figure(cams, outlines, f"cameras and {int(np.sum(rig.frame_used))} board poses, in "
+                 f"{rig.cameras[0].name}'s frame", path)
 
 
 def _errors_figure(rig: RigCalibration, path: Path) -> None:
     plt = pyplot()
     F = len(rig.frames)
     n = len(rig.cameras)
-    fig, ax = plt.subplots(figsize=(max(6, 0.3 * F * n / 2 + 2), 3.5))
+    fig, ax = plt.subplots(figsize=(min(10.5, max(6, 0.3 * F * n / 2 + 2)), 3.5))  # within the page
     width = 0.8 / n
     for k, cam in enumerate(rig.cameras):
         rms = np.asarray(cam.calibration.view_rms, float)
         used = np.asarray(cam.calibration.view_used, bool)
         x = np.arange(F) + (k - (n - 1) / 2) * width
-        ax.bar(x[used], np.nan_to_num(rms[used]), width, color=_COLOURS[k % len(_COLOURS)],
+        ax.bar(x[used], np.nan_to_num(rms[used]), width, color=COLOURS[k % len(COLOURS)],
                label=f"{cam.name} (RMS {cam.calibration.rms:.3f} px)")
         bad = ~used & np.isfinite(rms)
         if bad.any():
@@ -125,12 +85,12 @@ def _uncertainty_figure(rig: RigCalibration, cam: RigCamera, path: Path) -> bool
     xs, ys = np.unique(pixels[:, 0]), np.unique(pixels[:, 1])
     grid = np.full((len(ys), len(xs)), np.nan)
     grid[np.searchsorted(ys, pixels[:, 1]), np.searchsorted(xs, pixels[:, 0])] = sigma
-    fig, ax = plt.subplots(figsize=(6, 6 * h / w + 0.6))
+    fig, ax = plt.subplots(figsize=(6.5, 6 * h / w + 0.9), layout="constrained")
     from matplotlib.colors import LogNorm
 
     im = ax.imshow(grid, extent=(xs[0], xs[-1], ys[-1], ys[0]), cmap="magma",
                    norm=LogNorm() if np.nanmin(grid) > 0 else None)
-    fig.colorbar(im, ax=ax, label="1 sigma (px)")
+    fig.colorbar(im, ax=ax, label="1 sigma (px)", shrink=0.9)
     used = [b.image_points[u] for b, u in zip(cam.calibration.boards, cam.calibration.corner_used)
             if b is not None and u is not None]
     if used:
@@ -138,7 +98,8 @@ def _uncertainty_figure(rig: RigCalibration, cam: RigCamera, path: Path) -> bool
         ax.plot(p[:, 0], p[:, 1], ".", ms=1, color="c")
     ax.set_xlim(0, w)
     ax.set_ylim(h, 0)
-    ax.set_title(f"{cam.name}: projection uncertainty of a far point (cyan: the corners used)", fontsize=9)
+    ax.set_title(f"{cam.name}: projection uncertainty of a far point\n(cyan: the corners used)", fontsize=9,
+                 loc="left")
     save_figure(fig, path)
     return True
 
@@ -253,7 +214,10 @@ def _pair_figure(rig: RigCalibration, check: RectifiedPair, thumbnails, path: Pa
         ax.imshow(_rectified(cam, Rr, P, thumb, size, scale), cmap="gray", vmin=0, vmax=255)
         q = np.array(list(check.points[which].values()))
         qt = np.c_[q, np.ones(len(q))] @ A.T
-        ax.plot(qt[:, 0], qt[:, 1], "+", ms=4, color=_COLOURS[which])
+        inside = np.all((qt[:, :2] >= -0.5) & (qt[:, :2] <= np.array(size) - 0.5), axis=1)
+        ax.plot(qt[inside, 0], qt[inside, 1], "+", ms=4, color=COLOURS[which])
+        ax.set_xlim(-0.5, size[0] - 0.5)
+        ax.set_ylim(size[1] - 0.5, -0.5)
         for y in np.linspace(0, size[1], 12)[1:-1]:
             ax.axhline(y, color="y", lw=0.6)
         ax.set_title(f"{cam.name}, frame {rig.frames[best]}", fontsize=9)
@@ -286,29 +250,14 @@ def _camera_rows(rig: RigCalibration) -> str:
 
 
 def _selection_tables(rig: RigCalibration) -> str:
-    """Each camera's model-selection table (``model="auto"``), from the selection's ``table`` rows."""
+    """Each camera's model-selection table (``model="auto"``), as the one-camera report shows it
+    (:func:`~sogdd.calib.report.selection_table`)."""
     if not rig.model_selection:
         return ""
     out = ["<h2>Lens model chosen by the data</h2>"]
     for name, sel in rig.model_selection.items():
-        rows = getattr(sel, "table", None)
-        if not rows:
-            continue
-        dicts = [dataclasses.asdict(r) if dataclasses.is_dataclass(r) else dict(r) for r in rows]
-        keys = list(dicts[0])
-        cells = "".join("<tr>" + "".join(f"<td>{html.escape(_cell(d[k]))}</td>" for k in keys) + "</tr>"
-                        for d in dicts)
-        rule = getattr(sel, "rule", "")
-        out.append(f"<h3>{html.escape(name)}: {html.escape(str(getattr(sel, 'chosen', '')))}</h3>"
-                   f"<p>{html.escape(str(rule))}</p><table><tr>"
-                   + "".join(f"<th>{html.escape(k)}</th>" for k in keys) + f"</tr>{cells}</table>")
+        out.append(f"<h3>{html.escape(name)}: {html.escape(sel.chosen)}</h3>{selection_table(sel)}")
     return "".join(out)
-
-
-def _cell(v) -> str:
-    if isinstance(v, float):
-        return _fmt(v)
-    return str(v)
 
 
 def write_rig_report(rig: RigCalibration, out_dir: str | os.PathLike, *,

@@ -37,6 +37,7 @@ from ..detection import (
     ViewResult,
     check_read_options,
     detect_files,
+    on_sensor_grid,
     pick_boards,
 )
 from ..model_selection import ModelChoice, check_model_choice, select_model
@@ -250,12 +251,12 @@ one board
     opts = check_read_options(read_options)
     frames, per = match_frames(_expand(cameras, recursive), allow_missing=allow_missing)
     files = [p for n in names for p in per[n] if p is not None]
-    found = detect_files(files, spec, jobs=jobs, scheduler=scheduler, progress=progress, read_options=opts,
-                         thumb_width=THUMB_WIDTH if thumbnails else None)
-    by_file = dict(zip(files, found))
-    results, ignored, labels = {}, {}, {}
-    for n in names:
-        mine = [by_file[p] for p in per[n] if p is not None]
+    run = dict(jobs=jobs, scheduler=scheduler, progress=progress, read_options=opts,
+               thumb_width=THUMB_WIDTH if thumbnails else None)
+    by_file = dict(zip(files, detect_files(files, spec, **run)))
+    results, ignored, labels, grids = {}, {}, {}, {}
+    for n in names:  # a camera turned between shots is calibrated on its sensor's grid
+        mine, grids[n] = on_sensor_grid([by_file[p] for p in per[n] if p is not None], spec, **run)
         picked = [pick_boards(r.boards, spec, "best") for r in mine]
         mine = [replace(r, boards=kept) for r, (kept, _) in zip(mine, picked)]
         _camera_says(n, check_detections, mine, spec)
@@ -272,9 +273,20 @@ one board
                         pattern=spec.pattern, reject=reject, min_views=min_views)
     if selection:
         rig = replace(rig, model_selection=selection)
+    rig = _sensor_grids(rig, grids)
     records = {n: _records(n, results[n], labels[n], ignored[n], rig, spec) for n in names}
     thumbs = {n: tuple(None if r is None else r.thumbnail for r in results[n]) for n in names}
     return RigImageCalibration(rig, spec, records, tuple(frames), thumbs if thumbnails else {})
+
+
+def _sensor_grids(rig: RigCalibration, grids: dict[str, str]) -> RigCalibration:
+    """The rig, each camera on its sensor's grid saying so (``grids[name]``: its note, "" for none)."""
+    def said(c):
+        cal = c.calibration
+        return replace(c, calibration=replace(cal, pixel_grid="sensor", notes=(*cal.notes, grids[c.name])))
+
+    return replace(rig, notes=(*rig.notes, *(f"camera {n}: {g}" for n, g in grids.items() if g)),
+                   cameras=tuple(said(c) if grids.get(c.name) else c for c in rig.cameras))
 
 
 def _camera_says(name: str, check, *args):

@@ -1,0 +1,435 @@
+"""A calibration's views chosen from a video: frames read with OpenCV, the board found, the views picked.
+
+A video of a board waved before a camera holds hundreds of near-identical frames, some
+of them smeared by the motion. :func:`choose_frames` reads every ``step``-th frame
+(:func:`read_frames`), finds the board in it (:func:`sogdd.calib.targets.view_boards`, its
+corners' precision measured) and picks, greedily, at most ``max_views`` frames, each
+
+- **sharp**: its corners' median precision (px, :attr:`Board.precision`) within
+  :data:`SHARP_FACTOR` of the video's best (a smeared frame's corners are less precise);
+- at a **new pose**: far from every frame already taken (:func:`pose_distance`: the board's
+  centre, its size and its tilt, read from the plane's vanishing line, which does not
+  depend on how the board's corners were labelled);
+- preferring **new coverage**: the frames whose corners fall in the most cells of a
+  :data:`GRID` over the frame that no frame taken covers yet.
+
+:func:`calibrate_video` calibrates from the frames chosen, as
+:func:`~sogdd.calib.session.calibrate_images` does from images: each frame is a view named
+``video.mp4#frame000123``, and its record says why it was chosen
+(:attr:`~sogdd.calib.detection.ViewRecord.choice`, the ``reasons`` column of views.csv).
+:func:`calibrate_video_into` is the same with its output folder, what ``sogdd calibrate
+video.mp4`` runs.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+import os
+import sys
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from .detection import THUMB_WIDTH, Thumbnail, ViewRecord, make_thumbnail, pick_boards
+from .fit import calibrate
+from .model_selection import ModelChoice, check_model_choice
+from .session import (
+    ImageCalibration,
+    ParameterError,
+    check_inputs,
+    check_output_folder,
+    check_run_parameters,
+    write_outputs,
+)
+from .targets.board import Board
+from .targets.precision import measure_precision
+from .targets.spec import BoardSpec, parse_board, view_boards
+
+__all__ = ["GRID", "MAX_VIEWS", "SCAN", "SHARP_FACTOR", "VIDEO_SUFFIXES", "ChosenFrame", "calibrate_video",
+           "calibrate_video_into", "choose_frames", "frame_name", "is_video", "pose_distance", "read_frames"]
+
+#: the file suffixes read as videos (lower case)
+VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".m4v", ".webm", ".mpg", ".mpeg", ".wmv")
+#: most frames taken from a video (``--max-views``)
+MAX_VIEWS = 40
+#: most frames scanned when no step is given: every ``ceil(frames / SCAN)``-th frame is read
+SCAN = 400
+#: a frame is sharp when its corners' median precision is within this factor of the video's best
+SHARP_FACTOR = 2.0
+#: the cells (across, down) of the frame whose coverage by the boards' corners is counted
+GRID = (8, 6)
+#: what makes two poses near (:func:`pose_distance` 1): the board's centre moved by this fraction of
+#: the frame's half diagonal, its size changed by this log ratio, its tilt vector by this much (~10 degrees)
+POSE_SCALES = (0.15, 0.2, 0.15)
+
+
+def is_video(path: str | os.PathLike) -> bool:
+    """Whether ``path`` names a video file by its suffix (:data:`VIDEO_SUFFIXES`).
+
+    Examples
+    --------
+    >>> is_video("take1.MP4"), is_video("frames/*.png")
+    (True, False)
+    """
+    return Path(os.fspath(path)).suffix.lower() in VIDEO_SUFFIXES
+
+
+def frame_name(video: str | os.PathLike, index: int) -> str:
+    """A video frame's view name: ``video.mp4#frame000123``.
+
+    Examples
+    --------
+    >>> frame_name("clips/take1.mp4", 123)
+    'take1.mp4#frame000123'
+    """
+    return f"{Path(os.fspath(video)).name}#frame{int(index):06d}"
+
+
+def _quiet_opencv():
+    """OpenCV's log silenced (its video backends warn on stderr about files they cannot open); the old level
+    to restore."""
+    try:
+        old = cv2.utils.logging.getLogLevel()
+        cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_SILENT)
+        return old
+    except AttributeError:  # a build without the logging module
+        return None
+
+
+def _open(path: str | os.PathLike) -> cv2.VideoCapture:
+    """The video opened, or a one-line ``ValueError`` naming it."""
+    name = os.fspath(path)
+    if not os.path.exists(name):
+        raise ValueError(f"{name}: no such file")
+    if os.path.isdir(name):
+        raise ValueError(f"{name}: is a folder, not a video")
+    old = _quiet_opencv()
+    try:
+        cap = cv2.VideoCapture(name)
+    finally:
+        if old is not None:
+            cv2.utils.logging.setLogLevel(old)
+    if not cap.isOpened():
+        cap.release()
+        raise ValueError(f"{name}: not a video OpenCV can read")
+    return cap
+
+
+def read_frames(path: str | os.PathLike, step: int = 1) -> Iterator[tuple[int, np.ndarray]]:
+    """Every ``step``-th frame of a video, ``(index, image)``, in order (the frames between are skipped
+    undecoded); a one-line ``ValueError`` when the file cannot be opened as a video or holds no frame.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> f = tempfile.mkdtemp() + "/v.avi"
+    >>> w = cv2.VideoWriter(f, cv2.VideoWriter_fourcc(*"MJPG"), 25, (64, 48), False)
+    >>> for k in range(5):
+    ...     _ = w.write(np.full((48, 64), 40 * k, np.uint8))
+    >>> w.release()
+    >>> [(i, img.shape) for i, img in read_frames(f, step=2)]
+    [(0, (48, 64, 3)), (2, (48, 64, 3)), (4, (48, 64, 3))]
+    """
+    cap = _open(path)
+    try:
+        i = 0
+        while True:
+            if i % step:
+                ok, frame = cap.grab(), None
+            else:
+                ok, frame = cap.read()
+            if not ok:
+                break
+            if frame is not None:
+                yield i, frame
+            i += 1
+        if i == 0:
+            raise ValueError(f"{os.fspath(path)}: no frame could be read")
+    finally:
+        cap.release()
+
+
+def _frame_count(path: str | os.PathLike) -> int:
+    """The video's frame count as its container says (0 when it does not)."""
+    cap = _open(path)
+    try:
+        return max(0, int(cap.get(cv2.CAP_PROP_FRAME_COUNT)))
+    finally:
+        cap.release()
+
+
+@dataclass(frozen=True)
+class ChosenFrame:
+    """A frame chosen as a view (:func:`choose_frames`).
+
+    Attributes
+    ----------
+    index : int
+        The frame's index in the video (0 first).
+    board : Board
+        The board found in it, its corners' precision measured.
+    size : tuple of int
+        The frame's (width, height) in px.
+    reasons : tuple of str
+        Why it was chosen: ``sharp ...``, ``new pose ...`` and, when its corners cover cells of the
+        frame no frame before it did, ``new coverage ...``.
+    precision : float
+        Its corners' median precision (px).
+    pose : ndarray
+        The board's pose as the frame shows it, for :func:`pose_distance`: ``(cx, cy, log size, tilt u,
+        tilt v)``, the centre in half diagonals from the frame's, the tilt 0 facing the camera.
+    thumbnail : Thumbnail or None
+        A small grey copy of the frame for the report.
+    """
+
+    index: int
+    board: Board
+    size: tuple[int, int]
+    reasons: tuple[str, ...]
+    precision: float
+    pose: np.ndarray
+    thumbnail: Thumbnail | None = None
+
+
+def _descriptor(board: Board, size: tuple[int, int]) -> np.ndarray | None:
+    """The board's pose as the frame shows it: centre (fractions of the half diagonal), log size, and the
+    tilt vector (the plane's vanishing line ``a u + b v + c = 0`` as ``(a, b) / c``, in coordinates
+    centred on the frame in half diagonals: 0 for a board facing the camera); None without a homography."""
+    w, h = size
+    d = math.hypot(w, h) / 2
+    pts = np.asarray(board.image_points, np.float64)
+    lab = np.asarray(board.labels, np.float64)
+    if len(pts) < 4:
+        return None
+    H, _ = cv2.findHomography(lab, pts, 0)
+    if H is None or not np.all(np.isfinite(H)):
+        return None
+    norm = np.array([[1 / d, 0, -w / (2 * d)], [0, 1 / d, -h / (2 * d)], [0, 0, 1.0]])
+    try:
+        line = np.linalg.inv(norm @ H)[2]
+    except np.linalg.LinAlgError:
+        return None
+    tilt = line[:2] / line[2] if abs(line[2]) > 1e-12 * np.abs(line).max() else np.array([1e3, 1e3])
+    centre = (pts.mean(axis=0) - (w / 2, h / 2)) / d
+    hull = cv2.convexHull(pts.astype(np.float32))
+    area = max(float(cv2.contourArea(hull)), 1.0)
+    return np.array([*centre, 0.5 * math.log(area) - math.log(d), *np.clip(tilt, -1e3, 1e3)])
+
+
+def pose_distance(a: np.ndarray, b: np.ndarray) -> float:
+    """How far apart two poses are, in units of :data:`POSE_SCALES` (under 1: near).
+
+    ``a`` and ``b`` are descriptors ``(cx, cy, log size, tilt u, tilt v)`` of boards in a frame.
+
+    Examples
+    --------
+    >>> a = np.array([0.0, 0, -0.5, 0, 0])
+    >>> round(pose_distance(a, a + [0.15, 0, 0, 0, 0]), 3), round(pose_distance(a, a + [0, 0, 0, 0.3, 0]), 3)
+    (1.0, 2.0)
+    """
+    sc, ss, st = POSE_SCALES
+    return float(math.sqrt((np.hypot(*(a[:2] - b[:2])) / sc) ** 2 + ((a[2] - b[2]) / ss) ** 2
+                           + (np.hypot(*(a[3:] - b[3:])) / st) ** 2))
+
+
+def _cells(board: Board, size: tuple[int, int]) -> frozenset[tuple[int, int]]:
+    """The cells of :data:`GRID` over the frame that the board's corners fall in."""
+    gw, gh = GRID
+    pts = np.asarray(board.image_points, np.float64)
+    i = np.clip((pts[:, 0] / size[0] * gw).astype(int), 0, gw - 1)
+    j = np.clip((pts[:, 1] / size[1] * gh).astype(int), 0, gh - 1)
+    return frozenset(zip(i.tolist(), j.tolist()))
+
+
+def _check_count(name: str, value: object, *, none: bool = False) -> None:
+    if none and value is None:
+        return
+    integral = isinstance(value, numbers.Integral) and not isinstance(value, bool)
+    if not integral or value < 1:  # type: ignore[operator]
+        why = "must be >= 1, got {value}" if integral else "must be an integer, got {value!r}"
+        raise ParameterError(f"{{{name}}} {why}", **{name: name, "value": value})
+
+
+def choose_frames(path: str | os.PathLike, spec: str | BoardSpec, max_views: int = MAX_VIEWS, *,
+                  step: int | None = None, sharp: float = SHARP_FACTOR, thumbnails: bool = True,
+                  progress: bool = False) -> list[ChosenFrame]:
+    """The frames of a video to calibrate from (module doc), in the video's order.
+
+    Parameters
+    ----------
+    path : path
+        The video file (anything OpenCV's ``VideoCapture`` reads).
+    spec : str or BoardSpec
+        The board (:func:`sogdd.calib.parse_board`).
+    max_views : int
+        Most frames chosen.
+    step : int, optional
+        Read every ``step``-th frame (None: enough to read at most :data:`SCAN` frames).
+    sharp : float
+        A frame is sharp when its corners' median precision is within this factor of the video's best
+        (the 10th percentile of the frames with a board).
+    thumbnails : bool
+        Keep a small grey copy of each chosen frame (for the report).
+    progress : bool
+        A progress bar on stderr, over the frames read.
+
+    Returns
+    -------
+    list of ChosenFrame
+        At most ``max_views``; empty when no frame shows the board.
+
+    Raises
+    ------
+    ValueError
+        One line: the file cannot be read as a video; bad parameters
+        (:class:`~sogdd.calib.session.ParameterError`).
+    """
+    from tqdm import tqdm
+
+    spec = parse_board(spec) if isinstance(spec, str) else spec
+    _check_count("max_views", max_views)
+    _check_count("video_step", step, none=True)
+    total = _frame_count(path)
+    step = step or max(1, math.ceil(total / SCAN))
+    found: list[tuple[int, Board, float, Thumbnail | None]] = []
+    size = (0, 0)
+    with tqdm(total=math.ceil(total / step) if total else None, desc="frames", unit="frame", file=sys.stderr,
+              disable=not progress) as bar:
+        for index, frame in read_frames(path, step):
+            size = (int(frame.shape[1]), int(frame.shape[0]))
+            boards = measure_precision(frame, view_boards(frame, spec).boards)
+            views, _ = pick_boards(boards, spec, "best")
+            bar.update(1)
+            if not views or views[0].precision is None or not np.isfinite(np.nanmedian(views[0].precision)):
+                continue
+            thumb = make_thumbnail(frame, THUMB_WIDTH) if thumbnails else None
+            found.append((index, views[0], float(np.nanmedian(views[0].precision)), thumb))
+    if not found:
+        return []
+    best = float(np.percentile([q for _, _, q, _ in found], 10))
+    pool = []
+    for index, board, q, thumb in found:
+        desc = _descriptor(board, size)
+        if q <= sharp * best and desc is not None:
+            pool.append((index, board, q, thumb, desc, _cells(board, size)))
+    chosen: list[ChosenFrame] = []
+    taken: list[np.ndarray] = []
+    covered: set[tuple[int, int]] = set()
+    while pool and len(chosen) < max_views:
+        near = [min((pose_distance(p[4], t) for t in taken), default=math.inf) for p in pool]
+        new = [len(p[5] - covered) for p in pool]
+        ok = [k for k in range(len(pool)) if near[k] > 1.0]
+        if not ok:
+            break
+        k = max(ok, key=lambda k: (new[k], min(near[k], 4.0), -pool[k][2]))
+        index, board, q, thumb, desc, cells = pool.pop(k)
+        reasons = [f"sharp ({q:.3g} px; {q / best:.2f}x the video's best)",
+                   "new pose (the first)" if not taken else f"new pose ({near[k]:.1f} from the nearest taken)"]
+        if new[k]:
+            reasons.append(f"new coverage ({new[k]} of {GRID[0]}x{GRID[1]} cells)")
+        chosen.append(ChosenFrame(index, board, size, tuple(reasons), q, desc, thumb))
+        taken.append(desc)
+        covered |= cells
+    return sorted(chosen, key=lambda c: c.index)
+
+
+def calibrate_video(
+    video: str | os.PathLike,
+    board: str | BoardSpec = "chessboard:auto",
+    *,
+    square: float = 1.0,
+    model: ModelChoice = "auto",
+    min_views: int = 3,
+    reject: bool = True,
+    max_views: int = MAX_VIEWS,
+    step: int | None = None,
+    thumbnails: bool = True,
+    progress: bool = False,
+) -> ImageCalibration:
+    """Calibrate a camera from a video of a board: its frames chosen (:func:`choose_frames`), then the fit.
+
+    Parameters
+    ----------
+    video : path
+        The video file.
+    board, square, model, min_views, reject, thumbnails, progress
+        As :func:`sogdd.calib.calibrate_images`.
+    max_views : int
+        Most frames taken as views.
+    step : int, optional
+        Read every ``step``-th frame (None: at most :data:`SCAN` frames read).
+
+    Returns
+    -------
+    ImageCalibration
+        Each view a chosen frame, named ``video.mp4#frame000123`` (:func:`frame_name`); its record's
+        ``choice`` says why it was chosen.
+
+    Raises
+    ------
+    ValueError
+        One line: bad parameters (a :class:`~sogdd.calib.session.ParameterError` naming it); the file cannot
+        be read as a video; no frame shows the board; too few frames chosen.
+    """
+    spec = parse_board(board) if isinstance(board, str) else board
+    if not isinstance(spec, BoardSpec):
+        raise TypeError(f"board must be a specification string or a BoardSpec, got {type(board).__name__}")
+    check_model_choice(model)
+    check_run_parameters(square=square, jobs=1, min_views=min_views)
+    _check_count("max_views", max_views)
+    _check_count("video_step", step, none=True)
+    if max_views < min_views:
+        raise ParameterError("{max_views} ({value}) must be at least {min_views} ({least})",
+                             max_views="max_views", min_views="min_views", value=max_views, least=min_views)
+    name = os.fspath(video)
+    chosen = choose_frames(video, spec, max_views, step=step, thumbnails=thumbnails, progress=progress)
+    if not chosen:
+        raise ValueError(f"{name}: no board ({spec}) in any frame read; check --board (chessboard: inner "
+                         "corners, not squares)")
+    if len(chosen) < min_views:
+        raise ValueError(f"{name}: only {len(chosen)} frame(s) sharp and at distinct poses, under the "
+                         f"{min_views} views needed; move the board more slowly, to more places")
+    names = [frame_name(video, c.index) for c in chosen]
+    cal = calibrate([c.board for c in chosen], chosen[0].size, square=float(square) * spec.label_step,
+                    model=model, names=names, reject=reject, min_views=min_views)
+    records = tuple(
+        ViewRecord(n, name, "used" if cal.view_used[v] else "rejected",
+                   "" if cal.view_used[v] else cal.reasons[v], v, choice="; ".join(c.reasons))
+        for v, (n, c) in enumerate(zip(names, chosen)))
+    return ImageCalibration(cal, spec, records, tuple(c.thumbnail for c in chosen) if thumbnails else ())
+
+
+def calibrate_video_into(
+    video: str | os.PathLike,
+    out: str | os.PathLike,
+    board: str | BoardSpec = "chessboard:auto",
+    *,
+    square: float = 1.0,
+    model: ModelChoice = "auto",
+    min_views: int = 3,
+    reject: bool = True,
+    max_views: int = MAX_VIEWS,
+    step: int | None = None,
+    report: bool = True,
+    title: str | None = None,
+    progress: bool = False,
+) -> tuple[ImageCalibration, dict[str, Path]]:
+    """:func:`calibrate_video` into an output folder (as :func:`sogdd.calib.session.calibrate_into`): every
+    check first (the parameters, the video's name, ``out``), then the calibration, then its folder, complete
+    or as it was. What ``sogdd calibrate video.mp4`` runs."""
+    spec = parse_board(board) if isinstance(board, str) else board
+    check_model_choice(model)
+    check_run_parameters(square=square, jobs=1, min_views=min_views)
+    _check_count("max_views", max_views)
+    _check_count("video_step", step, none=True)
+    check_inputs([video])
+    check_output_folder(out, [video])
+    result = calibrate_video(video, spec, square=square, model=model, min_views=min_views, reject=reject,
+                             max_views=max_views, step=step, thumbnails=report, progress=progress)
+    n = len(result.calibration.names)
+    return result, write_outputs(result, out, report=report, inputs=[video],
+                                 title=title or f"Camera calibration: {n} frames of {Path(video).name}, {spec}")
