@@ -212,8 +212,8 @@ def calibrate_images(
         Image files, folders (their images; ``recursive``: and their
         sub-folders') and glob patterns (:func:`sogdd.collection.expand_inputs`).
     board : str or BoardSpec
-        ``chessboard:COLSxROWS`` (inner corners), ``chessboard:auto`` or
-        ``charuco:COLSxROWS:MARKER:DICT`` (:func:`sogdd.calib.parse_board`).
+        ``chessboard:COLSxROWS`` (inner corners), ``chessboard:auto``, ``charuco:COLSxROWS:MARKER:DICT``
+        or ``aprilgrid:COLSxROWS:SIZE:SPACING`` (:func:`sogdd.calib.parse_board`).
     boards : {"best", "all"}
         Which boards of an image are views. ``"best"``: one, the board that
         matches ``board`` best (complete first, then the most corners, then the

@@ -1,4 +1,4 @@
-"""sogdd calibrate: a camera calibration from images of a chessboard or ChArUco board; or a rig's.
+"""sogdd calibrate: a camera calibration from images or a video of a chessboard, ChArUco, AprilGrid; or a rig's.
 
   sogdd calibrate 'frames/*.jpg' --board chessboard:9x6 --square 25 --out calib/
   sogdd calibrate --camera left 'left/*.jpg' --camera right 'right/*.jpg' --board chessboard:9x6 --out rig/
@@ -11,6 +11,9 @@ Boards (--board):
   charuco:COLSxROWS:MARKER:DICT a ChArUco board of COLS x ROWS *squares*, markers
                                 MARKER times the square's side, OpenCV dictionary
                                 DICT, e.g. charuco:5x7:0.7:DICT_5X5_100
+  aprilgrid:COLSxROWS:SIZE:SPACING  Kalibr's AprilGrid: COLS x ROWS 36h11 tags of side
+                                SIZE (the poses' unit), SPACING the gap over the side,
+                                e.g. aprilgrid:6x6:0.088:0.3
 
 An image is one view: the board that matches --board best (complete, then most
 corners, then largest cells). Other boards in it are rows of views.csv with
@@ -67,8 +70,8 @@ def configure(p: argparse.ArgumentParser) -> None:
     p.add_argument("images", nargs="*", help="image files, folders or glob patterns (quoted); or, for a rig, "
                    "--camera NAME PATTERN... per camera")
     p.add_argument("--board", default="chessboard:auto", metavar="SPEC",
-                   help="chessboard:COLSxROWS (inner corners), chessboard:auto, or "
-                        "charuco:COLSxROWS:MARKER:DICT (see above)")
+                   help="chessboard:COLSxROWS (inner corners), chessboard:auto, "
+                        "charuco:COLSxROWS:MARKER:DICT or aprilgrid:COLSxROWS:SIZE:SPACING (see above)")
     p.add_argument("--boards", choices=("best", "all"), default="best",
                    help="boards per image: the best match of --board (the others ignored, in views.csv), or "
                         "all of them (several targets; small copies of the board are still ignored)")
