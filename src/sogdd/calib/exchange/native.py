@@ -29,7 +29,7 @@ import numpy as np
 
 from ...formats.safe_write import atomic_write, check_not_inputs
 from ..files import open_storage, read_camera
-from ..rig.files import check_camera_names, read_rig
+from ..rig.files import check_camera_names, read_rig, write_camera_nodes
 from .format import ExchangeFormat
 from .stored import StoredCamera, StoredRig
 
@@ -55,15 +55,7 @@ def _storage(tmp: Path, rig: StoredRig) -> None:
             fs.write("", n)
         fs.endWriteStruct()
         for c in rig.cameras:
-            fs.write(f"model_{c.name}", c.model)
-            fs.write(f"camera_matrix_{c.name}", np.asarray(c.K, np.float64))
-            fs.write(f"distortion_coefficients_{c.name}", np.asarray(c.dist, np.float64).reshape(1, -1))
-            fs.startWriteStruct(f"image_size_{c.name}", cv2.FileNode_SEQ | cv2.FileNode_FLOW)
-            for v in c.image_size:
-                fs.write("", int(v))
-            fs.endWriteStruct()
-            fs.write(f"R_{c.name}", np.asarray(c.R, np.float64))
-            fs.write(f"T_{c.name}", np.asarray(c.T, np.float64).reshape(3, 1))
+            write_camera_nodes(fs, c)
     fs.release()
 
 

@@ -38,8 +38,8 @@ from .result import RigCalibration
 from .stereo import stereo_pair
 from .verdict import rig_verdict, uncertainty_summary
 
-__all__ = ["RIG_FILES", "STEREO_KEYS", "check_camera_names", "read_rig", "rig_dict", "write_rig",
-           "write_rig_json", "write_rig_yaml"]
+__all__ = ["RIG_FILES", "STEREO_KEYS", "check_camera_names", "read_rig", "rig_dict", "write_camera_nodes",
+           "write_rig", "write_rig_json", "write_rig_yaml"]
 
 #: the files :func:`write_rig` writes beside the cameras' folders
 RIG_FILES = ("rig.yaml", "rig.json")
@@ -198,6 +198,23 @@ def _rectified(rig: RigCalibration, name: str) -> dict | None:
             "vertical_disparity_px": _num(check.disparity)}
 
 
+def write_camera_nodes(fs: cv2.FileStorage, camera) -> None:
+    """One camera's nodes of ``rig.yaml`` (module doc) into an open FileStorage: ``model_NAME``,
+    ``camera_matrix_NAME``, ``distortion_coefficients_NAME``, ``image_size_NAME``, ``R_NAME`` and ``T_NAME``
+    (``x_cam = R x_ref + T``), from any record with those attributes (``name``, ``model``, ``K``,
+    ``dist``, ``image_size``, ``R``, ``T``): a rig's camera or an exchange format's."""
+    n = camera.name
+    fs.write(f"model_{n}", camera.model)
+    fs.write(f"camera_matrix_{n}", np.asarray(camera.K, dtype=np.float64))
+    fs.write(f"distortion_coefficients_{n}", np.asarray(camera.dist, dtype=np.float64).reshape(1, -1))
+    fs.startWriteStruct(f"image_size_{n}", cv2.FileNode_SEQ | cv2.FileNode_FLOW)
+    for v in camera.image_size:
+        fs.write("", int(v))
+    fs.endWriteStruct()
+    fs.write(f"R_{n}", np.asarray(camera.R, dtype=np.float64).reshape(3, 3))
+    fs.write(f"T_{n}", np.asarray(camera.T, dtype=np.float64).reshape(3, 1))
+
+
 def write_rig_yaml(rig: RigCalibration, path: str | os.PathLike) -> Path:
     """Write the rig as OpenCV FileStorage YAML (``cv2.FileStorage(path, READ)`` reads it; module doc).
 
@@ -233,15 +250,7 @@ def write_rig_yaml(rig: RigCalibration, path: str | os.PathLike) -> Path:
             fs.write("", n)
         fs.endWriteStruct()
         for c in rig.cameras:
-            fs.write(f"model_{c.name}", c.model)
-            fs.write(f"camera_matrix_{c.name}", np.asarray(c.K, dtype=np.float64))
-            fs.write(f"distortion_coefficients_{c.name}", np.asarray(c.dist, dtype=np.float64).reshape(1, -1))
-            fs.startWriteStruct(f"image_size_{c.name}", cv2.FileNode_SEQ | cv2.FileNode_FLOW)
-            for v in c.image_size:
-                fs.write("", int(v))
-            fs.endWriteStruct()
-            fs.write(f"R_{c.name}", np.asarray(c.R, dtype=np.float64).reshape(3, 3))
-            fs.write(f"T_{c.name}", np.asarray(c.T, dtype=np.float64).reshape(3, 1))
+            write_camera_nodes(fs, c)
             fs.write(f"rms_{c.name}", float(c.calibration.rms))
         if pair is not None:
             for k in STEREO_KEYS:
