@@ -10,7 +10,8 @@ import pytest
 from scipy.spatial import cKDTree
 
 from sogdd.calib.cameras import Camera
-from sogdd.calib.targets.chessboard import detect_board
+from sogdd.calib.targets.board import cell_size, view_board
+from sogdd.calib.targets.chessboard import detect_board, find_boards
 from sogdd.calib.targets.chessboard.xcorners import NOISE_FACTOR, noise_strength, search, search_levels
 
 CAM = Camera(np.array([[900.0, 0, 479.5], [0, 900.0, 359.5], [0, 0, 1]]), (0.0, 0, 0, 0), (960, 720))
@@ -114,6 +115,45 @@ def test_a_small_board_found_first_does_not_hide_the_view_board(render):
     img = np.clip(img + np.random.default_rng(0).normal(0, 1.0, img.shape), 0, 255).astype(np.uint8)
     b = detect_board(img, (9, 6), proposals=False)
     assert_exact(b, v, 0.35)
+
+
+def _with_screen(render, square: float, cell: int) -> tuple[np.ndarray, object]:
+    """The board of :func:`board_view` (cells of ``900 square`` px) and a sharp 9 x 6 screen of ``cell`` px
+    cells."""
+    v, _ = board_view(render, square=square)
+    small = np.kron((np.indices((7, 10)).sum(axis=0) % 2) * 180.0 + 40, np.ones((cell, cell)))
+    img = v.image.astype(np.float64)
+    screen = cv2.GaussianBlur(np.pad(small, cell, constant_values=220.0), (0, 0), 0.7)
+    img[8:8 + screen.shape[0], 8:8 + screen.shape[1]] = screen
+    return np.clip(img + np.random.default_rng(0).normal(0, 1.0, img.shape), 0, 255).astype(np.uint8), v
+
+
+def test_one_board_per_image_stops_once_the_view_is_settled(render):
+    img, v = _with_screen(render, 0.03, 4)  # the board's cells of 27 px, the screen's of 4 px
+    every = find_boards(img, (9, 6), proposals=False)
+    assert sorted(cell_size(b) < 5 for b in every.boards) == [False, True]  # the full search: the screen too
+    view = find_boards(img, (9, 6), proposals=False, view_only=True)
+    assert len(view.boards) == 1  # the coarser levels settle the view: the screen's level is not searched
+    a, b = view_board(every.boards), view_board(view.boards)
+    assert_exact(b, v, 0.1)
+    assert np.array_equal(a.labels, b.labels) and np.abs(a.image_points - b.image_points).max() < 0.02
+
+
+def test_one_board_per_image_searches_every_level_while_the_view_is_incomplete(render):
+    img, v = _with_screen(render, 0.03, 4)
+    img[340:460, 540:620] = 128  # a hand over the board's right side: no complete board anywhere
+    view = find_boards(img, (9, 6), proposals=False, view_only=True)
+    every = find_boards(img, (9, 6), proposals=False)
+    assert sorted(cell_size(b) < 5 for b in view.boards) == [False, True]  # the screen too: every level
+    assert [len(b) for b in view.boards] == [len(b) for b in every.boards] and len(view_board(view.boards)) < 54
+
+
+def test_of_two_complete_boards_the_view_is_the_one_of_larger_cells(render):
+    img, v = _with_screen(render, 0.0085, 6)  # the board's cells of 7.7 px, the screen's (found first) of 6 px
+    boards = find_boards(img, (9, 6), proposals=False).boards
+    assert [len(b) for b in boards] == [54, 54]
+    assert_exact(view_board(boards), v, 0.1)
+    assert_exact(detect_board(img, (9, 6), proposals=False), v, 0.1)
 
 
 @pytest.mark.parametrize("seed", range(6))

@@ -241,13 +241,16 @@ def _read(path: str, read_options: Mapping | None) -> tuple[np.ndarray, int]:
 
 
 def detect_view(path: str | os.PathLike, spec: BoardSpec, read_options: Mapping | None = None,
-                thumb_width: int | None = THUMB_WIDTH) -> ViewResult:
+                thumb_width: int | None = THUMB_WIDTH, view_only: bool = False) -> ViewResult:
     """Read one image and find its boards by ``spec`` (the unit of work of :func:`detect_files`).
 
     A file that cannot be read gives a :class:`ViewResult` with ``error`` set
     (one line, naming the file). ``read_options`` go to :func:`sogdd.read_image`;
     ``thumb_width`` is the width of the thumbnail kept for the report (None: none).
-    Every board returned carries its corners' measured precision
+    ``view_only``: one board per image is wanted (the search stops once the
+    view's board is settled: :func:`sogdd.calib.targets.chessboard.find_boards`), and
+    a screen behind it that only a finer level shows is not reported. Every
+    board returned carries its corners' measured precision
     (:func:`~sogdd.calib.targets.precision.measure_precision`).
 
     Examples
@@ -275,7 +278,7 @@ def detect_view(path: str | os.PathLike, spec: BoardSpec, read_options: Mapping 
         return ViewResult(path, error=f"{path}: out of memory")
     size = (int(image.shape[1]), int(image.shape[0]))
     thumb = make_thumbnail(image, thumb_width) if thumb_width else None
-    found = view_boards(image, spec)
+    found = view_boards(image, spec, view_only)
     return ViewResult(path, measure_precision(image, found.boards), size, seen=found.seen,
                       other_size=found.other_size, thumbnail=thumb, orientation=turn)
 
@@ -286,7 +289,7 @@ def _died(a: tuple, message: str) -> ViewResult:
 
 def detect_files(paths: Sequence[str | os.PathLike], spec: BoardSpec, *, jobs: int = 1,
                  scheduler: str | None = None, progress: bool = False, read_options: Mapping | None = None,
-                 thumb_width: int | None = THUMB_WIDTH) -> list[ViewResult]:
+                 thumb_width: int | None = THUMB_WIDTH, view_only: bool = False) -> list[ViewResult]:
     """:func:`detect_view` on every file, ``jobs`` processes at a time or on the Dask cluster at ``scheduler``.
 
     A file that cannot be read, or whose worker process dies, gives a
@@ -300,7 +303,7 @@ def detect_files(paths: Sequence[str | os.PathLike], spec: BoardSpec, *, jobs: i
         raise ValueError(f"jobs must be >= 1, got {jobs}")
     opts = check_read_options(read_options)
     names = [str(p) for p in paths]
-    args = [(n, spec, opts, thumb_width) for n in names]
+    args = [(n, spec, opts, thumb_width, view_only) for n in names]
     results: dict[str, ViewResult] = {}
     bars: list = []
 
@@ -322,7 +325,8 @@ def detect_files(paths: Sequence[str | os.PathLike], spec: BoardSpec, *, jobs: i
 
 def on_sensor_grid(results: Sequence[ViewResult], spec: BoardSpec, *, jobs: int = 1,
                    scheduler: str | None = None, progress: bool = False, read_options: Mapping | None = None,
-                   thumb_width: int | None = THUMB_WIDTH) -> tuple[list[ViewResult], str]:
+                   thumb_width: int | None = THUMB_WIDTH, view_only: bool = False
+                   ) -> tuple[list[ViewResult], str]:
     """The views of one camera on one pixel grid: ``(results, note)``.
 
     A camera's intrinsics live on its sensor's pixel grid. When every readable
@@ -341,7 +345,7 @@ def on_sensor_grid(results: Sequence[ViewResult], spec: BoardSpec, *, jobs: int 
     again = [i for i, r in enumerate(results) if not r.error and r.orientation != 1]
     redone = detect_files([results[i].path for i in again], spec, jobs=jobs, scheduler=scheduler,
                           progress=progress, read_options={**opts, "ignore_orientation": True},
-                          thumb_width=thumb_width)
+                          thumb_width=thumb_width, view_only=view_only)
     out = list(results)
     for i, r in zip(again, redone):
         out[i] = replace(r, path=results[i].path)

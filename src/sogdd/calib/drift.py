@@ -247,7 +247,7 @@ class _Views:
 def _detect(paths: Sequence[str | os.PathLike], spec: BoardSpec, jobs: int, read_options: dict,
             progress: bool) -> _Views:
     results = detect_files(paths, spec, jobs=jobs, progress=progress, read_options=read_options,
-                           thumb_width=None)
+                           thumb_width=None, view_only=True)
     results = [replace(r, boards=pick_boards(r.boards, spec)[0]) for r in results]
     check_detections(results, spec)
     names = relative_names(paths)

@@ -292,7 +292,7 @@ def calibrate_images(
     paths = _expand(images, recursive)
     names = relative_names(paths)  # collisions fail before any work
     run = dict(jobs=jobs, scheduler=scheduler, progress=progress, read_options=opts,
-               thumb_width=THUMB_WIDTH if thumbnails else None)
+               thumb_width=THUMB_WIDTH if thumbnails else None, view_only=boards != "all")
     results, grid = on_sensor_grid(detect_files(paths, spec, **run), spec, **run)  # turned between shots
     picked = [pick_boards(r.boards, spec, boards) for r in results]
     results = [replace(r, boards=kept) for r, (kept, _) in zip(results, picked)]

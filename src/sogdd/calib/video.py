@@ -301,7 +301,7 @@ def choose_frames(path: str | os.PathLike, spec: str | BoardSpec, max_views: int
               disable=not progress) as bar:
         for index, frame in read_frames(path, step):
             size = (int(frame.shape[1]), int(frame.shape[0]))
-            boards = measure_precision(frame, view_boards(frame, spec).boards)
+            boards = measure_precision(frame, view_boards(frame, spec, True).boards)
             views, _ = pick_boards(boards, spec, "best")
             bar.update(1)
             if not views or views[0].precision is None or not np.isfinite(np.nanmedian(views[0].precision)):

@@ -252,7 +252,7 @@ one board
     frames, per = match_frames(_expand(cameras, recursive), allow_missing=allow_missing)
     files = [p for n in names for p in per[n] if p is not None]
     run = dict(jobs=jobs, scheduler=scheduler, progress=progress, read_options=opts,
-               thumb_width=THUMB_WIDTH if thumbnails else None)
+               thumb_width=THUMB_WIDTH if thumbnails else None, view_only=True)  # a frame: one board
     by_file = dict(zip(files, detect_files(files, spec, **run)))
     results, ignored, labels, grids = {}, {}, {}, {}
     for n in names:  # a camera turned between shots is calibrated on its sensor's grid

@@ -237,8 +237,9 @@ def spec_text(spec) -> str:
     return f"aprilgrid:{spec.tags[0]}x{spec.tags[1]}:{_short(spec.tag_size)}:{_short(spec.spacing)}"
 
 
-def view_boards(image: np.ndarray, spec) -> ViewBoards:
-    """The AprilGrid of ``spec`` in an image (:func:`detect_aprilgrid`), or what was missing."""
+def view_boards(image: np.ndarray, spec, view_only: bool = False) -> ViewBoards:
+    """The AprilGrid of ``spec`` in an image (:func:`detect_aprilgrid`), or what was missing;
+    one board per image whatever ``view_only`` says (the grid is one board)."""
     b = detect_aprilgrid(image, spec.aprilgrid())
     seen = "" if b is not None else "no AprilGrid tags (36h11, a border of 2 bits) of the grid"
     return ViewBoards((b,) if b is not None and len(b) else (), seen)

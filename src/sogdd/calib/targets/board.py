@@ -195,7 +195,7 @@ def view_board(boards: Sequence[Board]) -> Board | None:
     the largest board's is a screen, a reflection or a pattern in the
     background: never the view's board, even complete where the view's own is
     cut by an occluder or the frame. Of the others, ``(B.size is not None,
-    len(B))`` decides.
+    len(B), cell_size(B))`` decides: of two complete boards, the one of larger cells.
 
     Examples
     --------
@@ -204,11 +204,17 @@ def view_board(boards: Sequence[Board]) -> Board | None:
     >>> cut = Board(grid[:20] * 40.0, grid[:20])  # the view's board, a hand over four corners
     >>> view_board([screen, cut]) is cut
     True
+    >>> near = Board(grid * 6.0, grid, size=(6, 4))  # complete too, cells of 6 px
+    >>> view_board([screen, near]) is near
+    True
     """
     cells = [cell_size(b) for b in boards]
     largest = max((c for c in cells if np.isfinite(c)), default=float("nan"))
-    keep = [b for b, c in zip(boards, cells) if not c < SMALL_CELL * largest]
-    return max(keep, key=lambda b: (b.size is not None, len(b))) if keep else None
+    keep = [k for k, c in enumerate(cells) if not c < SMALL_CELL * largest]
+    if not keep:
+        return None
+    rank = [(b.size is not None, len(b), np.nan_to_num(c)) for b, c in zip(boards, cells)]
+    return boards[max(keep, key=rank.__getitem__)]
 
 
 def lattice_cells(xy: np.ndarray, labels: np.ndarray) -> np.ndarray:

@@ -72,8 +72,9 @@ def spec_text(spec) -> str:
     return f"charuco:{spec.squares[0]}x{spec.squares[1]}:{spec.marker:g}:{spec.dictionary}"
 
 
-def view_boards(image: np.ndarray, spec) -> ViewBoards:
-    """The ChArUco board of ``spec`` in an image (:func:`detect_charuco`), or what was missing."""
+def view_boards(image: np.ndarray, spec, view_only: bool = False) -> ViewBoards:
+    """The ChArUco board of ``spec`` in an image (:func:`detect_charuco`), or what was missing;
+    one board per image whatever ``view_only`` says (the grid is one board)."""
     b = detect_charuco(image, spec.charuco_board())
     seen = "" if b is not None else "no ChArUco markers/corners"
     return ViewBoards((b,) if b is not None and len(b) else (), seen)

@@ -104,7 +104,7 @@ class Kind:
     syntax: str
     parse: Callable[[list[str], str], dict]
     text: Callable[[BoardSpec], str]
-    view: Callable[[np.ndarray, BoardSpec], ViewBoards]
+    view: Callable[[np.ndarray, BoardSpec, bool], ViewBoards]
     label_step: Callable[[BoardSpec], float] = lambda spec: 1.0
 
 
@@ -148,8 +148,11 @@ def parse_board(spec: str) -> BoardSpec:
     return BoardSpec(kind.name, **fields)  # type: ignore[arg-type]
 
 
-def view_boards(image: np.ndarray, spec: BoardSpec) -> ViewBoards:
+def view_boards(image: np.ndarray, spec: BoardSpec, view_only: bool = False) -> ViewBoards:
     """An image's boards of ``spec``, by its kind's detector (:data:`KINDS`), and what it shows otherwise.
+
+    ``view_only``: one board per image is wanted; a detector may then stop once the view's board is settled
+    (:func:`sogdd.calib.targets.chessboard.find_boards`).
 
     Examples
     --------
@@ -160,4 +163,4 @@ def view_boards(image: np.ndarray, spec: BoardSpec) -> ViewBoards:
     >>> view_boards(img, parse_board("chessboard:5x4")).seen  # a board that cannot be part of a 5 x 4 one
     'a board of 7x5 inner corners'
     """
-    return KINDS[spec.kind].view(image, spec)
+    return KINDS[spec.kind].view(image, spec, view_only)

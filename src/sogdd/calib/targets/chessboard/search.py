@@ -20,7 +20,10 @@ OpenCV's detectors propose one
 (:mod:`.proposals`), which goes through the same refinement, checks and labels,
 and must not be a part of a larger grid (:func:`sogdd.calib.targets.chessboard.checks.extends`).
 A grid that cannot be the given pattern (more rows or columns than it has) is not
-returned as a board; :func:`find_boards` returns it among the ``others``.
+returned as a board; :func:`find_boards` returns it among the ``others``. Where one
+board per image is wanted (:func:`detect_board`, ``view_only``), the coarser levels
+are searched first and a complete board of the pattern there ends the search: the
+finest level, the costliest, is searched only when they settle nothing.
 """
 
 from __future__ import annotations
@@ -254,7 +257,8 @@ class BoardSearch:
 def find_boards(image: np.ndarray, pattern: tuple[int, int] | None = None, *, min_corners: int = 12,
                 min_strength: float | None = None, scale: float | None = None, refine: bool = True,
                 max_boards: int = 16, mask: np.ndarray | None = None,
-                value_range: tuple[float, float] | None = None, proposals: bool = True) -> BoardSearch:
+                value_range: tuple[float, float] | None = None, proposals: bool = True,
+                view_only: bool = False) -> BoardSearch:
     """:func:`detect_boards`, and the boards of other sizes seen on the way, from one search.
 
     A view without the board asked for is told what it shows (a board of
@@ -264,6 +268,17 @@ def find_boards(image: np.ndarray, pattern: tuple[int, int] | None = None, *, mi
     ----------
     image, pattern, min_corners, min_strength, scale, refine, max_boards, mask, value_range, proposals
         As :func:`detect_boards` (the same keywords and defaults).
+    view_only : bool
+        Only the view's board is wanted (:func:`sogdd.calib.targets.board.view_board`;
+        one board per image): with ``pattern`` given, the pyramid's coarser
+        levels are searched first, and a complete board of the pattern there
+        ends the search. A board that only the finest level would show is
+        smaller than that one (a larger board shows at the coarser levels), so
+        it can neither be the view (:func:`~sogdd.calib.targets.board.view_board`
+        ranks complete boards by their cells) nor make that board a background
+        one; such a board (a screen behind the board, too small for the
+        coarser levels) is then not returned. Without a complete board there,
+        the whole search runs as without ``view_only``.
 
     Returns
     -------
@@ -280,7 +295,7 @@ def find_boards(image: np.ndarray, pattern: tuple[int, int] | None = None, *, mi
     """
     grey, pat = _validated(image, pattern, min_corners, min_strength, scale, max_boards, mask, value_range)
     return _search(grey, pat, int(min_corners), min_strength, scale, refine, int(max_boards), mask,
-                   proposals)
+                   proposals, bool(view_only))
 
 
 def _validated(image, pattern, min_corners, min_strength, scale, max_boards, mask, value_range):
@@ -297,21 +312,19 @@ def _validated(image, pattern, min_corners, min_strength, scale, max_boards, mas
 
 def _search(grey: np.ndarray, pat: tuple[int, int] | None, min_corners: int, min_strength: float | None,
             scale: float | None, refine: bool, max_boards: int, mask: np.ndarray | None,
-            proposals: bool) -> BoardSearch:
+            proposals: bool, view_only: bool = False) -> BoardSearch:
     """The search of :func:`find_boards` on a validated grey image."""
     if pat is not None:  # a whole board of the pattern is always a board
         min_corners = max(9, min(min_corners, pat[0] * pat[1]))
-    best: list[Board] = []
-    others: list[Board] = []
     g32 = grey.astype(np.float32)  # the X-corner search's maps are float32
-    cap, finest = math.inf, math.inf  # the noise of the finest level searched so far, and its scale
-    for level in (scale,) if scale is not None else search_levels(grey.shape):
-        xc = search(g32, min_strength, level, mask, cap if level < finest else math.inf)
-        if level < finest:
-            cap, finest = xc.noise, level
-        best = _merged(best, _boards(grey, xc, pat, min_corners, refine, max_boards, others, best))
-        if pat is not None and not _room_for_larger(best, pat, grey.shape):
-            break
+    levels = (scale,) if scale is not None else search_levels(grey.shape)
+    if view_only and pat is not None and len(levels) > 1:
+        # the coarser levels first: a complete board there settles the view (module doc)
+        best, others = _levels(grey, g32, levels[1:], pat, min_corners, min_strength, refine, max_boards, mask)
+        view = view_board(best)
+        if view is not None and len(view) == pat[0] * pat[1]:
+            return BoardSearch(best, others)
+    best, others = _levels(grey, g32, levels, pat, min_corners, min_strength, refine, max_boards, mask)
     view = view_board(best)
     if pat is not None and proposals and (view is None or len(view) < pat[0] * pat[1]):
         for prop in propose(grey, pat):
@@ -322,6 +335,24 @@ def _search(grey: np.ndarray, pat: tuple[int, int] | None, min_corners: int, min
             elif board is not None and (view is None or len(board) > len(view)):
                 best = [board, *(b for b in best if not _overlaps(b, board))]
     return BoardSearch(best, others)
+
+
+def _levels(grey: np.ndarray, g32: np.ndarray, levels: Sequence[float], pat: tuple[int, int] | None,
+            min_corners: int, min_strength: float | None, refine: bool, max_boards: int,
+            mask: np.ndarray | None) -> tuple[list[Board], list[Board]]:
+    """The boards of the pyramid's ``levels``, in that order, and the ``others``: the loop of :func:`_search`,
+    stopped where :func:`_room_for_larger` says no larger board can follow."""
+    best: list[Board] = []
+    others: list[Board] = []
+    cap, finest = math.inf, math.inf  # the noise of the finest level searched so far, and its scale
+    for level in levels:
+        xc = search(g32, min_strength, level, mask, cap if level < finest else math.inf)
+        if level < finest:
+            cap, finest = xc.noise, level
+        best = _merged(best, _boards(grey, xc, pat, min_corners, refine, max_boards, others, best))
+        if pat is not None and not _room_for_larger(best, pat, grey.shape):
+            break
+    return best, others
 
 
 def _merged(found: list[Board], new: list[Board]) -> list[Board]:
@@ -379,7 +410,9 @@ def detect_board(image: np.ndarray, pattern: tuple[int, int] | None = None, *, m
 
     Of the boards ``B`` found, leaving out those whose cells are under a third of
     the largest board's (a screen or a reflection: :func:`sogdd.calib.targets.board.view_board`),
-    the one that maximises ``(B.size is not None, len(B))``.
+    the one that maximises ``(B.size is not None, len(B), cell_size(B))``. The search is
+    :func:`find_boards`' with ``view_only``: it stops once a complete board of
+    ``pattern`` settles the view.
 
     Parameters
     ----------
@@ -395,10 +428,10 @@ def detect_board(image: np.ndarray, pattern: tuple[int, int] | None = None, *, m
     >>> detect_board(np.zeros((64, 64))) is None
     True
     """
-    boards = detect_boards(image, pattern, min_corners=min_corners, min_strength=min_strength, scale=scale,
-                           refine=refine, max_boards=max_boards, mask=mask, value_range=value_range,
-                           proposals=proposals)
-    return view_board(boards)
+    found = find_boards(image, pattern, min_corners=min_corners, min_strength=min_strength, scale=scale,
+                        refine=refine, max_boards=max_boards, mask=mask, value_range=value_range,
+                        proposals=proposals, view_only=True)
+    return view_board(found.boards)
 
 
 def parse_spec(parts: list[str], spec: str) -> dict | None:
@@ -427,14 +460,15 @@ def spec_text(spec) -> str:
     return "chessboard:auto" if spec.pattern is None else f"chessboard:{spec.pattern[0]}x{spec.pattern[1]}"
 
 
-def view_boards(image: np.ndarray, spec) -> ViewBoards:
+def view_boards(image: np.ndarray, spec, view_only: bool = False) -> ViewBoards:
     """The chessboards of ``spec`` in an image and, where there is none, what the same search saw instead.
 
     A board of unknown size (``spec.pattern`` None) is any board. Otherwise the
     boards that can be the pattern (complete, or partial with relative labels);
     failing them, a complete grid that does not fit in the pattern (either way
     round) contradicts it: "a board of WxH inner corners" (:func:`find_boards`'
-    ``others``, no second search).
+    ``others``, no second search). ``view_only``: as :func:`find_boards`' (one
+    board per image is wanted).
 
     Examples
     --------
@@ -447,7 +481,7 @@ def view_boards(image: np.ndarray, spec) -> ViewBoards:
     ((), 'a board of 7x5 inner corners', (7, 5))
     """
     pattern = spec.pattern
-    found = find_boards(image, pattern)
+    found = find_boards(image, pattern, view_only=view_only)
     boards = [b for b in found.boards if len(b)]
     if pattern is None:
         return ViewBoards(tuple(boards), "" if boards else "no board")
