@@ -10,8 +10,8 @@ import pytest
 from sogdd.calib.cameras import project
 from sogdd.calib.rig import calibrate_rig, projection_uncertainty, ray_uncertainty
 from sogdd.calib.rig.demo import synthetic_rig
-from sogdd.calib.rig.uncertainty import covariance
 from sogdd.calib.targets.board import Board
+from sogdd.calib.uncertainty import covariance
 
 
 def _noisy(boards: dict, rng, noise: float) -> dict:

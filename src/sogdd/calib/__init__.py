@@ -11,6 +11,7 @@ A client of the core (:mod:`sogdd.detector` and its stages); the core never impo
 :mod:`.fit`: :func:`calibrate`, the fit of a camera to labelled boards with robust rejection.
 :mod:`.cross_validation`: the two halves' cross-validation.
 :mod:`.result`: :class:`Calibration`, the result with its diagnostics.
+:mod:`.uncertainty`: a fit's covariance and a camera's projection uncertainty (one camera's and a rig's).
 :mod:`.detection`: boards in image files, over many files (each image read once).
 :mod:`.session`: :func:`calibrate_images`, image files to a camera and every view's fate; its output folder.
 :mod:`.video`: a calibration's views chosen from a video (sharp, new poses, new coverage), and its fit.

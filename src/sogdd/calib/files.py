@@ -60,6 +60,10 @@ def calibration_dict(cal: Calibration, views: Sequence[ViewRecord] | None = None
     ``pixel_grid`` is :attr:`~sogdd.calib.Calibration.pixel_grid`: ``"image"``, or ``"sensor"`` when the
     images' EXIF orientations differed and none was applied (a note in ``notes`` says which).
 
+    ``projection_uncertainty_px`` holds the far-point projection uncertainty at the image's centre and its
+    worst, 1 sigma (``{"centre", "worst"}``, :meth:`~sogdd.calib.result.Calibration.projection_uncertainty`,
+    as each camera of a rig.json; None without a covariance).
+
     Examples
     --------
     >>> from sogdd.calib.demo import demo_calibration
@@ -68,6 +72,7 @@ def calibration_dict(cal: Calibration, views: Sequence[ViewRecord] | None = None
     ('pinhole', 640, 3, ['k1', 'k2'])
     """
     cv = cal.cross_validation
+    centre, worst = cal.projection_uncertainty()
     return {
         "model": cal.model,
         "image_width": int(cal.image_size[0]),
@@ -77,6 +82,7 @@ def calibration_dict(cal: Calibration, views: Sequence[ViewRecord] | None = None
         "distortion_coefficients": [float(v) for v in cal.dist],
         "distortion": cal.coefficients(),
         "std": {k: _num(v) for k, v in cal.std.items()},
+        "projection_uncertainty_px": {"centre": _num(centre), "worst": _num(worst)},
         "rms": _num(cal.rms),
         "square": cal.square,
         "views_total": len(cal.names),

@@ -24,6 +24,7 @@ from .rejection import State, check_boards, fit_with_rejection
 from .result import Calibration
 from .solvers import fisheye_fixed, jacobian_std
 from .targets.board import Board
+from .uncertainty import fit_covariance
 
 __all__ = ["SQUARE_RANGE", "calibrate", "check_square", "std_dict"]
 
@@ -238,6 +239,23 @@ def _stds(st: State, idx: np.ndarray, fit) -> tuple[np.ndarray | None, str]:
     return std, ""
 
 
+def _covariance(st: State, idx: np.ndarray, fit) -> tuple[np.ndarray, str]:
+    """The final fit's intrinsics' covariance (:func:`~sogdd.calib.uncertainty.fit_covariance`, empty where
+    there is none) and why there is none ("" when there is)."""
+    K, D, rv, tv, _ = fit
+    start = lens(st.model).start
+    if start == "fisheye.calibrate":
+        free = ~np.asarray(fisheye_fixed(st.flags), bool)
+    elif start == "calibrateCamera" and st.flags == 0:
+        free = None
+    else:  # the pinhole flags' held terms are not mapped to the Jacobian's columns here
+        return np.zeros((0, 0)), (f"the {st.model} model has no analytic Jacobian" if start != "calibrateCamera"
+                                  else "extra OpenCV flags")
+    obj = [st.boards[v].object_points(st.square)[st.corner_ok[v]] for v in idx]
+    img = [st.boards[v].image_points[st.corner_ok[v]] for v in idx]
+    return fit_covariance(obj, img, K, D, rv, tv, st.model, free, st.weights(idx))
+
+
 def _result(st: State, idx, fit, res, thresholds, min_views: int, cross_validate: bool) -> Calibration:
     K, D, rv, tv, _ = fit
     V = len(st.boards)
@@ -263,6 +281,9 @@ def _result(st: State, idx, fit, res, thresholds, min_views: int, cross_validate
     std, std_note = _stds(st, idx, fit)
     if std_note:
         notes.append(f"no standard deviations: {std_note}")
+    cov, cov_note = (np.zeros((0, 0)), "") if std is None else _covariance(st, idx, fit)
+    if cov_note:
+        notes.append(f"no projection uncertainty: {cov_note}")
     corner_used = tuple(
         None if b is None else (st.corner_ok[v] & bool(st.view_ok[v])) for v, b in enumerate(st.boards))
     return Calibration(
@@ -271,4 +292,4 @@ def _result(st: State, idx, fit, res, thresholds, min_views: int, cross_validate
         residuals=tuple(res), corner_used=corner_used, view_used=st.view_ok.copy(), view_rms=view_rms,
         reasons=tuple(st.reasons), corner_reasons=tuple(st.corner_reasons), rvecs=rvecs, tvecs=tvecs,
         cross_validation=cv, thresholds=thresholds, notes=tuple(notes), square=st.square,
-        typical_precision=st.typical)
+        typical_precision=st.typical, covariance=cov)

@@ -9,6 +9,7 @@ import numpy as np
 from .cameras import MODELS, CameraModel
 from .cross_validation import CrossValidation
 from .model_selection import ModelSelection
+from .uncertainty import centre_and_worst, image_uncertainty
 from .weighting import corner_weights
 
 __all__ = ["Calibration"]
@@ -83,6 +84,17 @@ class Calibration:
         EXIF orientation applied, as ``cv2.imread`` does), or ``"sensor"``, their
         stored pixel order, when the images' orientations differed
         (:func:`~sogdd.calib.detection.on_sensor_grid`; a note says so).
+    covariance : (4 + nd, 4 + nd) float64
+        The intrinsics' marginal covariance (``fx, fy, cx, cy`` then the
+        distortion, as ``std``): their block of :math:`\\sigma^2 (J^T J)^{-1}`
+        over the intrinsics and every used view's pose, the poses eliminated by
+        their Schur complement so that it carries how they trade against the
+        intrinsics (:func:`~sogdd.calib.uncertainty.fit_covariance`, the rig's
+        maths); its diagonal is ``std`` squared, zero rows for a parameter the
+        flags fix. Empty (0, 0) where there are no standard deviations, for a
+        model without OpenCV's analytic Jacobian (omnidir), with extra OpenCV
+        flags, or for a camera of a rig, whose covariance is the rig's (``notes``
+        says why for a fit). :meth:`projection_uncertainty` comes from it.
     """
 
     model: CameraModel
@@ -109,6 +121,7 @@ class Calibration:
     model_selection: ModelSelection | None = None
     typical_precision: float = float("nan")
     pixel_grid: str = "image"
+    covariance: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
 
     @property
     def n_used(self) -> int:
@@ -131,3 +144,26 @@ class Calibration:
     def coefficients(self) -> dict:
         """The distortion coefficients by name."""
         return dict(zip(MODELS[self.model], (float(v) for v in self.dist)))
+
+    def projection_uncertainty(self, grid: tuple[int, int] = (16, 12)) -> tuple[float, float]:
+        """The 1-sigma projection uncertainty of a far point (px): at the image's centre, and its worst.
+
+        Each pixel of a ``grid`` (columns, rows) spanning the image is unprojected to
+        a ray fixed in the camera's frame and reprojected as the intrinsics vary
+        within ``covariance``, :math:`\\Sigma_q = J_q \\Sigma J_q^T`; its uncertainty is
+        :math:`\\sqrt{\\lambda_{\\max}(\\Sigma_q)}`
+        (:func:`~sogdd.calib.uncertainty.image_uncertainty`, as for each camera of a
+        rig). NaN without a covariance.
+
+        Examples
+        --------
+        >>> from sogdd.calib.demo import demo_calibration
+        >>> centre, worst = demo_calibration().projection_uncertainty()
+        >>> bool(0 < centre <= worst < 5)
+        True
+        """
+        if self.covariance.size == 0:
+            return float("nan"), float("nan")
+        pixels, sigma = image_uncertainty(self.K, self.dist, self.model, self.image_size, self.covariance,
+                                          grid=grid)
+        return centre_and_worst(pixels, sigma, self.image_size)

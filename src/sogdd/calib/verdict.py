@@ -13,6 +13,7 @@ import numpy as np
 from .cameras import LENSES, MODELS, lens, project
 from .model_selection import fix_flags, higher_terms
 from .result import Calibration
+from .uncertainty import uncertainty_finding
 
 __all__ = ["coverage", "cv_inside", "radial_map", "used_points", "verdict"]
 
@@ -122,6 +123,13 @@ def verdict(cal: Calibration) -> list[tuple[str, str]]:
       terms for 22 px of net). Raw coefficient sizes are not compared: a
       rational k4 of 5 can be a sound lens.
 
+    The far-point projection uncertainty (:meth:`Calibration.projection_uncertainty
+    <sogdd.calib.result.Calibration.projection_uncertainty>`) at the image's centre
+    and its worst over a 16 x 12 grid, 1 sigma: worse than 1 px somewhere is
+    "warn" (boards did not reach there), as for each camera of a rig
+    (:func:`~sogdd.calib.uncertainty.uncertainty_finding`). None without a
+    covariance (a rig's camera: the rig's verdict gives it).
+
     Examples
     --------
     >>> from sogdd.calib.demo import demo_calibration
@@ -142,6 +150,7 @@ def verdict(cal: Calibration) -> list[tuple[str, str]]:
     out += _aspect_findings(cal)
     out += _distortion_findings(cal)
     out += _coverage_findings(cal)
+    out += _uncertainty_findings(cal)
     out += _cross_validation_findings(cal)
     out += _selection_findings(cal)
     smeared = sum(r.startswith("smeared") for r in cal.reasons)
@@ -230,6 +239,12 @@ def cv_inside(cv) -> tuple[float, float]:
 
 # --------------------------------------------------------------------------------------------------
 # the parameters: their uncertainties, the aspect ratio, the distortion
+
+
+def _uncertainty_findings(cal: Calibration) -> list[tuple[str, str]]:
+    """The far-point projection uncertainty at the centre and at worst (none without a covariance)."""
+    centre, worst = cal.projection_uncertainty()
+    return [uncertainty_finding(centre, worst)] if np.isfinite(worst) else []
 
 
 def _std_findings(cal: Calibration) -> list[tuple[str, str]]:

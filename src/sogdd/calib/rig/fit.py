@@ -25,6 +25,7 @@ from ..rejection import State, reject_corners, reject_view, robust_limit
 from ..result import Calibration
 from ..solvers import BlockNormal, levenberg_marquardt, rotation_matrices
 from ..targets.board import Board
+from ..uncertainty import camera_covariance, covariance
 from ..weighting import corner_weights
 from . import labels as _labels
 from . import uncertainty as _unc
@@ -446,7 +447,7 @@ def _jacobian(x: np.ndarray, lay: _Layout, models: list[str], co: _Corners) -> c
 
 
 # up to this many parameters the covariance is the full inverse (P x P, O(P^3)); beyond, the cameras' block
-# alone, by the Schur complement of the frames' poses (:func:`~.uncertainty.camera_covariance`)
+# alone, by the Schur complement of the frames' poses (:func:`~sogdd.calib.uncertainty.camera_covariance`)
 _FULL_COVARIANCE_MAX = 1000
 
 
@@ -766,10 +767,10 @@ def _finish(names, states, par, frame_names, square, notes, resolved, private, s
                                          opts)
     full = lay.size <= _FULL_COVARIANCE_MAX
     if full:
-        cov, sigma, std_note = _unc.covariance((sol.jac.T @ sol.jac).toarray(), sol.fun)
+        cov, sigma, std_note = covariance((sol.jac.T @ sol.jac).toarray(), sol.fun)
     else:  # a large fit: the cameras' block alone, without the dense inverse of every frame's pose
         n_cam = _n_cameras(lay)
-        cov, sigma, std_note = _unc.camera_covariance(_normal(sol.jac, sol.fun, n_cam), sol.fun)
+        cov, sigma, std_note = camera_covariance(_normal(sol.jac, sol.fun, n_cam), sol.fun)
         notes.append(f"the covariance holds the cameras' {n_cam} parameters alone: the {len(lay.frame)} "
                      "frames' poses are eliminated (their Schur complement), too many for the full matrix")
     if std_note:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..uncertainty import centre_and_worst, uncertainty_finding
 from ..verdict import verdict
 from .result import RigCalibration
 from .uncertainty import projection_uncertainty
@@ -19,7 +20,6 @@ __all__ = ["rig_verdict", "shared_frames", "uncertainty_summary"]
 
 _FEW_SHARED = 5         # fewer frames seen by a camera and the reference than this tie its pose weakly
 _RMS_APART = 2.0        # a camera whose RMS is this many times the rig's median RMS stands out
-_UNCERTAIN_PX = 1.0     # a far point's projection known worse than this (1 sigma, px) somewhere in the frame
 
 
 def shared_frames(rig: RigCalibration) -> dict[str, int]:
@@ -40,12 +40,7 @@ def uncertainty_summary(rig: RigCalibration, name: str,
         pixels, sigma = projection_uncertainty(rig, name, grid=grid)
     except ValueError:
         return float("nan"), float("nan")
-    sigma = np.asarray(sigma, float)
-    if sigma.size == 0 or not np.isfinite(sigma).any():
-        return float("nan"), float("nan")
-    w, h = rig.camera(name).image_size
-    centre = int(np.argmin(np.hypot(pixels[:, 0] - (w - 1) / 2, pixels[:, 1] - (h - 1) / 2)))
-    return float(sigma[centre]), float(np.nanmax(sigma))
+    return centre_and_worst(pixels, sigma, rig.camera(name).image_size)
 
 
 def _pose_findings(cam, first: str, n: int) -> list[tuple[str, str]]:
@@ -114,10 +109,8 @@ def rig_verdict(rig: RigCalibration) -> list[tuple[str, str]]:
                                 f"median ({typical:.3f}): check its focus, blur or lens model"))
         centre, worst = uncertainty_summary(rig, cam.name)
         if np.isfinite(worst):
-            level = "warn" if worst > _UNCERTAIN_PX else "ok"
-            out.append((level, f"{cam.name}: a far point projects to within {centre:.2g} px (1 sigma) at the "
-                               f"centre and {worst:.2g} px at worst over the frame"
-                               + ("; boards did not reach the frame's edges" if level == "warn" else "")))
+            level, text = uncertainty_finding(centre, worst)
+            out.append((level, f"{cam.name}: {text}"))
     if not any(level != "ok" for level, _ in out):
         out.insert(0, ("ok", f"the rig looks sound: {len(rig.cameras)} cameras, {int(np.sum(rig.frame_used))} "
                              f"frames, RMS {rig.rms:.3f} px"))
