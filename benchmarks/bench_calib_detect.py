@@ -16,7 +16,8 @@ runs the real photos of ``DATA/calibration/chessboard_*`` (6 x 4 inner corners):
 boards found, distance to the hand labels after one global offset per set, and
 the RMS reprojection error of ``cv2.calibrateCamera`` on the full boards.
 
-``--folder GLOB --pattern CxR`` times instead, photo by photo, ``detect_boards(img, (C, R))`` against
+``--folder GLOB --pattern CxR`` times instead, photo by photo, ``detect_board(img, (C, R))`` (one board
+per image, as ``sogdd calibrate`` searches by default) and ``detect_boards(img, (C, R))`` (every board) against
 OpenCV's ``findChessboardCorners`` + ``cornerSubPix`` (11 x 11 window, the usual anchor) in the same
 process on the same grey images, both warmed up on the first photo and run ``--repeat`` times in turn
 per photo (the photo's time: the median of its runs). Per image size it prints the median over the
@@ -199,10 +200,18 @@ def _spread(ms: list[float]) -> str:
 
 
 def _methods() -> dict:
-    """The two detectors timed: ``fn(grey, pattern) -> found the whole pattern``."""
-    from sogdd.calib import detect_boards
+    """The detectors timed: ``fn(grey, pattern) -> found the whole pattern``; OpenCV's last (the anchor).
+
+    sogdd's twice: ``detect_board``, one board per image (the view's; what ``sogdd calibrate`` runs by
+    default: the search stops once a complete board settles the view), and ``detect_boards``, every
+    board in the image (screens and reflections too)."""
+    from sogdd.calib import detect_board, detect_boards
 
     crit = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 0.001)
+
+    def view(img: np.ndarray, pattern: tuple[int, int]) -> bool:
+        b = detect_board(img, pattern)
+        return b is not None and len(b) == pattern[0] * pattern[1]
 
     def ours(img: np.ndarray, pattern: tuple[int, int]) -> bool:
         return any(len(b) == pattern[0] * pattern[1] for b in detect_boards(img, pattern))
@@ -213,7 +222,8 @@ def _methods() -> dict:
             cv2.cornerSubPix(img, c, (5, 5), (-1, -1), crit)
         return bool(ok)
 
-    return {"sogdd detect_boards": ours, "OpenCV findChessboardCorners+cornerSubPix 11x11": opencv}
+    return {"sogdd detect_board (one board per image)": view, "sogdd detect_boards (every board)": ours,
+            "OpenCV findChessboardCorners+cornerSubPix 11x11": opencv}
 
 
 def folder(pattern_glob: str, pattern: tuple[int, int], repeat: int) -> None:
@@ -270,8 +280,9 @@ def _report(by_group: dict, what: str) -> None:
             ms = [t for t, _ in got]
             med[m] = float(np.median(ms))
             print(f"    {m:48s} {_spread(ms)}, boards {sum(f for _, f in got)}/{len(got)}")
-        a, b = med.values()
-        print(f"    ratio of the medians (sogdd / OpenCV): {a / max(b, 1e-9):.2f}")
+        *ours, anchor = med.values()
+        print("    ratio of the medians (sogdd / OpenCV): "
+              + ", ".join(f"{a / max(anchor, 1e-9):.2f}" for a in ours))
 
 
 def _time_views(items: list[tuple[str, np.ndarray, tuple[int, int]]], methods: dict, repeat: int) -> dict:

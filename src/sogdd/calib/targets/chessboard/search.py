@@ -132,15 +132,22 @@ def _labelled(xy: np.ndarray, lab: np.ndarray, size: tuple[int, int] | None, qua
 
 
 def _boards(grey: np.ndarray, xc: XCorners, pattern: tuple[int, int] | None, min_corners: int, refine: bool,
-            max_boards: int, others: list[Board] | None = None, done: Sequence[Board] = ()) -> list[Board]:
+            max_boards: int, others: list[Board] | None = None, done: Sequence[Board] = (),
+            view_only: bool = False) -> list[Board]:
     """The boards of one level's X-corners, largest first. A lattice whose corners all lie on a complete
-    board of ``done`` (a finer level's) is that board again, and is not refined a second time."""
+    board of ``done`` (a finer level's) is that board again, and is not refined a second time.
+
+    With ``view_only`` (one board per image, :func:`find_boards`), the lattices are finished largest cells
+    first, and one whose cells are under :data:`VIEW_SMALL` of a complete board's found so far is not: it
+    can be no view (:func:`~sogdd.calib.targets.board.view_board`), and refining it costs as much as the
+    view's own board."""
     if len(xc) < 5:
         return []
     tree = cKDTree(xc.xy)
     nb, dist = ray_neighbours(xc, tree)
     free = np.ones(len(xc), dtype=bool)
     out: list[Board] = []
+    grown: list[Lattice] = []
     for s in seeds(xc, nb, dist):
         if len(out) >= max_boards:
             break
@@ -153,10 +160,41 @@ def _boards(grey: np.ndarray, xc: XCorners, pattern: tuple[int, int] | None, min
             continue
         if any(_within(xc.xy[lat.index], b) for b in done if b.size is not None):
             continue
+        if view_only:
+            grown.append(lat)
+            continue
         board = _finish(grey, xc, lat, pattern, min_corners, refine, others=others)
         if board is not None:
             out.append(board)
+    if grown:
+        out = _view_boards(grey, xc, grown, pattern, min_corners, refine, max_boards, others, done)
     out.sort(key=lambda b: -len(b))
+    return out
+
+
+#: with one board per image wanted, a lattice whose cells (as grown) are under this share of a complete
+#: board's is not finished: :data:`~sogdd.calib.targets.board.SMALL_CELL`, less a margin for the grown
+#: corners' cells against the refined ones'
+VIEW_SMALL = 0.8 * float(SMALL_CELL)
+
+
+def _view_boards(grey: np.ndarray, xc: XCorners, grown: list[Lattice], pattern: tuple[int, int] | None,
+                 min_corners: int, refine: bool, max_boards: int, others: list[Board] | None,
+                 done: Sequence[Board]) -> list[Board]:
+    """:func:`_boards`' lattices finished for one board per image: largest cells first, none under
+    :data:`VIEW_SMALL` of a complete board's (``done``'s or this level's)."""
+    full = math.inf if pattern is None else pattern[0] * pattern[1]
+    cells = [float(np.median(lattice_cells(xc.xy[lat.index], lat.labels))) for lat in grown]
+    settled = max((cell_size(b) for b in done if len(b) == full), default=0.0)
+    out: list[Board] = []
+    for k in np.argsort(cells, kind="stable")[::-1]:
+        if len(out) >= max_boards or cells[k] < VIEW_SMALL * settled:
+            break
+        board = _finish(grey, xc, grown[k], pattern, min_corners, refine, others=others)
+        if board is not None:
+            out.append(board)
+            if len(board) == full:
+                settled = max(settled, cell_size(board))
     return out
 
 
@@ -278,7 +316,9 @@ def find_boards(image: np.ndarray, pattern: tuple[int, int] | None = None, *, mi
         ranks complete boards by their cells) nor make that board a background
         one; such a board (a screen behind the board, too small for the
         coarser levels) is then not returned. Without a complete board there,
-        the whole search runs as without ``view_only``.
+        every level is searched. At every level, the lattices are refined
+        largest cells first, and none whose cells are under
+        :data:`VIEW_SMALL` of a complete board's.
 
     Returns
     -------
@@ -320,11 +360,13 @@ def _search(grey: np.ndarray, pat: tuple[int, int] | None, min_corners: int, min
     levels = (scale,) if scale is not None else search_levels(grey.shape)
     if view_only and pat is not None and len(levels) > 1:
         # the coarser levels first: a complete board there settles the view (module doc)
-        best, others = _levels(grey, g32, levels[1:], pat, min_corners, min_strength, refine, max_boards, mask)
+        best, others = _levels(grey, g32, levels[1:], pat, min_corners, min_strength, refine, max_boards, mask,
+                               True)
         view = view_board(best)
         if view is not None and len(view) == pat[0] * pat[1]:
             return BoardSearch(best, others)
-    best, others = _levels(grey, g32, levels, pat, min_corners, min_strength, refine, max_boards, mask)
+    best, others = _levels(grey, g32, levels, pat, min_corners, min_strength, refine, max_boards, mask,
+                           view_only and pat is not None)
     view = view_board(best)
     if pat is not None and proposals and (view is None or len(view) < pat[0] * pat[1]):
         for prop in propose(grey, pat):
@@ -339,9 +381,9 @@ def _search(grey: np.ndarray, pat: tuple[int, int] | None, min_corners: int, min
 
 def _levels(grey: np.ndarray, g32: np.ndarray, levels: Sequence[float], pat: tuple[int, int] | None,
             min_corners: int, min_strength: float | None, refine: bool, max_boards: int,
-            mask: np.ndarray | None) -> tuple[list[Board], list[Board]]:
+            mask: np.ndarray | None, view_only: bool = False) -> tuple[list[Board], list[Board]]:
     """The boards of the pyramid's ``levels``, in that order, and the ``others``: the loop of :func:`_search`,
-    stopped where :func:`_room_for_larger` says no larger board can follow."""
+    stopped where :func:`_room_for_larger` says no larger board can follow (``view_only``: :func:`_boards`')."""
     best: list[Board] = []
     others: list[Board] = []
     cap, finest = math.inf, math.inf  # the noise of the finest level searched so far, and its scale
@@ -349,7 +391,7 @@ def _levels(grey: np.ndarray, g32: np.ndarray, levels: Sequence[float], pat: tup
         xc = search(g32, min_strength, level, mask, cap if level < finest else math.inf)
         if level < finest:
             cap, finest = xc.noise, level
-        best = _merged(best, _boards(grey, xc, pat, min_corners, refine, max_boards, others, best))
+        best = _merged(best, _boards(grey, xc, pat, min_corners, refine, max_boards, others, best, view_only))
         if pat is not None and not _room_for_larger(best, pat, grey.shape):
             break
     return best, others
