@@ -378,17 +378,14 @@ def _fates(res):
 def test_an_image_gives_one_view_the_best_board_and_says_what_else_it_saw(scenes):
     res = calibrate_images(scenes, "chessboard:9x6")
     fates = _fates(res)
-    assert list(fates) == ["f1.png", "f2.png", "f3.png", "screen.png", "screen.png#2", "two.png", "two.png#2",
-                           "two.png#3"]
+    # one board per image: a board whose cells are under a third of a complete one's is not refined, so the
+    # 5 px screens are not rows (boards="all" below reports them)
+    assert list(fates) == ["f1.png", "f2.png", "f3.png", "screen.png", "two.png", "two.png#2"]
     cal = res.calibration
     assert list(cal.names) == ["f1.png", "f2.png", "f3.png", "screen.png", "two.png"] and cal.n_used == 5
     assert detection.cell_size(cal.boards[cal.names.index("screen.png")]) > 15  # the board, not the screen
-    small = fates["screen.png#2"]
-    assert small.status == "ignored" and small.view is None and small.corners == 54
-    assert "a small board (54 corners, cells of 5.0 px)" in small.reason
     other = fates["two.png#2"]
     assert other.status == "ignored" and other.reason.startswith("another board in the image (54 corners")
-    assert "cells of 5.0 px" in fates["two.png#3"].reason and fates["two.png#3"].status == "ignored"
     assert abs(cal.K[0, 0] - 560.0) < 560 * 0.02
     # a thumbnail per view of the calibration: none for an ignored board
     assert len(res.thumbnails) == len(cal.names)
