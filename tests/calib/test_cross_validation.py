@@ -24,3 +24,17 @@ def test_the_halves_alternate_by_rank_among_the_used_views_not_by_view_index(syn
         obj = [boards[v].object_points(1.0) for v in views]
         K_ref = fit_camera(obj, [boards[v].image_points for v in views], synthetic.SIZE, "pinhole", 0)[0]
         np.testing.assert_allclose(K, K_ref, rtol=1e-9)
+
+
+def test_each_half_needs_min_views_so_an_odd_set_one_short_is_not_split(synthetic):
+    """5 used views and min_views 3: the halves would hold 3 and 2 views, and the smaller one is under
+    min_views, so there is no cross-validation (the rule is 2 * min_views used views); 6 views split 3 + 3.
+    A rule on the larger half alone would calibrate a half of 2 views."""
+    boards = synthetic.boards(6, noise=0.05, seed=11)
+    ok = [np.ones(len(b), bool) for b in boards]
+    kw = dict(square=1.0, image_size=synthetic.SIZE, model="pinhole", flags=0, min_views=3)
+    cv, why = cross_validate(boards, ok, np.arange(5), **kw)
+    assert cv is None and "5 used views" in why and "needs 6" in why
+    cv, why = cross_validate(boards, ok, np.arange(6), **kw)
+    assert cv is not None, why
+    assert len(cv.views_a) == len(cv.views_b) == 3

@@ -313,3 +313,39 @@ def test_every_sony_frame_gives_its_complete_board(data_dir):
         boards = detect_boards(cv2.cvtColor(sogdd.read_image(f), cv2.COLOR_RGB2GRAY), (6, 4))
         counts[f.name] = len(boards[0]) if boards else 0
     assert counts == {f.name: 24 for f in frames}
+
+
+def _checker_where(mask, cell=24, blur=1.0):
+    """Chessboard squares (``cell`` px, dark where ``a + b`` is even) where ``mask`` (rows x cols of squares)
+    is set, white paper elsewhere and around, blurred ``blur`` px: X-junctions on a lattice, but no board."""
+    squares = (np.indices(mask.shape).sum(axis=0) % 2) * 180.0 + 35
+    sq = np.kron(np.where(mask, squares, 215.0), np.ones((cell, cell)))
+    return cv2.GaussianBlur(np.pad(sq, 30, constant_values=215.0), (0, 0), blur).astype(np.uint8)
+
+
+def test_a_plus_of_thin_checker_strips_is_no_board():
+    """Two crossing strips of checker three squares wide: 36 X-junctions on one lattice, each arm two corners
+    wide, so no corner has all eight neighbours (no 3 x 3 block of corners anywhere). Every other check
+    passes (the corners are true X-junctions, linked along true edges, none left out), so the block is
+    what tells this from a board: without it detect_board returns a board of 36 corners."""
+    mask = np.zeros((11, 11), bool)
+    mask[4:7, :] = mask[:, 4:7] = True
+    img = _checker_where(mask)
+    # the premise: the same strips four squares wide (3 x 3 blocks at the crossing) are found as a board
+    wide = np.zeros((11, 11), bool)
+    wide[4:8, :] = wide[:, 4:8] = True
+    assert detect_board(_checker_where(wide)) is not None
+    b = detect_board(img)
+    assert b is None, f"a board of {len(b)} corners"
+    assert detect_boards(img) == []
+
+
+def test_strips_of_checker_one_row_of_paper_apart_are_no_board():
+    """Strips of checker two squares tall (one row of X-junctions each), one square of paper between them:
+    the X-junctions of the strips make one lattice of 48 corners, a row every second square, but its links
+    across the paper run along no edge between a dark and a light square (the edge-link check)."""
+    mask = np.repeat((np.arange(13) % 3 < 2)[:, None], 13, axis=1)
+    img = _checker_where(mask, cell=22)
+    b = detect_board(img)
+    assert b is None, f"a board of {len(b)} corners"
+    assert detect_boards(img) == []

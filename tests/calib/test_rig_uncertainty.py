@@ -89,6 +89,8 @@ def test_the_pose_std_is_consistent_with_the_covariance():
     # the fitted rotation is the true one within its predicted uncertainty: its error's angle within four
     # times the RMS angle, each component of the rotation vector within four of its standard deviations
     R_true = d.R[1]
+    # a rotation: orthonormal and right-handed (not a reflection, not a scaled or sheared matrix)
+    assert np.allclose(cam.R @ cam.R.T, np.eye(3), atol=1e-9) and np.linalg.det(cam.R) == pytest.approx(1.0)
     dR = cam.R @ R_true.T
     angle = np.degrees(np.arccos(np.clip((np.trace(dR) - 1) / 2, -1, 1)))
     assert angle < 4 * cam.std["rotation_deg"]
