@@ -23,6 +23,7 @@ import numpy as np
 from .._version import __version__
 from ..formats.safe_write import atomic_write, check_not_inputs, write_text
 from .detection import ViewRecord, view_records
+from .guidance import guidance
 from .model_selection import ModelSelection
 from .result import Calibration
 from .weighting import view_precision
@@ -64,6 +65,10 @@ def calibration_dict(cal: Calibration, views: Sequence[ViewRecord] | None = None
     worst, 1 sigma (``{"centre", "worst"}``, :meth:`~sogdd.calib.result.Calibration.projection_uncertainty`,
     as each camera of a rig.json; None without a covariance).
 
+    ``guidance`` says where the next views should put the board (:meth:`~sogdd.calib.guidance.Guidance.as_dict`:
+    ``regions``, the frame's 3 x 3 regions with their share of the corners and their worst uncertainty;
+    ``tilts``; ``advice``, empty when nothing is needed).
+
     Examples
     --------
     >>> from sogdd.calib.demo import demo_calibration
@@ -98,6 +103,7 @@ def calibration_dict(cal: Calibration, views: Sequence[ViewRecord] | None = None
         "model_selection": selection_dict(cal.model_selection),
         "thresholds": {k: _num(v) for k, v in cal.thresholds.items()},
         "typical_precision": _num(cal.typical_precision),
+        "guidance": guidance(cal).as_dict(),
         "rejected_views": {n: r for n, r, u in zip(cal.names, cal.reasons, cal.view_used) if not u}
         if views is None else {v.name: v.reason or v.status for v in views if v.status != "used"},
         **({} if views is None else {"views": [{"view": v.name, "file": v.file, "status": v.status,

@@ -1,7 +1,8 @@
 """A calibration's report page: HTML with PNG figures and a verdict in plain words.
 
 The page shows :func:`verdict` (what is wrong with the calibration, if anything,
-and what to do about it), the camera, the lens models compared
+and what to do about it), where the next views should put the board when that
+would help (:func:`~sogdd.calib.guidance.guidance`), the camera, the lens models compared
 (``model="auto"``), each view's RMS as a bar chart whose bars link to the views,
 the residual vectors magnified and their histogram, where the corners fell in
 the frame, the cross-validation difference map, the chosen model's distortion
@@ -27,6 +28,7 @@ import numpy as np
 from ..formats.safe_write import write_bytes, write_text
 from .detection import THUMB_WIDTH, Thumbnail, ViewRecord, make_thumbnail, view_records
 from .figures import pyplot, save_figure
+from .guidance import guidance
 from .model_selection import ModelSelection
 from .report_figures import (
     camera_poses_figure,
@@ -194,6 +196,22 @@ def _camera_table(cal: Calibration) -> str:
     return f"<table><tr><th>parameter</th><th>value</th><th>std</th></tr>{cells}</table>"
 
 
+def _next_views(cal: Calibration) -> str:
+    """The "Next views" section: the guidance's advice and its 3 x 3 table of the frame; "" without advice."""
+    g = guidance(cal)
+    if not g.advice:
+        return ""
+    items = "".join(f"<li>{html.escape(a)}</li>" for a in g.advice)
+    cells = [f"<td>{r.coverage:.0%} of the corners"
+             + (f"<br>{r.uncertainty_px:.2g} px" if np.isfinite(r.uncertainty_px) else "") + "</td>"
+             for r in g.regions]
+    rows = "".join(f"<tr>{''.join(cells[3 * k:3 * k + 3])}</tr>" for k in range(3))
+    sigma = (" and a far point's worst projection uncertainty there (1 sigma)"
+             if any(np.isfinite(r.uncertainty_px) for r in g.regions) else "")
+    return (f"<h2 id='next-views'>Next views</h2><ul>{items}</ul><p>The frame in 3 x 3 regions: the share "
+            f"of the used corners in each{sigma}.</p><table style='border:1px solid #ccc'>{rows}</table>")
+
+
 def _num(v: float, digits: int = 4) -> str:
     """A score to fixed decimals: "failed" for inf, "" for NaN."""
     return f"{v:.{digits}f}" if np.isfinite(v) else ("failed" if v == np.inf else "")
@@ -255,7 +273,7 @@ def _html(cal: Calibration, title: str, cards: list[str], has_cv: bool, image_ma
              "background:#eee;text-align:center;line-height:60px}td,th{padding:2px 8px;text-align:right}")
     return (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{esc(title)}</title>"
             f"<style>{style}</style></head><body><h1>{esc(title)}</h1><p>{esc(summary)}</p>"
-            f"<h2 id='verdict'>Verdict</h2><ul>{items}</ul>"
+            f"<h2 id='verdict'>Verdict</h2><ul>{items}</ul>{_next_views(cal)}"
             f"<h2 id='camera'>Camera</h2>{_camera_table(cal)}{selection}"
             "<h2 id='view-errors'>Error per view</h2><p>Each view's RMS reprojection error; click a bar for "
             "the view.</p><img src='report/errors_per_view.png' usemap='#view-errors' alt='RMS per view'>"

@@ -164,6 +164,7 @@ def _run_video(args: argparse.Namespace, spec: BoardSpec) -> int:
 def _summary(args: argparse.Namespace, result, written: dict) -> list[tuple[str, str]]:
     """Print the summary (text, or one JSON object); return the verdict's findings."""
     from ..calib.files import selection_dict
+    from ..calib.guidance import guidance
     from ..calib.verdict import verdict
 
     cal = result.calibration
@@ -181,6 +182,7 @@ def _summary(args: argparse.Namespace, result, written: dict) -> list[tuple[str,
                     "model_selection": selection_dict(cal.model_selection),
                     "verdict": [{"level": lv, "text": t} for lv, t in findings],
                     "verdict_level": verdict_level(findings),
+                    "guidance": guidance(cal).as_dict(),
                     "rejected": {n: r for n, s, r in not_used if s == "rejected"},
                     "not_used": [{"view": n, "status": s, "reason": r} for n, s, r in not_used],
                     "unreadable": [v.file for v in result.unreadable]})
