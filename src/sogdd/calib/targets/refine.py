@@ -129,13 +129,36 @@ def _beyond(dx, dy, reach):  # pragma: no cover - jit
 
 
 @numba.njit(**EXACT_JIT)
-def _normal(img, px, py, R, s, inv, A, b, reach):  # pragma: no cover - jit
-    """Normal equations of the symmetric fit at ``(px, py)`` (module doc); returns ``(E, total)``.
+def _offsets(R, s, inv, reach):  # pragma: no cover - jit
+    """The window's offsets ``d`` (one of each pair ``d, -d``) and their Gaussian weights, once per point:
+    ``(dx, dy, w, n)``, the first ``n`` entries used.
 
     ``reach`` (:data:`REACH_DIRS`,): the longest offset taken along each direction ``k pi / REACH_DIRS``
     (an offset ``d`` counts in the direction nearest its own, mod pi); ``inf`` everywhere for the whole
     square window."""
     masked = _bounded(reach)
+    m = (R // s + 1) * (2 * (R // s) + 1)
+    dxs = np.empty(m, np.int64)
+    dys = np.empty(m, np.int64)
+    ws = np.empty(m)
+    n = 0
+    for dy in range(0, R + 1, s):
+        for dx in range(-R, R + 1, s):
+            if dy == 0 and dx <= 0:
+                continue  # d and -d give the same term
+            if masked and _beyond(dx, dy, reach):
+                continue
+            dxs[n] = dx
+            dys[n] = dy
+            ws[n] = math.exp(-(dx * dx + dy * dy) * inv)
+            n += 1
+    return dxs, dys, ws, n
+
+
+@numba.njit(**EXACT_JIT)
+def _normal(img, px, py, dxs, dys, ws, n, A, b):  # pragma: no cover - jit
+    """Normal equations of the symmetric fit at ``(px, py)`` (module doc) over the window of
+    :func:`_offsets`; returns ``(E, total)``."""
     for u in range(2):
         b[u] = 0.0
         for v in range(2):
@@ -145,30 +168,27 @@ def _normal(img, px, py, R, s, inv, A, b, reach):  # pragma: no cover - jit
     s1 = 0.0
     s2 = 0.0
     J = np.empty(2)
-    for dy in range(0, R + 1, s):
-        for dx in range(-R, R + 1, s):
-            if dy == 0 and dx <= 0:
-                continue  # d and -d give the same term
-            if masked and _beyond(dx, dy, reach):
-                continue
-            w = math.exp(-(dx * dx + dy * dy) * inv)
-            xa = px + dx
-            ya = py + dy
-            xb = px - dx
-            yb = py - dy
-            va, gxa, gya = _bil_grad(img, xa, ya)
-            vb, gxb, gyb = _bil_grad(img, xb, yb)
-            r = va - vb
-            J[0] = gxa - gxb
-            J[1] = gya - gyb
-            for u in range(2):
-                b[u] += w * J[u] * r
-                for v in range(u, 2):
-                    A[u, v] += w * J[u] * J[v]
-            e += w * r * r
-            sw += 2.0 * w
-            s1 += w * (va + vb)
-            s2 += w * (va * va + vb * vb)
+    for t in range(n):
+        dx = dxs[t]
+        dy = dys[t]
+        w = ws[t]
+        xa = px + dx
+        ya = py + dy
+        xb = px - dx
+        yb = py - dy
+        va, gxa, gya = _bil_grad(img, xa, ya)
+        vb, gxb, gyb = _bil_grad(img, xb, yb)
+        r = va - vb
+        J[0] = gxa - gxb
+        J[1] = gya - gyb
+        for u in range(2):
+            b[u] += w * J[u] * r
+            for v in range(u, 2):
+                A[u, v] += w * J[u] * J[v]
+        e += w * r * r
+        sw += 2.0 * w
+        s1 += w * (va + vb)
+        s2 += w * (va * va + vb * vb)
     A[1, 0] = A[0, 1]
     return e, s2 - s1 * s1 / max(sw, 1e-300)
 
@@ -200,8 +220,9 @@ def _refine(img, pts, half, stride, max_shift, iterations, tol, reach, out, qual
         step = np.zeros(2)
         ok = False
         q = 0.0
+        dxs, dys, ws, m = _offsets(R, s, inv, reach[k])  # the window, once: its weights do not move
         for _ in range(iterations):
-            e, tot = _normal(img, px, py, R, s, inv, A, b, reach[k])
+            e, tot = _normal(img, px, py, dxs, dys, ws, m, A, b)
             q = 1.0 - e / tot if tot > 0 else 0.0
             if not _solve(A, b, step):
                 ok = False
@@ -285,7 +306,8 @@ def _covariance(img, pts, half, stride, out):  # pragma: no cover - jit
         inv = 1.0 / (2.0 * sig * sig)
         A = np.empty((2, 2))
         b = np.empty(2)
-        e, _ = _normal(img, px, py, R, stride[k], inv, A, b, _WHOLE)
+        dxs, dys, ws, m = _offsets(R, stride[k], inv, _WHOLE)
+        e, _ = _normal(img, px, py, dxs, dys, ws, m, A, b)
         out[k, :, :] = np.nan
         det = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
         if not (det > 1e-12 * (A[0, 0] * A[1, 1] + 1e-300)):
