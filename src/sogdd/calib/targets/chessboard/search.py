@@ -29,7 +29,7 @@ finest level, the costliest, is searched only when they settle nothing.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -137,20 +137,33 @@ def _boards(grey: np.ndarray, xc: XCorners, pattern: tuple[int, int] | None, min
     """The boards of one level's X-corners, largest first. A lattice whose corners all lie on a complete
     board of ``done`` (a finer level's) is that board again, and is not refined a second time.
 
-    With ``view_only`` (one board per image, :func:`find_boards`), the lattices are finished largest cells
-    first, and one whose cells are under :data:`VIEW_SMALL` of a complete board's found so far is not: it
-    can be no view (:func:`~sogdd.calib.targets.board.view_board`), and refining it costs as much as the
-    view's own board."""
+    Seeds are grown strongest first (:func:`~sogdd.calib.targets.chessboard.lattice.seeds`), each lattice
+    refined and checked as it is grown. With ``view_only`` (one board per image, :func:`find_boards`),
+    :func:`_view_boards` instead."""
     if len(xc) < 5:
         return []
     tree = cKDTree(xc.xy)
     nb, dist = ray_neighbours(xc, tree)
     free = np.ones(len(xc), dtype=bool)
+    if view_only:
+        return _view_boards(grey, xc, tree, nb, dist, free, pattern, min_corners, refine, max_boards, others,
+                            done)
     out: list[Board] = []
-    grown: list[Lattice] = []
-    for s in seeds(xc, nb, dist):
-        if len(out) >= max_boards:
-            break
+    for lat in _grown(xc, seeds(xc, nb, dist), tree, nb, free, min_corners, done):
+        board = _finish(grey, xc, lat, pattern, min_corners, refine, others=others)
+        if board is not None:
+            out.append(board)
+            if len(out) >= max_boards:
+                break
+    out.sort(key=lambda b: -len(b))
+    return out
+
+
+def _grown(xc: XCorners, order: np.ndarray, tree: cKDTree, nb: np.ndarray, free: np.ndarray, min_corners: int,
+           done: Sequence[Board]) -> Iterator[Lattice]:
+    """The lattices grown from the seeds ``order`` whose seed and its neighbours are still free (``free``
+    updated as they grow), of ``min_corners`` or more and not already a complete board of ``done``."""
+    for s in order:
         if not free[s] or not free[nb[s]].all():
             continue
         lat = grow(xc, int(s), nb, free, tree)  # whole: a part of a larger grid is no board of the pattern
@@ -160,41 +173,42 @@ def _boards(grey: np.ndarray, xc: XCorners, pattern: tuple[int, int] | None, min
             continue
         if any(_within(xc.xy[lat.index], b) for b in done if b.size is not None):
             continue
-        if view_only:
-            grown.append(lat)
-            continue
-        board = _finish(grey, xc, lat, pattern, min_corners, refine, others=others)
-        if board is not None:
-            out.append(board)
-    if grown:
-        out = _view_boards(grey, xc, grown, pattern, min_corners, refine, max_boards, others, done)
-    out.sort(key=lambda b: -len(b))
-    return out
+        yield lat
 
 
-#: with one board per image wanted, a lattice whose cells (as grown) are under this share of a complete
-#: board's is not finished: :data:`~sogdd.calib.targets.board.SMALL_CELL`, less a margin for the grown
-#: corners' cells against the refined ones'
+#: with one board per image wanted, a seed or a lattice whose cells are under this share of a complete
+#: board's is not grown or refined: :data:`~sogdd.calib.targets.board.SMALL_CELL`, less a margin for a
+#: seed's or the grown corners' spacing against the refined board's cells
 VIEW_SMALL = 0.8 * float(SMALL_CELL)
 
 
-def _view_boards(grey: np.ndarray, xc: XCorners, grown: list[Lattice], pattern: tuple[int, int] | None,
-                 min_corners: int, refine: bool, max_boards: int, others: list[Board] | None,
-                 done: Sequence[Board]) -> list[Board]:
-    """:func:`_boards`' lattices finished for one board per image: largest cells first, none under
-    :data:`VIEW_SMALL` of a complete board's (``done``'s or this level's)."""
+def _view_boards(grey: np.ndarray, xc: XCorners, tree: cKDTree, nb: np.ndarray, dist: np.ndarray,
+                 free: np.ndarray, pattern: tuple[int, int] | None, min_corners: int, refine: bool,
+                 max_boards: int, others: list[Board] | None, done: Sequence[Board]) -> list[Board]:
+    """:func:`_boards` for one board per image: the seeds spaced at least :data:`VIEW_SMALL` of the widest
+    seed's first (strongest first among them), then the others; each group's lattices refined largest
+    cells first; once a board of the whole pattern is found (here or in ``done``), no seed or lattice
+    under :data:`VIEW_SMALL` of its cells is grown or refined. Such a board can be no view
+    (:func:`~sogdd.calib.targets.board.view_board`), and refining it costs as much as the view's own."""
     full = math.inf if pattern is None else pattern[0] * pattern[1]
-    cells = [float(np.median(lattice_cells(xc.xy[lat.index], lat.labels))) for lat in grown]
     settled = max((cell_size(b) for b in done if len(b) == full), default=0.0)
+    order = seeds(xc, nb, dist)
+    spacing = np.median(dist[order], axis=1)
+    wide = spacing >= VIEW_SMALL * max(spacing.max(initial=0.0), settled)
     out: list[Board] = []
-    for k in np.argsort(cells, kind="stable")[::-1]:
-        if len(out) >= max_boards or cells[k] < VIEW_SMALL * settled:
-            break
-        board = _finish(grey, xc, grown[k], pattern, min_corners, refine, others=others)
-        if board is not None:
-            out.append(board)
-            if len(board) == full:
-                settled = max(settled, cell_size(board))
+    for group in (order[wide], order[~wide]):
+        group = group[np.median(dist[group], axis=1) >= VIEW_SMALL * settled]
+        grown = list(_grown(xc, group, tree, nb, free, min_corners, done))
+        cells = [float(np.median(lattice_cells(xc.xy[lat.index], lat.labels))) for lat in grown]
+        for k in np.argsort(cells, kind="stable")[::-1]:
+            if len(out) >= max_boards or cells[k] < VIEW_SMALL * settled:
+                break
+            board = _finish(grey, xc, grown[k], pattern, min_corners, refine, others=others)
+            if board is not None:
+                out.append(board)
+                if len(board) == full:
+                    settled = max(settled, cell_size(board))
+    out.sort(key=lambda b: -len(b))
     return out
 
 
