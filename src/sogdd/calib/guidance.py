@@ -193,11 +193,11 @@ def guidance(cal: Calibration) -> Guidance:
     if np.isfinite(floor):
         bad = [i for i in np.argsort(-np.nan_to_num(sigma, nan=-1.0))
                if sigma[i] > max(UNCERTAIN_PX, _WORSE * floor)]
-        place = [f"put the board in {_WHERE[REGIONS[i]]} of the frame ({sigma[i]:.2g} px there, "
+        place = [f"put the board at {_WHERE[REGIONS[i]]} of the frame ({sigma[i]:.2g} px there, "
                  f"{share[i]:.0%} of the corners)" for i in bad[:_MAX_REGIONS]]
     else:
         empty = [i for i in np.argsort(share, kind="stable") if share[i] < _SPARSE]
-        place = [f"put the board in {_WHERE[REGIONS[i]]} of the frame ({share[i]:.0%} of the corners)"
+        place = [f"put the board at {_WHERE[REGIONS[i]]} of the frame ({share[i]:.0%} of the corners)"
                  for i in empty[:_MAX_REGIONS]]
 
     tilts = board_tilts(cal)
