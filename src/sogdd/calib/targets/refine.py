@@ -267,30 +267,27 @@ def _spread(acc, x, y, ox, oy, gx, gy):  # pragma: no cover - jit
 
 
 @numba.njit(**EXACT_JIT)
-def _noise_gain(img, px, py, R, s, inv):  # pragma: no cover - jit
+def _noise_gain(img, px, py, R, dxs, dys, ws, m):  # pragma: no cover - jit
     """``G = sum_i g_i g_i^T`` (as ``G00, G01, G11``) and ``q = sum_d w_d sum_i l_di^2`` of
     :func:`corner_covariance` at ``(px, py)``: each term's ``w_d J_d`` spread onto the pixels its two
-    samples interpolate, ``+`` at ``p + d`` and ``-`` at ``p - d``."""
+    samples interpolate, ``+`` at ``p + d`` and ``-`` at ``p - d`` (the window of :func:`_offsets`)."""
     H, W = img.shape
     ox = max(int(math.floor(px)) - R - 1, 0)  # the pixels of the samples p +- d, |d| <= R
     oy = max(int(math.floor(py)) - R - 1, 0)
     acc = np.zeros((min(int(math.floor(py)) + R + 3, H) - oy, min(int(math.floor(px)) + R + 3, W) - ox, 2))
     q = 0.0
-    for dy in range(0, R + 1, s):
-        for dx in range(-R, R + 1, s):
-            if dy == 0 and dx <= 0:
-                continue  # d and -d give the same term
-            w = math.exp(-(dx * dx + dy * dy) * inv)
-            xa = px + dx
-            ya = py + dy
-            xb = px - dx
-            yb = py - dy
-            _, gxa, gya = _bil_grad(img, xa, ya)
-            _, gxb, gyb = _bil_grad(img, xb, yb)
-            gx = w * (gxa - gxb)
-            gy = w * (gya - gyb)
-            q += w * _spread(acc, xa, ya, ox, oy, gx, gy)
-            q += w * _spread(acc, xb, yb, ox, oy, -gx, -gy)
+    for t in range(m):
+        w = ws[t]
+        xa = px + dxs[t]
+        ya = py + dys[t]
+        xb = px - dxs[t]
+        yb = py - dys[t]
+        _, gxa, gya = _bil_grad(img, xa, ya)
+        _, gxb, gyb = _bil_grad(img, xb, yb)
+        gx = w * (gxa - gxb)
+        gy = w * (gya - gyb)
+        q += w * _spread(acc, xa, ya, ox, oy, gx, gy)
+        q += w * _spread(acc, xb, yb, ox, oy, -gx, -gy)
     g = acc.reshape(-1, 2)
     return np.sum(g[:, 0] * g[:, 0]), np.sum(g[:, 0] * g[:, 1]), np.sum(g[:, 1] * g[:, 1]), q
 
@@ -312,7 +309,7 @@ def _covariance(img, pts, half, stride, out):  # pragma: no cover - jit
         det = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
         if not (det > 1e-12 * (A[0, 0] * A[1, 1] + 1e-300)):
             continue
-        G00, G01, G11, q = _noise_gain(img, px, py, R, stride[k], inv)
+        G00, G01, G11, q = _noise_gain(img, px, py, R, dxs, dys, ws, m)
         a00 = A[1, 1] / det
         a01 = -A[0, 1] / det
         a11 = A[0, 0] / det
