@@ -28,7 +28,8 @@ def test_a_new_kind_is_one_row(monkeypatch):
     def parse(parts, text):
         return {"pattern": (int(parts[0]), 1)} if len(parts) == 1 else None
 
-    row = Kind("dots", "dots:N", parse, lambda s: f"dots:{s.pattern[0]}", lambda img, s: ViewBoards((found,)))
+    row = Kind("dots", "dots:N", parse, lambda s: f"dots:{s.pattern[0]}",
+               lambda img, s, view_only: ViewBoards((found,)))
     monkeypatch.setitem(KINDS, "dots", row)
     s = parse_board("dots:4")
     assert s == BoardSpec("dots", pattern=(4, 1)) and str(s) == "dots:4"  # type: ignore[arg-type]

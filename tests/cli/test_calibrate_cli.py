@@ -134,8 +134,12 @@ def test_a_board_size_that_contradicts_the_option(frames, tmp_path, capsys, wron
 def test_a_board_smaller_than_the_option(frames, tmp_path, capsys, monkeypatch):
     """A detector that returns every view's whole 9x6 grid as a partial board of --board 10x7."""
     real = chessboard.detect_boards
-    monkeypatch.setattr(chessboard, "find_boards", lambda img, pattern=None, **kw: chessboard.BoardSearch([
-        Board(b.image_points, b.labels + 1) for b in real(img, (9, 6), **kw)], []))
+
+    def grid(img, pattern=None, view_only=False, **kw):
+        boards = [Board(b.image_points, b.labels + 1) for b in real(img, (9, 6), **kw)]
+        return chessboard.BoardSearch(boards, [])
+
+    monkeypatch.setattr(chessboard, "find_boards", grid)
     code, _, err = _run(capsys, frames, "--board", "chessboard:10x7", "--out", tmp_path / "o")
     assert code == 2 and err.count("\n") == 1
     assert "all 8 boards show exactly 9x6 inner corners; give chessboard:9x6" in err
@@ -147,7 +151,7 @@ def test_two_boards_in_one_image_are_one_view_or_two_on_request(frames, tmp_path
     default the image's view is its best board (the most corners), the other one a row "ignored"."""
     real = chessboard.detect_boards
 
-    def two(img, pattern=None, **kw):
+    def two(img, pattern=None, view_only=False, **kw):
         (b,) = real(img, (9, 6), **kw)
         # split where the image says: boards that all showed one same grid would be a miscounted --board
         cut = 2 + int(img.sum()) % 5
