@@ -259,7 +259,9 @@ def deshaded(grey: np.ndarray, start: np.ndarray, half: np.ndarray, ref: np.ndar
     env = cv2.morphologyEx(small, cv2.MORPH_CLOSE, cv2.getStructuringElement(cv2.MORPH_RECT, (k, k)))
     if f < 1:
         env = cv2.resize(env, (patch.shape[1], patch.shape[0]), interpolation=cv2.INTER_LINEAR)
-    flat = 255.0 * patch.astype(np.float64) / np.maximum(env.astype(np.float64), 1.0)
+    flat = patch.astype(np.float64)  # 255 I / max(L, 1) in place: the same numbers, no temporaries
+    flat *= 255.0
+    flat /= np.maximum(env, 1.0)
     o = np.array([x0, y0], dtype=np.float64)
     _, q_img = refine_grey(grey, ref, ref_half, ref_half.astype(np.float64), iterations=1)
     _, q_flat = refine_grey(flat, ref - o, ref_half, ref_half.astype(np.float64), iterations=1)
