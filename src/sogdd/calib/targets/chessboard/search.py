@@ -21,9 +21,10 @@ OpenCV's detectors propose one
 and must not be a part of a larger grid (:func:`sogdd.calib.targets.chessboard.checks.extends`).
 A grid that cannot be the given pattern (more rows or columns than it has) is not
 returned as a board; :func:`find_boards` returns it among the ``others``. Where one
-board per image is wanted (:func:`detect_board`, ``view_only``), the coarser levels
-are searched first and a complete board of the pattern there ends the search: the
-finest level, the costliest, is searched only when they settle nothing.
+board per image is wanted (:func:`detect_board`, ``view_only``), the levels below the
+finest are searched coarsest first, and the first that settles a complete board of
+the pattern ends the search: the finer levels, the costlier, are searched only when
+the coarser ones settle nothing.
 """
 
 from __future__ import annotations
@@ -322,10 +323,11 @@ def find_boards(image: np.ndarray, pattern: tuple[int, int] | None = None, *, mi
         As :func:`detect_boards` (the same keywords and defaults).
     view_only : bool
         Only the view's board is wanted (:func:`sogdd.calib.targets.board.view_board`;
-        one board per image): with ``pattern`` given, the pyramid's coarser
-        levels are searched first, and a complete board of the pattern there
-        ends the search. A board that only the finest level would show is
-        smaller than that one (a larger board shows at the coarser levels), so
+        one board per image): with ``pattern`` given, the pyramid's levels below
+        the finest are searched coarsest first, and the first level at which the
+        view is a complete board of the pattern ends the search. A board that
+        only a finer level would show is smaller than that one (a larger board
+        shows at the coarser levels, searched already), so
         it can neither be the view (:func:`~sogdd.calib.targets.board.view_board`
         ranks complete boards by their cells) nor make that board a background
         one; such a board (a screen behind the board, too small for the
@@ -373,9 +375,10 @@ def _search(grey: np.ndarray, pat: tuple[int, int] | None, min_corners: int, min
     g32 = grey.astype(np.float32)  # the X-corner search's maps are float32
     levels = (scale,) if scale is not None else search_levels(grey.shape)
     if view_only and pat is not None and len(levels) > 1:
-        # the coarser levels first: a complete board there settles the view (module doc)
-        best, others = _levels(grey, g32, levels[1:], pat, min_corners, min_strength, refine, max_boards, mask,
-                               True)
+        # the coarser levels, coarsest first: a complete board settles the view (module doc)
+        coarse = sorted(v for v in levels if v < levels[0])  # not the full scale a large frame ends with
+        best, others = _levels(grey, g32, coarse, pat, min_corners, min_strength, refine, max_boards, mask,
+                               view_only=True)
         view = view_board(best)
         if view is not None and len(view) == pat[0] * pat[1]:
             return BoardSearch(best, others)
@@ -401,14 +404,21 @@ def _levels(grey: np.ndarray, g32: np.ndarray, levels: Sequence[float], pat: tup
     best: list[Board] = []
     others: list[Board] = []
     cap, finest = math.inf, math.inf  # the noise of the finest level searched so far, and its scale
+    rising = len(levels) > 1 and levels[0] < levels[-1]  # coarse to fine: stop once the view is settled
     for level in levels:
         xc = search(g32, min_strength, level, mask, cap if level < finest else math.inf)
         if level < finest:
             cap, finest = xc.noise, level
         best = _merged(best, _boards(grey, xc, pat, min_corners, refine, max_boards, others, best, view_only))
-        if pat is not None and not _room_for_larger(best, pat, grey.shape):
+        if pat is not None and (_settled(best, pat) if rising else not _room_for_larger(best, pat, grey.shape)):
             break
     return best, others
+
+
+def _settled(boards: list[Board], pattern: tuple[int, int]) -> bool:
+    """Whether the view's board (:func:`~sogdd.calib.targets.board.view_board`) is the whole pattern."""
+    view = view_board(boards)
+    return view is not None and len(view) == pattern[0] * pattern[1]
 
 
 def _merged(found: list[Board], new: list[Board]) -> list[Board]:

@@ -184,9 +184,10 @@ def refine_board(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray) -> tuple[
     The symmetric extent of :func:`edge_halves` is measured at the corners
     refined with the full window (at the X-corners' coarse positions the
     mirror images differ along the corner's own edge lines); the corners whose
-    window it cuts are refined again, from their start, with the cut window
-    (:func:`recut`). First the border corners; then the corners that
-    :func:`symmetric` would drop against the board's median with the border
+    window it cuts are refined again with the cut window (:func:`recut`), from
+    the full window's fit (a start the short window reaches, where the
+    X-corner of a coarse level may lie pixels off). First the border corners;
+    then the corners that :func:`symmetric` would drop against the board's median with the border
     cut (before it, the median itself may be that of windows reaching beyond
     the squares): a code in the white squares (ECoCheck's dots), which differs
     between the two squares mirrored through the corner, breaks the symmetry
@@ -200,13 +201,13 @@ def refine_board(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray) -> tuple[
     out, quality = refine_grey(grey, xy, half, half.astype(np.float64))
     at = np.where(quality[:, None] > 0, out, xy)
     reach = border_reach(grey, at, labels, cells)
-    recut(grey, xy, out, quality, half, reach)
+    recut(grey, at, out, quality, half, reach)
     asym = (quality > 0) & ~symmetric(quality)
     if asym.any():
         # measured on their own: the border corners' windows are cut already
         reach[asym] = border_reach(grey, at[asym], labels[asym], cells[asym], also=asym[asym])
-        recut(grey, xy, out, quality, half, np.where(asym[:, None], reach, np.inf))
-    star_refit(grey, xy, out, quality, half, reach, ~symmetric(quality))
+        recut(grey, at, out, quality, half, np.where(asym[:, None], reach, np.inf))
+    star_refit(grey, at, out, quality, half, reach, ~symmetric(quality))
     bad = ~symmetric(quality)
     if bad.any() and np.isfinite(cells).any():
         inner = inner_corners(labels) & ~bad
