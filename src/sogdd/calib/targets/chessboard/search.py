@@ -136,7 +136,7 @@ def _boards(grey: np.ndarray, xc: XCorners, pattern: tuple[int, int] | None, min
             max_boards: int, others: list[Board] | None = None, done: Sequence[Board] = (),
             view_only: bool = False) -> list[Board]:
     """The boards of one level's X-corners, largest first. A lattice whose corners all lie on a complete
-    board of ``done`` (a finer level's) is that board again, and is not refined a second time.
+    board of ``done`` (a level searched before) is that board again, and is not refined a second time.
 
     Seeds are grown strongest first (:func:`~sogdd.calib.targets.chessboard.lattice.seeds`), each lattice
     refined and checked as it is grown. With ``view_only`` (one board per image, :func:`find_boards`),
