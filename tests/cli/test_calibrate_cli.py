@@ -91,6 +91,9 @@ def test_json_summary_with_two_processes(frames, tmp_path, capsys):
     d = json.loads(text)
     assert d["views_used"] == 8 and abs(d["fx"] - 560.0) < 6 and d["verdict"] and d["unreadable"] == []
     assert not (tmp_path / "o" / "report.html").exists()
+    # what to do next, as camera.json has it
+    assert d["guidance"] == json.loads((tmp_path / "o" / "camera.json").read_text())["guidance"]
+    assert [r["name"] for r in d["guidance"]["regions"]][4] == "centre" and d["guidance"]["tilts"]["views"] == 8
 
 
 @pytest.mark.parametrize("spec", ["chessboard", "chessboard:9by6", "chessboard:1x6",
