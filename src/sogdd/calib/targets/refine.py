@@ -137,7 +137,7 @@ def _offsets(R, s, inv, reach):  # pragma: no cover - jit
     (an offset ``d`` counts in the direction nearest its own, mod pi); ``inf`` everywhere for the whole
     square window."""
     masked = _bounded(reach)
-    m = (R // s + 1) * (2 * (R // s) + 1)
+    m = (R // s + 1) * (2 * R // s + 1)  # the rows dy = 0, s, ..., R; the columns dx = -R, -R + s, ..., R
     dxs = np.empty(m, np.int64)
     dys = np.empty(m, np.int64)
     ws = np.empty(m)
