@@ -254,6 +254,22 @@ def _check_count(name: str, value: object, *, none: bool = False) -> None:
         raise ParameterError(f"{{{name}}} {why}", **{name: name, "value": value})
 
 
+def _checked(board: str | BoardSpec, model: object, square: float, min_views: int, max_views: int,
+             step: int | None) -> BoardSpec:
+    """The video calibration's parameters checked at the door (one line each); the board's specification."""
+    spec = parse_board(board) if isinstance(board, str) else board
+    if not isinstance(spec, BoardSpec):
+        raise TypeError(f"board must be a specification string or a BoardSpec, got {type(board).__name__}")
+    check_model_choice(model)
+    check_run_parameters(square=square, jobs=1, min_views=min_views)
+    _check_count("max_views", max_views)
+    _check_count("video_step", step, none=True)
+    if max_views < min_views:
+        raise ParameterError("{max_views} ({value}) must be at least {min_views} ({least})",
+                             max_views="max_views", min_views="min_views", value=max_views, least=min_views)
+    return spec
+
+
 def choose_frames(path: str | os.PathLike, spec: str | BoardSpec, max_views: int = MAX_VIEWS, *,
                   step: int | None = None, sharp: float = SHARP_FACTOR, thumbnails: bool = True,
                   progress: bool = False) -> list[ChosenFrame]:
@@ -375,16 +391,7 @@ def calibrate_video(
         One line: bad parameters (a :class:`~sogdd.calib.session.ParameterError` naming it); the file cannot
         be read as a video; no frame shows the board; too few frames chosen.
     """
-    spec = parse_board(board) if isinstance(board, str) else board
-    if not isinstance(spec, BoardSpec):
-        raise TypeError(f"board must be a specification string or a BoardSpec, got {type(board).__name__}")
-    check_model_choice(model)
-    check_run_parameters(square=square, jobs=1, min_views=min_views)
-    _check_count("max_views", max_views)
-    _check_count("video_step", step, none=True)
-    if max_views < min_views:
-        raise ParameterError("{max_views} ({value}) must be at least {min_views} ({least})",
-                             max_views="max_views", min_views="min_views", value=max_views, least=min_views)
+    spec = _checked(board, model, square, min_views, max_views, step)
     name = os.fspath(video)
     chosen = choose_frames(video, spec, max_views, step=step, thumbnails=thumbnails, progress=progress)
     if not chosen:
@@ -421,11 +428,7 @@ def calibrate_video_into(
     """:func:`calibrate_video` into an output folder (as :func:`sogdd.calib.session.calibrate_into`): every
     check first (the parameters, the video's name, ``out``), then the calibration, then its folder, complete
     or as it was. What ``sogdd calibrate video.mp4`` runs."""
-    spec = parse_board(board) if isinstance(board, str) else board
-    check_model_choice(model)
-    check_run_parameters(square=square, jobs=1, min_views=min_views)
-    _check_count("max_views", max_views)
-    _check_count("video_step", step, none=True)
+    spec = _checked(board, model, square, min_views, max_views, step)
     check_inputs([video])
     check_output_folder(out, [video])
     result = calibrate_video(video, spec, square=square, model=model, min_views=min_views, reject=reject,

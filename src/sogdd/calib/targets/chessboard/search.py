@@ -197,8 +197,8 @@ def _view_boards(grey: np.ndarray, xc: XCorners, tree: cKDTree, nb: np.ndarray, 
     spacing = np.median(dist[order], axis=1)
     wide = spacing >= VIEW_SMALL * max(spacing.max(initial=0.0), settled)
     out: list[Board] = []
-    for group in (order[wide], order[~wide]):
-        group = group[np.median(dist[group], axis=1) >= VIEW_SMALL * settled]
+    for part in (wide, ~wide):
+        group = order[part & (spacing >= VIEW_SMALL * settled)]
         grown = list(_grown(xc, group, tree, nb, free, min_corners, done))
         cells = [float(np.median(lattice_cells(xc.xy[lat.index], lat.labels))) for lat in grown]
         for k in np.argsort(cells, kind="stable")[::-1]:
@@ -378,9 +378,8 @@ def _search(grey: np.ndarray, pat: tuple[int, int] | None, min_corners: int, min
         # the coarser levels, coarsest first: a complete board settles the view (module doc)
         coarse = sorted(v for v in levels if v < levels[0])  # not the full scale a large frame ends with
         best, others = _levels(grey, g32, coarse, pat, min_corners, min_strength, refine, max_boards, mask,
-                               view_only=True)
-        view = view_board(best)
-        if view is not None and len(view) == pat[0] * pat[1]:
+                               view_only=True, settle=True)
+        if _settled(best, pat):
             return BoardSearch(best, others)
     best, others = _levels(grey, g32, levels, pat, min_corners, min_strength, refine, max_boards, mask,
                            view_only and pat is not None)
@@ -398,19 +397,20 @@ def _search(grey: np.ndarray, pat: tuple[int, int] | None, min_corners: int, min
 
 def _levels(grey: np.ndarray, g32: np.ndarray, levels: Sequence[float], pat: tuple[int, int] | None,
             min_corners: int, min_strength: float | None, refine: bool, max_boards: int,
-            mask: np.ndarray | None, view_only: bool = False) -> tuple[list[Board], list[Board]]:
+            mask: np.ndarray | None, view_only: bool = False, settle: bool = False
+            ) -> tuple[list[Board], list[Board]]:
     """The boards of the pyramid's ``levels``, in that order, and the ``others``: the loop of :func:`_search`,
-    stopped where :func:`_room_for_larger` says no larger board can follow (``view_only``: :func:`_boards`')."""
+    stopped where :func:`_room_for_larger` says no larger board can follow, or with ``settle`` (levels
+    coarse to fine) at the first that settles the view (``view_only``: :func:`_boards`')."""
     best: list[Board] = []
     others: list[Board] = []
     cap, finest = math.inf, math.inf  # the noise of the finest level searched so far, and its scale
-    rising = len(levels) > 1 and levels[0] < levels[-1]  # coarse to fine: stop once the view is settled
     for level in levels:
         xc = search(g32, min_strength, level, mask, cap if level < finest else math.inf)
         if level < finest:
             cap, finest = xc.noise, level
         best = _merged(best, _boards(grey, xc, pat, min_corners, refine, max_boards, others, best, view_only))
-        if pat is not None and (_settled(best, pat) if rising else not _room_for_larger(best, pat, grey.shape)):
+        if pat is not None and (_settled(best, pat) if settle else not _room_for_larger(best, pat, grey.shape)):
             break
     return best, others
 
