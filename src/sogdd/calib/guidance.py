@@ -14,12 +14,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 
 from .result import Calibration
 from .uncertainty import UNCERTAIN_PX, image_uncertainty
-from .verdict import coverage
+from .verdict import board_normals, coverage
 
 __all__ = ["REGIONS", "TILT_DEG", "Guidance", "Region", "board_tilts", "guidance"]
 
@@ -113,8 +112,8 @@ class Guidance:
 def board_tilts(cal: Calibration) -> np.ndarray:
     """Per used view, the board's tilt about the image's vertical and horizontal axes (degrees), (V, 2).
 
-    With :math:`n = R e_z` the board's normal in the camera's frame (``R`` from the
-    view's ``rvec``), the tilt about the vertical (y) axis is the angle of ``n``'s
+    With :math:`n = R e_z` the board's normal in the camera's frame
+    (:func:`~sogdd.calib.verdict.board_normals`), the tilt about the vertical (y) axis is the angle of ``n``'s
     projection on the x-z plane from the optical axis, :math:`\\arctan(|n_x| / |n_z|)`,
     and about the horizontal (x) axis :math:`\\arctan(|n_y| / |n_z|)`. A board
     parallel to the image plane (both 0) maps to it by an affine map, which cannot
@@ -127,11 +126,8 @@ def board_tilts(cal: Calibration) -> np.ndarray:
     >>> t.shape, bool(np.all((t >= 0) & (t < 30)))
     ((8, 2), True)
     """
-    out = []
-    for v in np.flatnonzero(cal.view_used):
-        n = cv2.Rodrigues(np.asarray(cal.rvecs[v], np.float64))[0][:, 2]
-        out.append(np.degrees(np.arctan2(np.abs(n[:2]), abs(n[2]))))
-    return np.array(out).reshape(-1, 2)
+    n = board_normals(cal)
+    return np.degrees(np.arctan2(np.abs(n[:, :2]), np.abs(n[:, 2:])))
 
 
 def _region_uncertainty(cal: Calibration) -> np.ndarray:

@@ -15,7 +15,7 @@ from .model_selection import fix_flags, higher_terms
 from .result import Calibration
 from .uncertainty import uncertainty_finding
 
-__all__ = ["coverage", "cv_inside", "radial_map", "used_points", "verdict"]
+__all__ = ["board_normals", "coverage", "cv_inside", "radial_map", "used_points", "verdict"]
 
 # the verdict's limits, each stated where it is used
 _FEW_VIEWS = 10            # fewer used views than this is "few"
@@ -70,14 +70,24 @@ def coverage(cal: Calibration, grid: tuple[int, int] = _GRID) -> tuple[np.ndarra
     return counts, float(np.mean(counts > 0)), float(np.mean(counts[ring] > 0))
 
 
+def board_normals(cal: Calibration) -> np.ndarray:
+    """Each used view's board normal in the camera's frame, :math:`n = R e_z` (``R`` from its ``rvec``), (V, 3).
+
+    Examples
+    --------
+    >>> from sogdd.calib.demo import demo_calibration
+    >>> n = board_normals(demo_calibration())
+    >>> n.shape, bool(np.allclose(np.linalg.norm(n, axis=1), 1))
+    ((8, 3), True)
+    """
+    return np.array([cv2.Rodrigues(np.asarray(cal.rvecs[v], np.float64))[0][:, 2]
+                     for v in np.flatnonzero(cal.view_used)]).reshape(-1, 3)
+
+
 def _tilts(cal: Calibration) -> np.ndarray:
     """Angle (degrees) between each used view's board normal and the optical axis: a board
     parallel to the image plane maps to it by an affine map, which says nothing of the focal length."""
-    out = []
-    for v in np.flatnonzero(cal.view_used):
-        R, _ = cv2.Rodrigues(cal.rvecs[v])
-        out.append(np.degrees(np.arccos(min(1.0, abs(float(R[2, 2]))))))
-    return np.array(out)
+    return np.degrees(np.arccos(np.minimum(1.0, np.abs(board_normals(cal)[:, 2]))))
 
 
 def verdict(cal: Calibration) -> list[tuple[str, str]]:
