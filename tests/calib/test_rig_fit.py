@@ -3,6 +3,7 @@ differ between cameras, rejection, errors, speed."""
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 import pytest
 
@@ -168,6 +169,21 @@ def test_one_camera_is_a_rig_too():
     d = synthetic_rig(cameras=1, frames=8, noise=0.05, seed=5)
     rig = calibrate_rig(d.boards, d.image_sizes)
     assert rig.names == ("cam0",) and abs(rig.cameras[0].K[0, 0] - 600) < 2 and rig.frame_used.all()
+
+
+@pytest.mark.parametrize(("model", "flags"), [("pinhole", 0), ("rational", cv2.CALIB_RATIONAL_MODEL)])
+def test_one_camera_through_the_joint_solver_is_opencvs_calibration(model, flags):
+    """A rig of one, fitted by the joint solver, is ``cv2.calibrateCamera`` on the same corners and model."""
+    d = synthetic_rig(cameras=1, frames=8, noise=0.05, seed=6)
+    rig = calibrate_rig(d.boards, d.image_sizes, models=model, reject=False)
+    seen = [b for b in d.boards["cam0"] if b is not None]
+    obj = [np.c_[b.labels, np.zeros(len(b))].astype(np.float64) for b in seen]
+    crit = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 100, 1e-12)
+    rms, K, D, *_ = cv2.calibrateCamera(obj, [b.image_points for b in seen], d.image_sizes["cam0"], None, None,
+                                        flags=flags, criteria=crit)
+    cam = rig.cameras[0]
+    assert abs(cam.K[0, 0] - K[0, 0]) < 1e-6 and abs(cam.K[1, 2] - K[1, 2]) < 1e-6
+    assert np.allclose(cam.dist, D.ravel()[:len(cam.dist)], atol=1e-8) and abs(rig.rms - rms) < 1e-9
 
 
 def test_a_camera_sharing_no_frame_is_refused_naming_the_groups():
