@@ -42,7 +42,8 @@ from .report_figures import (
 from .result import Calibration
 from .verdict import cv_inside, verdict
 
-__all__ = ["OVERLAY_WIDTH", "pyplot", "save_figure", "selection_table", "write_report"]
+__all__ = ["LEVEL_COLOURS", "OVERLAY_WIDTH", "PAGE_STYLE", "html_page", "pyplot", "save_figure",
+           "selection_table", "write_report"]
 
 #: the widest full-size overlay (px): an image wider than this is drawn at this width
 OVERLAY_WIDTH = 1600
@@ -249,11 +250,38 @@ def selection_table(sel: ModelSelection | None) -> str:
             f"<th></th></tr>{rows}</table>" + (f"<ul>{notes}</ul>" if notes else ""))
 
 
+#: the verdict's levels as the pages colour them
+LEVEL_COLOURS = {"ok": "#1a7f37", "warn": "#9a6700", "bad": "#cf222e"}
+#: the pages' style sheet
+PAGE_STYLE = ("body{font-family:sans-serif;max-width:1100px;margin:auto;padding:0 8px}"
+              "img{max-width:100%;height:auto}img[usemap]{max-width:none}"
+              "figure{display:inline-block;margin:4px;font-size:11px;width:250px;vertical-align:top}"
+              "figure:target{outline:3px solid #0969da}figure.none div{width:240px;height:60px;"
+              "background:#eee;text-align:center;line-height:60px}td,th{padding:2px 8px;text-align:right}")
+
+
+def html_page(title: str, summary: str, findings: Sequence[tuple[str, str]], body: str) -> str:
+    """A report page: its title, a summary line, the verdict's findings (level, text) coloured by level, then
+    ``body`` (HTML). One skeleton for a camera's report and a rig's; the texts are escaped here.
+
+    Examples
+    --------
+    >>> page = html_page("a < b", "RMS 0.1 px", [("warn", "few views")], "<p>more</p>")
+    >>> page.startswith("<!DOCTYPE html>"), "<title>a &lt; b</title>" in page, page.endswith("</html>\\n")
+    (True, True, True)
+    >>> "<b>warn</b>: few views</li></ul><p>more</p>" in page
+    True
+    """
+    esc = html.escape
+    items = "".join(f'<li style="color:{LEVEL_COLOURS[lv]}"><b>{lv}</b>: {esc(t)}</li>' for lv, t in findings)
+    return (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{esc(title)}</title>"
+            f"<style>{PAGE_STYLE}</style></head><body><h1>{esc(title)}</h1><p>{esc(summary)}</p>"
+            f"<h2 id='verdict'>Verdict</h2><ul>{items}</ul>{body}</body></html>\n")
+
+
 def _html(cal: Calibration, title: str, cards: list[str], has_cv: bool, image_map: str,
           distortion_max: float) -> str:
     esc = html.escape
-    colours = {"ok": "#1a7f37", "warn": "#9a6700", "bad": "#cf222e"}
-    items = "".join(f'<li style="color:{colours[lv]}"><b>{lv}</b>: {esc(t)}</li>' for lv, t in verdict(cal))
     cv = cal.cross_validation
     summary = (f"{cal.model} model, {cal.image_size[0]}x{cal.image_size[1]}, {cal.n_used} of {len(cal.names)} "
                f"views and {cal.n_corners_used} corners used, RMS {cal.rms:.4f} px"
@@ -266,15 +294,9 @@ def _html(cal: Calibration, title: str, cards: list[str], has_cv: bool, image_ma
              ) if has_cv else ""
     selection = ("<h2 id='lens-model'>Lens model</h2>" + selection_table(cal.model_selection)
                  if cal.model_selection is not None else "")
-    style = ("body{font-family:sans-serif;max-width:1100px;margin:auto;padding:0 8px}"
-             "img{max-width:100%;height:auto}img[usemap]{max-width:none}"
-             "figure{display:inline-block;margin:4px;font-size:11px;width:250px;vertical-align:top}"
-             "figure:target{outline:3px solid #0969da}figure.none div{width:240px;height:60px;"
-             "background:#eee;text-align:center;line-height:60px}td,th{padding:2px 8px;text-align:right}")
-    return (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{esc(title)}</title>"
-            f"<style>{style}</style></head><body><h1>{esc(title)}</h1><p>{esc(summary)}</p>"
-            f"<h2 id='verdict'>Verdict</h2><ul>{items}</ul>{_next_views(cal)}"
-            f"<h2 id='camera'>Camera</h2>{_camera_table(cal)}{selection}"
+    return html_page(
+        title, summary, verdict(cal),
+        f"{_next_views(cal)}<h2 id='camera'>Camera</h2>{_camera_table(cal)}{selection}"
             "<h2 id='view-errors'>Error per view</h2><p>Each view's RMS reprojection error; click a bar for "
             "the view.</p><img src='report/errors_per_view.png' usemap='#view-errors' alt='RMS per view'>"
             f"{image_map}"
@@ -288,4 +310,4 @@ def _html(cal: Calibration, title: str, cards: list[str], has_cv: bool, image_ma
             "<h2 id='views'>Views</h2><p>Green: corners used; red: rejected; blue ring: the board's label "
             "origin. Click a picture for the view at the image's size, each corner's projection a magenta "
             "cross."
-            f"</p>{''.join(cards)}</body></html>\n")
+            f"</p>{''.join(cards)}")

@@ -25,7 +25,7 @@ from ...formats.safe_write import write_text
 from ..cameras import lens
 from ..detection import Thumbnail, ViewRecord
 from ..figures import COLOURS, PlacedCamera, board_outline, poses_figure, pyplot, save_figure
-from ..report import selection_table, write_report
+from ..report import html_page, selection_table, write_report
 from .result import RigCalibration, RigCamera
 from .stereo import StereoPair, rectify_points, stereo_pair
 from .uncertainty import projection_uncertainty
@@ -318,8 +318,6 @@ def write_rig_report(rig: RigCalibration, out_dir: str | os.PathLike, *,
 
 def _html(rig: RigCalibration, title: str, maps: list[str], pairs: list[tuple[str, float]]) -> str:
     esc = html.escape
-    colours = {"ok": "#1a7f37", "warn": "#9a6700", "bad": "#cf222e"}
-    items = "".join(f'<li style="color:{colours[lv]}"><b>{lv}</b>: {esc(t)}</li>' for lv, t in rig_verdict(rig))
     first = rig.cameras[0].name
     summary = (f"{len(rig.cameras)} cameras, {int(np.sum(rig.frame_used))} of {len(rig.frames)} frames used, "
                f"RMS {rig.rms:.4f} px over every camera's corners, corner noise {rig.sigma:.4f} px; poses in "
@@ -328,15 +326,12 @@ def _html(rig: RigCalibration, title: str, maps: list[str], pairs: list[tuple[st
     unc = "".join(f"<img src='report/uncertainty_{esc(n)}.png' alt='uncertainty of {esc(n)}'>" for n in maps)
     rect = "".join(f"<p>{esc(first)} / {esc(n)}: {d:.3f} px RMS vertical disparity</p>"
                    f"<img src='report/rectified_{esc(n)}.png' alt='rectified {esc(n)}'>" for n, d in pairs)
-    style = ("body{font-family:sans-serif;max-width:1100px;margin:auto}td,th{padding:2px 8px;text-align:right}"
-             "img{max-width:100%}")
-    return (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{esc(title)}</title>"
-            f"<style>{style}</style></head><body><h1>{esc(title)}</h1><p>{esc(summary)}</p>"
-            f"<h2>Verdict</h2><ul>{items}</ul>"
-            + (f"<h2>Notes</h2><ul>{notes}</ul>" if notes else "")
-            + f"<h2>Cameras</h2>{_camera_rows(rig)}"
-            "<h2>The rig</h2><img src='report/extrinsics.png' alt='cameras and board poses'>"
-            "<h2>Errors</h2><img src='report/errors.png' alt='RMS per frame and camera'>"
-            "<h2>Projection uncertainty</h2><p>1 sigma of where a far point projects (the worst direction), "
-            f"from the fit's covariance; the other cameras' include their pose's.</p>{unc}"
-            f"<h2>Rectified pairs</h2>{rect}{_selection_tables(rig)}</body></html>\n")
+    return html_page(
+        title, summary, rig_verdict(rig),
+        (f"<h2>Notes</h2><ul>{notes}</ul>" if notes else "")
+        + f"<h2>Cameras</h2>{_camera_rows(rig)}"
+        "<h2>The rig</h2><img src='report/extrinsics.png' alt='cameras and board poses'>"
+        "<h2>Errors</h2><img src='report/errors.png' alt='RMS per frame and camera'>"
+        "<h2>Projection uncertainty</h2><p>1 sigma of where a far point projects (the worst direction), "
+        f"from the fit's covariance; the other cameras' include their pose's.</p>{unc}"
+        f"<h2>Rectified pairs</h2>{rect}{_selection_tables(rig)}")
