@@ -58,6 +58,16 @@ def test_camera_yaml_reads_back_through_opencv(cal, tmp_path):
     assert sorted(os.listdir(tmp_path / "out")) == ["camera.json", "camera.yaml", "corners.csv", "views.csv"]
 
 
+@pytest.mark.parametrize("text", ["%YAML:1.0\ncamera_matrix: [1,2", "<?xml version='1.0'?><opencv_storage><a>"])
+def test_a_broken_storage_file_is_a_one_line_error(tmp_path, text):
+    """A truncated FileStorage file: OpenCV's parser raises (as SystemError in its Python binding); the reader
+    says which file in one line."""
+    path = tmp_path / ("camera.xml" if text.startswith("<") else "camera.yaml")
+    path.write_text(text)
+    with pytest.raises(ValueError, match=r"camera\.(yaml|xml): not an OpenCV FileStorage file$"):
+        read_camera(path)
+
+
 def test_views_and_corners_csv(cal, tmp_path):
     files = write_calibration(cal, tmp_path)
     views = list(csv.DictReader(open(files["views.csv"])))

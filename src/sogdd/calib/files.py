@@ -191,7 +191,7 @@ def open_storage(path: Path) -> cv2.FileStorage:
     """``path`` opened for reading by ``cv2.FileStorage``, or a one-line ``ValueError`` saying why not."""
     try:
         fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
-    except cv2.error:
+    except (cv2.error, SystemError):  # a parse error reaches Python as SystemError from the constructor
         raise ValueError(f"{path}: not an OpenCV FileStorage file") from None
     if not fs.isOpened():
         raise ValueError(f"{path}: cannot be read")
