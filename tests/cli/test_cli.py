@@ -65,6 +65,17 @@ def test_response_command(tmp_path):
     assert r.shape == img.shape and r.dtype == np.float64
 
 
+@pytest.mark.parametrize("name", ["notes.md", "missing/demo.png"])
+def test_demo_refuses_an_overlay_it_cannot_write_before_any_work(tmp_path, capsys, name):
+    """Not an image name, or a missing folder: one line naming --out, and nothing written."""
+    (tmp_path / "notes.md").write_text("keep")
+    assert main(["demo", "--out", str(tmp_path / name)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("sogdd: error: --out ") and err.count("\n") == 1 and "Traceback" not in err
+    assert (tmp_path / "notes.md").read_text() == "keep"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.md"]
+
+
 def test_demo(tmp_path, capsys):
     import re
 

@@ -10,10 +10,11 @@ from scipy.spatial import cKDTree
 
 from ..detector import detect_corners
 from ..synthetic import pattern_image
-from .overlay import save_overlay
+from .overlay import check_overlay_path, save_overlay
 
 
 def run(args: argparse.Namespace) -> int:
+    check_overlay_path(args.out, "--out")
     img, gt = pattern_image((480, 640), seed=args.seed, noise=args.noise)
     # compile outside the timing, with the same call: a crop would leave code (tie-breaking) to the timed run
     detect_corners(img, preset=args.preset)
