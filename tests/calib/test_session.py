@@ -56,6 +56,17 @@ def test_every_input_has_a_fate(result):
     assert all(t.image.shape == (180, 240) and t.image.dtype == np.uint8 for t in result.thumbnails)
 
 
+def test_an_image_too_small_to_search_costs_only_itself(rendered_frames, tmp_path):
+    """A 2 x 2 image is an image, but too small for a board: its view says so, by name, and the batch goes on."""
+    folder = tmp_path / "in"
+    shutil.copytree(rendered_frames, folder)
+    cv2.imwrite(str(folder / "tiny.png"), np.zeros((2, 2), np.uint8))
+    fates = {v.name: (v.status, v.reason) for v in calibrate_images(folder, "chessboard:9x6").views}
+    assert fates["tiny.png"][0] == "unreadable" and "tiny.png" in fates["tiny.png"][1]
+    assert "8 x 8" in fates["tiny.png"][1]
+    assert sum(s == "used" for s, _ in fates.values()) == 8
+
+
 def test_a_board_of_another_size_is_ignored_and_says_so(rendered_frames, tmp_path):
     folder = tmp_path / "in"
     folder.mkdir()

@@ -198,3 +198,14 @@ def test_header_probe_reads_the_size_of_each_format(ext):
     img = np.random.default_rng(0).integers(0, 256, (37, 53, 3), dtype=np.uint8)
     ok, buf = cv2.imencode(ext, img)
     assert probe(bytes(buf)) == (53, 37, 1)
+
+
+def test_a_truncated_image_is_one_plain_line(tmp_path):
+    """The decoder's words, without OpenCV's log prefix, source path and function name."""
+    path = tmp_path / "trunc.pgm"
+    path.write_bytes(b"P5\n4 4\n255\n")
+    with pytest.raises(ValueError) as err:
+        sogdd.read_image(path)
+    msg = str(err.value)
+    assert msg.startswith(f"{path}: not a readable image") and "\n" not in msg
+    assert not any(w in msg for w in ("[ERROR", "loadsave", ".cpp", "OpenCV(", "in function")), msg

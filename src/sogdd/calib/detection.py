@@ -278,7 +278,10 @@ def detect_view(path: str | os.PathLike, spec: BoardSpec, read_options: Mapping 
         return ViewResult(path, error=f"{path}: out of memory")
     size = (int(image.shape[1]), int(image.shape[0]))
     thumb = make_thumbnail(image, thumb_width) if thumb_width else None
-    found = view_boards(image, spec, view_only)
+    try:
+        found = view_boards(image, spec, view_only)
+    except ValueError as exc:  # an image the search cannot take (too small): this view's error, not the batch's
+        return ViewResult(path, error=f"{path}: {exc}")
     return ViewResult(path, measure_precision(image, found.boards), size, seen=found.seen,
                       other_size=found.other_size, thumbnail=thumb, orientation=turn)
 

@@ -25,8 +25,9 @@ import numpy as np
 
 from .header import Header, read_header
 
-__all__ = ["DEFAULT_MAX_PIXELS", "IMAGE_SUFFIXES", "PEAK_BYTES_FIXED", "PEAK_BYTES_PER_PIXEL", "list_images",
-           "max_pixels_limit", "opencv_message", "read_image", "read_image_and_orientation", "undo_orientation"]
+__all__ = ["DEFAULT_MAX_PIXELS", "IMAGE_SUFFIXES", "PEAK_BYTES_FIXED", "PEAK_BYTES_PER_PIXEL", "decoder_words",
+           "list_images", "max_pixels_limit", "opencv_message", "read_image", "read_image_and_orientation",
+           "undo_orientation"]
 
 # file suffixes that folder expansion treats as images (what cv2.imdecode reads)
 IMAGE_SUFFIXES = frozenset(
@@ -47,6 +48,12 @@ DEFAULT_MAX_PIXELS = 2**27
 _FRAME_RE = re.compile(r"^(.*)\[(\d+)\]$")
 _STDERR_LOCK = threading.Lock()
 # what the decoders (libjpeg, libpng, libtiff, libwebp, OpenCV) say about damaged data
+#: the decorations of an OpenCV log line: its level and place, an error's version, source line and code, and
+#: its function (:func:`decoder_words` strips them)
+_LOG_PLACE = re.compile(r"^\[\s*[A-Z]+:[^\]]*\]\s*(?:global\s+\S+\s+\S+\s+)?")
+_CV_ERROR = re.compile(r"OpenCV\([^)]*\)\s+\S+:\d+:\s+error:\s+\([^)]*\)\s*")
+_IN_FUNCTION = re.compile(r"\s+in function '[^']*'\s*$")
+
 _CORRUPT_RE = re.compile(
     r"corrupt|premature|truncat|incomplete|extraneous|crc error|libpng error|tiff_error|invalid|bad ", re.I
 )
@@ -289,7 +296,7 @@ def read_image_and_orientation(
         img, log = _decode(data, flags, frame)
     except MemoryError:
         raise ValueError(f"{p}: not enough memory to decode it") from None
-    first = log.splitlines()[0] if log else ""
+    first = decoder_words(log.splitlines()[0]) if log.strip() else ""
     if img is None:
         why = f": {first}" if first else " (corrupt or unsupported format)"
         raise ValueError(f"{p}: not a readable image{why}")
@@ -322,6 +329,25 @@ def undo_orientation(image: np.ndarray, orientation: int) -> np.ndarray:
             5: lambda a: a.swapaxes(0, 1), 6: lambda a: np.rot90(a, 1),
             7: lambda a: a[::-1, ::-1].swapaxes(0, 1), 8: lambda a: np.rot90(a, -1)}.get(int(orientation))
     return img if undo is None else np.ascontiguousarray(undo(img))
+
+
+def decoder_words(line: str) -> str:
+    """A decoder's log line in its own words: OpenCV's level, source place, version and function cut away.
+
+    Examples
+    --------
+    >>> decoder_words("[ERROR:0@0.9] global loadsave.cpp:1412 imdecode_ imdecode_(''): can't read data: "
+    ...               "OpenCV(5.1.0) /io/bitstrm.cpp:59: error: (-2:Unspecified error) Unexpected end of "
+    ...               "input stream in function 'readBlock'")
+    'Unexpected end of input stream'
+    >>> decoder_words("Corrupt JPEG data: premature end of data segment")
+    'Corrupt JPEG data: premature end of data segment'
+    """
+    line = _LOG_PLACE.sub("", line)
+    cut = _CV_ERROR.search(line)
+    if cut:
+        line = line[cut.end():]
+    return _IN_FUNCTION.sub("", line).strip()
 
 
 def opencv_message(exc: BaseException) -> str:
