@@ -57,7 +57,7 @@ def test_every_input_has_a_fate(result):
 
 
 def test_an_image_too_small_to_search_costs_only_itself(rendered_frames, tmp_path):
-    """A 2 x 2 image is an image, but too small for a board: its view says so, by name, and the batch goes on."""
+    """A 2 x 2 image is an image, but too small for a board: its view says so, by name; the batch goes on."""
     folder = tmp_path / "in"
     shutil.copytree(rendered_frames, folder)
     cv2.imwrite(str(folder / "tiny.png"), np.zeros((2, 2), np.uint8))
