@@ -62,7 +62,8 @@ def test_bad_video_inputs_are_one_line_errors(board_video, tmp_path, capsys):
              ((board_video.path, "--max-views", 0), "--max-views must be >= 1, got 0"),
              ((board_video.path, "--video-step", 0), "--video-step must be >= 1, got 0"),
              ((board_video.path, blank), "a video is calibrated alone"),
-             (("--camera", "left", board_video.path, "--camera", "right", blank), "not supported yet")]
+             (("--camera", "left", board_video.path, "--camera", "right", blank),
+              "camera right: no board (chessboard:9x6) in any frame read of blank.avi")]
     for args, words in cases:
         out = tmp_path / "out"
         code, _, err = _run(capsys, *args, "--board", "chessboard:9x6", "--out", out)

@@ -19,6 +19,11 @@ corners' precision measured) and picks, greedily, at most ``max_views`` frames, 
 (:attr:`~sogdd.calib.detection.ViewRecord.choice`, the ``reasons`` column of views.csv).
 :func:`calibrate_video_into` is the same with its output folder, what ``sogdd calibrate
 video.mp4`` runs.
+
+The choice is in two steps that a rig of videos (:mod:`sogdd.calib.rig.video`) shares:
+:func:`scan_video` finds the board in the frames read (:class:`VideoScan`), and
+:func:`pick_frames` picks from one scan, or from several matched by frame index (a frame of a
+rig is sharp, new and covering for a camera when it is for that camera's video).
 """
 
 from __future__ import annotations
@@ -27,7 +32,7 @@ import math
 import numbers
 import os
 import sys
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -49,8 +54,10 @@ from .targets.board import Board
 from .targets.precision import measure_precision
 from .targets.spec import BoardSpec, parse_board, view_boards
 
-__all__ = ["GRID", "MAX_VIEWS", "SCAN", "SHARP_FACTOR", "VIDEO_SUFFIXES", "ChosenFrame", "calibrate_video",
-           "calibrate_video_into", "choose_frames", "frame_name", "is_video", "pose_distance", "read_frames"]
+__all__ = ["GRID", "MAX_VIEWS", "SCAN", "SHARP_FACTOR", "VIDEO_SUFFIXES", "ChosenFrame", "FrameBoard",
+           "PickedFrame", "VideoScan", "calibrate_video", "calibrate_video_into", "check_video_counts",
+           "choose_frames", "default_step", "frame_count", "frame_name", "grid_cells", "is_video",
+           "pick_frames", "pose_descriptor", "pose_distance", "read_frames", "scan_video"]
 
 #: the file suffixes read as videos (lower case)
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".m4v", ".webm", ".mpg", ".mpeg", ".wmv")
@@ -134,6 +141,14 @@ def read_frames(path: str | os.PathLike, step: int = 1) -> Iterator[tuple[int, n
     >>> [(i, img.shape) for i, img in read_frames(f, step=2)]
     [(0, (48, 64, 3)), (2, (48, 64, 3)), (4, (48, 64, 3))]
     """
+    for i, frame in _read(path, step):
+        if frame is not None:
+            yield i, frame
+
+
+def _read(path: str | os.PathLike, step: int) -> Iterator[tuple[int, np.ndarray | None]]:
+    """Every frame of a video, ``(index, image)``, the image None for the frames skipped (grabbed, not
+    decoded): its last index + 1 is the frame count as read, which the container's may not be."""
     cap = _open(path)
     try:
         i = 0
@@ -144,8 +159,7 @@ def read_frames(path: str | os.PathLike, step: int = 1) -> Iterator[tuple[int, n
                 ok, frame = cap.read()
             if not ok:
                 break
-            if frame is not None:
-                yield i, frame
+            yield i, frame
             i += 1
         if i == 0:
             raise ValueError(f"{os.fspath(path)}: no frame could be read")
@@ -153,13 +167,28 @@ def read_frames(path: str | os.PathLike, step: int = 1) -> Iterator[tuple[int, n
         cap.release()
 
 
-def _frame_count(path: str | os.PathLike) -> int:
-    """The video's frame count as its container says (0 when it does not)."""
+def _container(path: str | os.PathLike) -> tuple[int, float]:
+    """The video's frame count (0 when unknown) and frame rate (0 when unknown) as its container says."""
     cap = _open(path)
     try:
-        return max(0, int(cap.get(cv2.CAP_PROP_FRAME_COUNT)))
+        fps = float(cap.get(cv2.CAP_PROP_FPS))
+        return max(0, int(cap.get(cv2.CAP_PROP_FRAME_COUNT))), fps if math.isfinite(fps) and fps > 0 else 0.0
     finally:
         cap.release()
+
+
+def frame_count(path: str | os.PathLike) -> int:
+    """The video's frame count as its container says (0 when it does not); a one-line ``ValueError`` when
+    the file cannot be opened as a video.
+
+    Examples
+    --------
+    >>> frame_count("missing.mp4")
+    Traceback (most recent call last):
+    ...
+    ValueError: missing.mp4: no such file
+    """
+    return _container(path)[0]
 
 
 @dataclass(frozen=True)
@@ -195,7 +224,7 @@ class ChosenFrame:
     thumbnail: Thumbnail | None = None
 
 
-def _descriptor(board: Board, size: tuple[int, int]) -> np.ndarray | None:
+def pose_descriptor(board: Board, size: tuple[int, int]) -> np.ndarray | None:
     """The board's pose as the frame shows it: centre (fractions of the half diagonal), log size, and the
     tilt vector (the plane's vanishing line ``a u + b v + c = 0`` as ``(a, b) / c``, in coordinates
     centred on the frame in half diagonals: 0 for a board facing the camera); None without a homography."""
@@ -236,8 +265,15 @@ def pose_distance(a: np.ndarray, b: np.ndarray) -> float:
                            + (np.hypot(*(a[3:] - b[3:])) / st) ** 2))
 
 
-def _cells(board: Board, size: tuple[int, int]) -> frozenset[tuple[int, int]]:
-    """The cells of :data:`GRID` over the frame that the board's corners fall in."""
+def grid_cells(board: Board, size: tuple[int, int]) -> frozenset[tuple[int, int]]:
+    """The cells ``(across, down)`` of :data:`GRID` over a frame of ``size`` that the board's corners fall in.
+
+    Examples
+    --------
+    >>> b = Board(np.array([[10.0, 10.0], [630.0, 470.0], [12.0, 15.0]]), np.array([[0, 0], [1, 0], [2, 0]]))
+    >>> sorted(grid_cells(b, (640, 480)))
+    [(0, 0), (7, 5)]
+    """
     gw, gh = GRID
     pts = np.asarray(board.image_points, np.float64)
     i = np.clip((pts[:, 0] / size[0] * gw).astype(int), 0, gw - 1)
@@ -254,6 +290,26 @@ def _check_count(name: str, value: object, *, none: bool = False) -> None:
         raise ParameterError(f"{{{name}}} {why}", **{name: name, "value": value})
 
 
+def check_video_counts(max_views: int, step: int | None, min_views: int) -> None:
+    """A video calibration's counts checked at the door: ``max_views`` and ``step`` (None: chosen) integers
+    >= 1, ``max_views`` at least ``min_views``; a one-line :class:`~sogdd.calib.session.ParameterError`
+    naming the bad one.
+
+    Examples
+    --------
+    >>> check_video_counts(40, None, 3)
+    >>> check_video_counts(2, None, 3)
+    Traceback (most recent call last):
+    ...
+    sogdd.calib.session.ParameterError: max_views (2) must be at least min_views (3)
+    """
+    _check_count("max_views", max_views)
+    _check_count("video_step", step, none=True)
+    if max_views < min_views:
+        raise ParameterError("{max_views} ({value}) must be at least {min_views} ({least})",
+                             max_views="max_views", min_views="min_views", value=max_views, least=min_views)
+
+
 def _checked(board: str | BoardSpec, model: object, square: float, min_views: int, max_views: int,
              step: int | None) -> BoardSpec:
     """The video calibration's parameters checked at the door (one line each); the board's specification."""
@@ -262,18 +318,189 @@ def _checked(board: str | BoardSpec, model: object, square: float, min_views: in
         raise TypeError(f"board must be a specification string or a BoardSpec, got {type(board).__name__}")
     check_model_choice(model)
     check_run_parameters(square=square, jobs=1, min_views=min_views)
-    _check_count("max_views", max_views)
-    _check_count("video_step", step, none=True)
-    if max_views < min_views:
-        raise ParameterError("{max_views} ({value}) must be at least {min_views} ({least})",
-                             max_views="max_views", min_views="min_views", value=max_views, least=min_views)
+    check_video_counts(max_views, step, min_views)
     return spec
+
+
+@dataclass(frozen=True)
+class FrameBoard:
+    """The board found in a frame read (:func:`scan_video`): the frame's ``index``, its best ``board``
+    (corners' precision measured), its corners' median ``precision`` (px) and a small grey ``thumbnail``
+    of the frame (None unless asked for)."""
+
+    index: int
+    board: Board
+    precision: float
+    thumbnail: Thumbnail | None = None
+
+
+@dataclass(frozen=True)
+class VideoScan:
+    """What :func:`scan_video` found in a video.
+
+    Attributes
+    ----------
+    path : str
+        The video file.
+    size : tuple of int
+        Its frames' (width, height) in px.
+    frames : int
+        Its frames, counted as read (the container's count may differ).
+    step : int
+        Every ``step``-th frame was searched.
+    fps : float
+        The frame rate its container gives (0 when none).
+    found : tuple of FrameBoard
+        The frames searched that show the board, in order.
+    """
+
+    path: str
+    size: tuple[int, int]
+    frames: int
+    step: int
+    fps: float
+    found: tuple[FrameBoard, ...]
+
+
+def default_step(frames: int) -> int:
+    """The step that reads at most :data:`SCAN` of ``frames`` frames (1 when the count is unknown, 0).
+
+    Examples
+    --------
+    >>> default_step(109), default_step(4000), default_step(0)
+    (1, 10, 1)
+    """
+    return max(1, math.ceil(frames / SCAN))
+
+
+def scan_video(path: str | os.PathLike, spec: str | BoardSpec, step: int | None = None, *,
+               thumbnails: bool = True, progress: bool = False, label: str = "frames") -> VideoScan:
+    """The board found in every ``step``-th frame of a video (None: :func:`default_step`), each frame's best
+    board (:func:`~sogdd.calib.detection.pick_boards`) with its corners' precision measured.
+
+    ``label`` names the progress bar (on stderr, with ``progress``). A one-line ``ValueError`` when the file
+    cannot be read as a video; a video without the board gives ``found == ()``.
+    """
+    from tqdm import tqdm
+
+    spec = parse_board(spec) if isinstance(spec, str) else spec
+    _check_count("video_step", step, none=True)
+    total, fps = _container(path)
+    step = step or default_step(total)
+    found: list[FrameBoard] = []
+    size, count = (0, 0), 0
+    with tqdm(total=math.ceil(total / step) if total else None, desc=label, unit="frame", file=sys.stderr,
+              disable=not progress) as bar:
+        for index, frame in _read(path, step):
+            count = index + 1
+            if frame is None:
+                continue
+            size = (int(frame.shape[1]), int(frame.shape[0]))
+            boards = measure_precision(frame, view_boards(frame, spec, True).boards)
+            views, _ = pick_boards(boards, spec, "best")
+            bar.update(1)
+            if not views or views[0].precision is None or not np.isfinite(np.nanmedian(views[0].precision)):
+                continue
+            thumb = make_thumbnail(frame, THUMB_WIDTH) if thumbnails else None
+            found.append(FrameBoard(index, views[0], float(np.nanmedian(views[0].precision)), thumb))
+    return VideoScan(os.fspath(path), size, count, step, fps, tuple(found))
+
+
+@dataclass(frozen=True)
+class PickedFrame:
+    """A frame index picked by :func:`pick_frames`: per scan, its view (None where that video shows no
+    sharp board there) and, where it shows a board not taken, why (else "")."""
+
+    index: int
+    views: tuple[ChosenFrame | None, ...]
+    skipped: tuple[str, ...]
+
+
+def _candidates(scan: VideoScan, sharp: float) -> tuple[dict, dict, float]:
+    """A scan's candidate boards (sharp, with a pose) by frame index, as ``(FrameBoard, pose, cells)``; why
+    each of its other boards is not one; its best precision (the 10th percentile of its boards')."""
+    best = float(np.percentile([f.precision for f in scan.found], 10)) if scan.found else math.nan
+    ok, why = {}, {}
+    for f in scan.found:
+        desc = pose_descriptor(f.board, scan.size)
+        if not f.precision <= sharp * best:
+            why[f.index] = f"not sharp ({f.precision:.3g} px; {f.precision / best:.2f}x the video's best)"
+        elif desc is None:
+            why[f.index] = "no pose from its corners"
+        else:
+            ok[f.index] = (f, desc, grid_cells(f.board, scan.size))
+    return ok, why, best
+
+
+def pick_frames(scans: Sequence[VideoScan], max_views: int = MAX_VIEWS, *, sharp: float = SHARP_FACTOR,
+                whole: bool = False) -> list[PickedFrame]:
+    """The frames to calibrate from, picked greedily from one scan or from several matched by frame index
+    (a rig's cameras), in frame order (module doc).
+
+    A scan's board is a candidate when it is **sharp** (its precision within ``sharp`` of that video's best,
+    the 10th percentile of its boards); a frame index is a candidate when some scan has a candidate there
+    (with ``whole``, a board whole, its labels absolute: :attr:`Board.size` set; the other scans' boards in
+    that frame may be partial).
+    Each pick is a frame **new** for some scan that sees it (its pose farther than 1 from every pose that
+    scan has taken, :func:`pose_distance`), the best by: seen by two or more scans (it ties them
+    together), then the most new coverage (cells of :data:`GRID` no frame taken covers, summed over the
+    scans), then the newest pose (capped at 4), then the sharpest (precision over its video's best, the
+    mean over the scans). With one scan, the rules of :func:`choose_frames`. Every scan seeing a picked
+    frame takes it: its pose and cells count as taken for that scan.
+
+    Returns
+    -------
+    list of PickedFrame
+        At most ``max_views``; each view's ``reasons``: ``sharp ...``, ``new pose ...`` (or, for a scan
+        the frame is not new for, ``pose near one taken ...``), and ``new coverage ...`` where it covers
+        new cells.
+    """
+    _check_count("max_views", max_views)
+    n = len(scans)
+    # per scan: frame index -> (FrameBoard, pose, cells) of its candidates; -> why its other boards are not
+    ok, why, best = zip(*(_candidates(s, sharp) for s in scans)) if scans else ((), (), ())
+    pool = sorted(set().union(*ok))
+    if whole:  # a partial chessboard's labels are fixed by a whole board of its frame
+        pool = [k for k in pool if any(k in mine and mine[k][0].board.size is not None for mine in ok)]
+    taken: list[list[np.ndarray]] = [[] for _ in scans]
+    covered: list[set[tuple[int, int]]] = [set() for _ in scans]
+    picked: list[PickedFrame] = []
+    while pool and len(picked) < max_views:
+        scores = []
+        for k in pool:
+            seen = [c for c in range(n) if k in ok[c]]
+            near = {c: min((pose_distance(ok[c][k][1], t) for t in taken[c]), default=math.inf) for c in seen}
+            new = {c: len(ok[c][k][2] - covered[c]) for c in seen}
+            q = float(np.mean([ok[c][k][0].precision / best[c] for c in seen]))
+            scores.append((seen, near, new, (min(len(seen), 2), sum(new.values()),
+                                             min(max(near.values()), 4.0), -q)))
+        fresh = [j for j, (_, near, _, _) in enumerate(scores) if max(near.values()) > 1.0]
+        if not fresh:
+            break
+        j = max(fresh, key=lambda j: scores[j][3])
+        k = pool.pop(j)
+        seen, near, new, _ = scores[j]
+        views: list[ChosenFrame | None] = [None] * n
+        for c in seen:
+            f, desc, cells = ok[c][k]
+            pose = ("new pose (the first)" if not taken[c] else
+                    f"new pose ({near[c]:.1f} from the nearest taken)" if near[c] > 1.0 else
+                    f"pose near one taken ({near[c]:.1f}), new for another camera")
+            reasons = [f"sharp ({f.precision:.3g} px; {f.precision / best[c]:.2f}x the video's best)", pose]
+            if new[c]:
+                reasons.append(f"new coverage ({new[c]} of {GRID[0]}x{GRID[1]} cells)")
+            views[c] = ChosenFrame(k, f.board, scans[c].size, tuple(reasons), f.precision, desc, f.thumbnail)
+            taken[c].append(desc)
+            covered[c] |= cells
+        picked.append(PickedFrame(k, tuple(views), tuple(why[c].get(k, "") for c in range(n))))
+    return sorted(picked, key=lambda p: p.index)
 
 
 def choose_frames(path: str | os.PathLike, spec: str | BoardSpec, max_views: int = MAX_VIEWS, *,
                   step: int | None = None, sharp: float = SHARP_FACTOR, thumbnails: bool = True,
                   progress: bool = False) -> list[ChosenFrame]:
-    """The frames of a video to calibrate from (module doc), in the video's order.
+    """The frames of a video to calibrate from (module doc), in the video's order: :func:`scan_video`, then
+    :func:`pick_frames`.
 
     Parameters
     ----------
@@ -304,53 +531,10 @@ def choose_frames(path: str | os.PathLike, spec: str | BoardSpec, max_views: int
         One line: the file cannot be read as a video; bad parameters
         (:class:`~sogdd.calib.session.ParameterError`).
     """
-    from tqdm import tqdm
-
-    spec = parse_board(spec) if isinstance(spec, str) else spec
     _check_count("max_views", max_views)
     _check_count("video_step", step, none=True)
-    total = _frame_count(path)
-    step = step or max(1, math.ceil(total / SCAN))
-    found: list[tuple[int, Board, float, Thumbnail | None]] = []
-    size = (0, 0)
-    with tqdm(total=math.ceil(total / step) if total else None, desc="frames", unit="frame", file=sys.stderr,
-              disable=not progress) as bar:
-        for index, frame in read_frames(path, step):
-            size = (int(frame.shape[1]), int(frame.shape[0]))
-            boards = measure_precision(frame, view_boards(frame, spec, True).boards)
-            views, _ = pick_boards(boards, spec, "best")
-            bar.update(1)
-            if not views or views[0].precision is None or not np.isfinite(np.nanmedian(views[0].precision)):
-                continue
-            thumb = make_thumbnail(frame, THUMB_WIDTH) if thumbnails else None
-            found.append((index, views[0], float(np.nanmedian(views[0].precision)), thumb))
-    if not found:
-        return []
-    best = float(np.percentile([q for _, _, q, _ in found], 10))
-    pool = []
-    for index, board, q, thumb in found:
-        desc = _descriptor(board, size)
-        if q <= sharp * best and desc is not None:
-            pool.append((index, board, q, thumb, desc, _cells(board, size)))
-    chosen: list[ChosenFrame] = []
-    taken: list[np.ndarray] = []
-    covered: set[tuple[int, int]] = set()
-    while pool and len(chosen) < max_views:
-        near = [min((pose_distance(p[4], t) for t in taken), default=math.inf) for p in pool]
-        new = [len(p[5] - covered) for p in pool]
-        ok = [k for k in range(len(pool)) if near[k] > 1.0]
-        if not ok:
-            break
-        k = max(ok, key=lambda k: (new[k], min(near[k], 4.0), -pool[k][2]))
-        index, board, q, thumb, desc, cells = pool.pop(k)
-        reasons = [f"sharp ({q:.3g} px; {q / best:.2f}x the video's best)",
-                   "new pose (the first)" if not taken else f"new pose ({near[k]:.1f} from the nearest taken)"]
-        if new[k]:
-            reasons.append(f"new coverage ({new[k]} of {GRID[0]}x{GRID[1]} cells)")
-        chosen.append(ChosenFrame(index, board, size, tuple(reasons), q, desc, thumb))
-        taken.append(desc)
-        covered |= cells
-    return sorted(chosen, key=lambda c: c.index)
+    scan = scan_video(path, spec, step, thumbnails=thumbnails, progress=progress)
+    return [p.views[0] for p in pick_frames([scan], max_views, sharp=sharp)]
 
 
 def calibrate_video(

@@ -3,6 +3,7 @@
   sogdd calibrate 'frames/*.jpg' --board chessboard:9x6 --square 25 --out calib/
   sogdd calibrate --camera left 'left/*.jpg' --camera right 'right/*.jpg' --board chessboard:9x6 --out rig/
   sogdd calibrate take1.mp4 --board chessboard:9x6 --square 25 --max-views 40 --out calib/
+  sogdd calibrate --camera left left.mp4 --camera right right.mp4 --board chessboard:9x6 --out rig/
 
 Boards (--board):
   chessboard:COLSxROWS          COLS x ROWS *inner* corners (OpenCV's patternSize:
@@ -39,7 +40,8 @@ A video (.mp4, .avi, .mov, .mkv, ...: one file, alone) is read with OpenCV, ever
 --video-step-th frame searched, and at most --max-views frames chosen as views:
 sharp (corner precision within 2x of the video's best), at a pose far from every
 frame taken, the most new coverage of the frame first; views.csv names each
-frame (take1.mp4#frame000123) and its reasons. A rig of videos is not supported yet.
+frame (take1.mp4#frame000123) and its reasons. A rig of videos: --camera NAME
+VIDEO once per camera, one video each (below).
 
 A rig of two or more cameras: --camera NAME PATTERN... once per camera instead
 of the images; how its frames are matched and what it writes is below.
@@ -53,7 +55,7 @@ from typing import TYPE_CHECKING
 
 from ..calib.cameras import LENSES
 from ._common import print_json, run_calibration, verdict_level
-from .calibrate_rig import RIG_HELP, RIG_WORDS, add_rig_arguments, run_rig
+from .calibrate_rig import RIG_HELP, RIG_WORDS, add_rig_arguments, run_rig, run_rig_video
 from .params import add_read_arguments, read_options
 
 if TYPE_CHECKING:  # the command imports the library when it runs (sogdd --help stays fast)
@@ -127,8 +129,7 @@ def _run(args: argparse.Namespace) -> int:
     spec, reading = _board(args.board), read_options(args)
     if args.cameras:
         if any(is_video(p) for cam in args.cameras for p in cam[1:]):
-            raise ValueError("a rig of videos (one per camera) is not supported yet; give each camera's frames "
-                             "as images")
+            return run_rig_video(args, spec)
         return run_rig(args, spec, reading)
     if not args.images:
         raise ValueError("no images: give the image files, or --camera NAME PATTERN... per camera of a rig")

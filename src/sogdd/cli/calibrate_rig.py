@@ -1,6 +1,7 @@
 """The rig form of sogdd calibrate: two or more cameras calibrated together, each with --camera NAME PATTERN...
 
   sogdd calibrate --camera left 'left/*.jpg' --camera right 'right/*.jpg' --board chessboard:9x6 --out rig/
+  sogdd calibrate --camera left left.mp4 --camera right right.mp4 --board chessboard:9x6 --out rig/
 
 Run by :mod:`sogdd.cli.calibrate` when --camera is given (its options and help are there);
 :func:`sogdd.calib.rig.session.calibrate_rig_into` does the work, the rig's rules included.
@@ -19,7 +20,7 @@ from ._common import print_json, run_calibration, verdict_level
 if TYPE_CHECKING:  # the library is imported when the command runs
     from ..calib import BoardSpec
 
-__all__ = ["RIG_WORDS", "add_rig_arguments", "run_rig"]
+__all__ = ["RIG_WORDS", "add_rig_arguments", "run_rig", "run_rig_video"]
 
 #: the rig's words in the library's errors (:class:`sogdd.calib.session.ParameterError`), as this command
 #: says them: its cameras are --camera options
@@ -38,14 +39,21 @@ RIG_HELP = """Rigs (two or more cameras, --camera NAME PATTERN... once per camer
   image_size_NAME, R_NAME, T_NAME with x_NAME = R_NAME x_first + T_NAME in the unit of
   --square; for two cameras also stereoCalibrate's R, T, E, F and stereoRectify's R1, R2,
   P1, P2, Q), rig.json (the same with every standard deviation), NAME/ per camera (its
-  camera.yaml, camera.json, views.csv, corners.csv) and report.html."""
+  camera.yaml, camera.json, views.csv, corners.csv) and report.html.
+  A rig of videos: --camera NAME VIDEO, one video file per camera (all cameras videos,
+  or all images). Frame k of every video is one rig frame; videos of unequal length
+  are matched over the shortest one's frames (a note says so). The frames are chosen
+  as for one video (--video-step, --max-views): a frame where a camera sees a sharp
+  board (a chessboard whole), at a pose new for some camera that sees it, those seen
+  by two or more cameras first, then the most new coverage; NAME/views.csv names
+  each frame (left.mp4#frame000123) and its reasons."""
 
 
 def add_rig_arguments(p: argparse.ArgumentParser) -> None:
     """--camera and --allow-missing-frames (:mod:`sogdd.cli.calibrate` calls it)."""
     p.add_argument("--camera", dest="cameras", action="append", nargs="+", metavar=("NAME", "PATTERN"),
                    help="a camera of a rig: its name (letters, digits, _ and -) then its image files, folders "
-                        "or glob patterns (quoted); once per camera, instead of the images")
+                        "or glob patterns (quoted), or its one video; once per camera, instead of the images")
     p.add_argument("--allow-missing-frames", action="store_true",
                    help="rig: a frame some cameras have no image of is used by the others (by default an "
                         "error naming the frames)")
@@ -80,6 +88,31 @@ def run_rig(args: argparse.Namespace, spec: BoardSpec, reading: dict) -> int:
                                    min_views=args.min_views, reject=args.reject, recursive=args.recursive,
                                    allow_missing=args.allow_missing_frames, read_options=reading,
                                    report=args.report, progress=not args.quiet),
+        lambda result, written: _summary(args, result, written))
+
+
+def run_rig_video(args: argparse.Namespace, spec: BoardSpec) -> int:
+    """``sogdd calibrate --camera NAME VIDEO ...``: a rig of videos
+    (:func:`sogdd.calib.rig.video.calibrate_rig_video_into`), its output folder and its summary, as a rig of
+    images."""
+    from ..calib.rig.video import calibrate_rig_video_into
+    from ..calib.video import is_video
+
+    if args.images:
+        raise ValueError("give the video of one camera, or --camera NAME VIDEO for each camera of a rig, not "
+                         "both")
+    cameras = _cameras(args.cameras)
+    if not all(is_video(p) for ps in cameras.values() for p in ps):
+        raise ValueError("a rig's cameras are all videos (--camera NAME VIDEO, one each) or all images, not a "
+                         "mix")
+    if args.allow_missing_frames:
+        raise ValueError("--allow-missing-frames is for a rig of images; a rig of videos matches its frames by "
+                         "index")
+    return run_calibration(
+        args.out,
+        lambda: calibrate_rig_video_into(cameras, args.out, spec, square=args.square, model=args.model,
+                                         min_views=args.min_views, reject=args.reject, max_views=args.max_views,
+                                         step=args.video_step, report=args.report, progress=not args.quiet),
         lambda result, written: _summary(args, result, written))
 
 

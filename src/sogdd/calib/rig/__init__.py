@@ -10,6 +10,7 @@
 :mod:`.frames`: :func:`match_frames`, the cameras' images matched into frames by the numbers in their names.
 :mod:`.files`: rig.yaml (OpenCV FileStorage), rig.json and each camera's own files; :func:`read_rig`.
 :mod:`.session`: :func:`calibrate_rig_images`, each camera's image files to a rig; its output folder.
+:mod:`.video`: :func:`calibrate_rig_video`, a video per camera to a rig, its frames matched by index and chosen.
 """
 
 from .files import read_rig, write_rig
@@ -19,8 +20,9 @@ from .result import RigCalibration, RigCamera
 from .session import RigImageCalibration, calibrate_rig_images, write_rig_outputs
 from .stereo import StereoPair, rectify_points, stereo_pair
 from .uncertainty import projection_uncertainty, ray_uncertainty
+from .video import calibrate_rig_video, calibrate_rig_video_into
 
 __all__ = ["RigCalibration", "RigCamera", "StereoPair", "calibrate_rig", "projection_uncertainty",
            "ray_uncertainty", "rectify_points", "stereo_pair"]
-__all__ += ["RigImageCalibration", "calibrate_rig_images", "match_frames", "read_rig", "write_rig",
-            "write_rig_outputs"]
+__all__ += ["RigImageCalibration", "calibrate_rig_images", "calibrate_rig_video", "calibrate_rig_video_into",
+            "match_frames", "read_rig", "write_rig", "write_rig_outputs"]

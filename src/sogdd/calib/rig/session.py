@@ -59,7 +59,7 @@ from .frames import match_frames
 from .result import RigCalibration
 
 __all__ = ["RigImageCalibration", "calibrate_rig_images", "calibrate_rig_into", "check_rig_output_folder",
-           "foreign_rig_entry", "write_rig_outputs"]
+           "check_rig_parameters", "fit_rig_boards", "foreign_rig_entry", "write_rig_outputs"]
 
 Inputs = str | os.PathLike | Iterable[str | os.PathLike]
 
@@ -126,10 +126,13 @@ def _check_models(model: str | Mapping[str, str], names: tuple[str, ...]) -> dic
     return {n: given[n] for n in names}
 
 
-def _check_parameters(cameras: Mapping[str, Inputs], board: str | BoardSpec,
-                      model: ModelChoice | Mapping[str, ModelChoice], boards: str, square: float, jobs: int,
-                      min_views: int) -> tuple[tuple[str, ...], BoardSpec, dict[str, str]]:
-    """Bad parameters fail before any image is read: the cameras' names, the board, each camera's model."""
+def check_rig_parameters(cameras: Mapping[str, Inputs], board: str | BoardSpec,
+                         model: ModelChoice | Mapping[str, ModelChoice], boards: str, square: float,
+                         jobs: int, min_views: int) -> tuple[tuple[str, ...], BoardSpec, dict[str, str]]:
+    """A rig's parameters checked before any input is read (a one-line
+    :class:`~sogdd.calib.session.ParameterError` or ``ValueError``): two or more cameras with valid names,
+    the board (of known size, one per image), the numbers, each camera's model. Returns the cameras' names,
+    the board's specification and each camera's model."""
     try:
         names = check_camera_names(cameras)
     except ValueError as exc:
@@ -247,7 +250,7 @@ labels must agree, which needs the board's size; give board chessboard:COLSxROWS
     sogdd.calib.session.ParameterError: boards all cannot be used with a rig: a rig's frame is one pose of \
 one board
     """
-    names, spec, models = _check_parameters(cameras, board, model, boards, square, jobs, min_views)
+    names, spec, models = check_rig_parameters(cameras, board, model, boards, square, jobs, min_views)
     opts = check_read_options(read_options)
     frames, per = match_frames(_expand(cameras, recursive), allow_missing=allow_missing)
     files = [p for n in names for p in per[n] if p is not None]
@@ -267,16 +270,26 @@ one board
         labels[n] = [f"(frame {f}: no image)" if p is None else next(rel) for f, p in zip(frames, per[n])]
     sizes = {n: _camera_says(n, common_image_size, [r for r in results[n] if r is not None]) for n in names}
     views = {n: [r.boards[0] if r is not None and r.boards else None for r in results[n]] for n in names}
-    unit = float(square) * spec.label_step  # the board length of one label step
-    chosen, selection = _choose_models(models, views, sizes, unit, reject, min_views)
-    rig = calibrate_rig(views, sizes, square=unit, models=chosen, frames=frames, view_names=labels,
-                        pattern=spec.pattern, reject=reject, min_views=min_views)
-    if selection:
-        rig = replace(rig, model_selection=selection)
+    rig = fit_rig_boards(views, sizes, spec, square=square, models=models, frames=frames, view_names=labels,
+                         reject=reject, min_views=min_views)
     rig = _sensor_grids(rig, grids)
     records = {n: _records(n, results[n], labels[n], ignored[n], rig, spec) for n in names}
     thumbs = {n: tuple(None if r is None else r.thumbnail for r in results[n]) for n in names}
     return RigImageCalibration(rig, spec, records, tuple(frames), thumbs if thumbnails else {})
+
+
+def fit_rig_boards(views: Mapping[str, Sequence], sizes: Mapping[str, tuple[int, int]], spec: BoardSpec, *,
+                   square: float, models: Mapping[str, str], frames: Sequence[str],
+                   view_names: Mapping[str, Sequence[str]], reject: bool, min_views: int) -> RigCalibration:
+    """The rig fitted on each camera's board per frame (None: no view): each camera's model as given in
+    ``models`` or, ``"auto"``, chosen by its views (:func:`sogdd.calib.model_selection.select_model`), then
+    :func:`~sogdd.calib.rig.fit.calibrate_rig`, in the unit of ``square`` (the side of a square of ``spec``).
+    What :func:`calibrate_rig_images` and :func:`sogdd.calib.rig.video.calibrate_rig_video` share."""
+    unit = float(square) * spec.label_step  # the board length of one label step
+    chosen, selection = _choose_models(dict(models), dict(views), dict(sizes), unit, reject, min_views)
+    rig = calibrate_rig(views, sizes, square=unit, models=chosen, frames=frames, view_names=view_names,
+                        pattern=spec.pattern, reject=reject, min_views=min_views)
+    return replace(rig, model_selection=selection) if selection else rig
 
 
 def _sensor_grids(rig: RigCalibration, grids: dict[str, str]) -> RigCalibration:
@@ -468,7 +481,7 @@ def calibrate_rig_into(
     >>> (d / "rig").exists()
     False
     """
-    _, spec, _ = _check_parameters(cameras, board, model, boards, square, jobs, min_views)
+    _, spec, _ = check_rig_parameters(cameras, board, model, boards, square, jobs, min_views)
     check_read_options(read_options)
     paths = _expand(cameras, recursive)
     every = [p for ps in paths.values() for p in ps]
