@@ -1,5 +1,5 @@
 """A one-camera calibration's covariance and projection uncertainty: the rig's maths, checked as the rig's is
-(tests/calib/test_rig_uncertainty.py): predicted standard deviations against the spread over noise draws."""
+(tests/calib/rig/test_uncertainty.py): predicted standard deviations against the spread over noise draws."""
 
 from __future__ import annotations
 

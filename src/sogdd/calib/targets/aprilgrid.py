@@ -66,7 +66,7 @@ left of the marker as ``cv2.aruco.generateImageMarker`` draws it) are, on
 Kalibr's target, its bottom right, bottom left, top left and top right: Kalibr
 draws tag ``t``'s code bits (bit ``6 i + j`` of its code, black when 0) turned
 half a turn (``np.rot90(..., 2)`` in ``kalibr_create_target_pdf``), which is
-OpenCV's marker of ID ``t`` turned half a turn (``tests/calib/test_aprilgrid.py``
+OpenCV's marker of ID ``t`` turned half a turn (``tests/calib/targets/test_aprilgrid.py``
 checks it on Kalibr's first codes).
 
 Checks

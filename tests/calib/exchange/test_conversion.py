@@ -26,7 +26,7 @@ from sogdd.cli.main import main
 
 pytest.importorskip("yaml")
 pytest.importorskip("pycolmap")
-FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "exchange"
+FIXTURES = Path(__file__).resolve().parents[2] / "fixtures" / "exchange"
 
 
 @pytest.fixture(scope="module")

@@ -13,7 +13,7 @@ from sogdd.calib.exchange.ros import read_file
 from sogdd.calib.rig.stereo import stereo_pair
 
 yaml = pytest.importorskip("yaml")
-FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "exchange"
+FIXTURES = Path(__file__).resolve().parents[2] / "fixtures" / "exchange"
 DIST = {"pinhole4": [-0.21, 0.043, 0.0011, -0.0007], "pinhole": [-0.21, 0.043, 0.0011, -0.0007, 0.013],
         "rational": [0.31, -0.12, 0.0011, -0.0007, 0.02, 0.62, -0.08, 0.05],
         "fisheye": [0.021, -0.0043, 0.0011, -0.0002], "omnidir": [1.21, -0.1, 0.02, 0.001, -0.0005]}

@@ -12,7 +12,7 @@ import pytest
 from sogdd.calib.exchange import StoredCamera, StoredRig, read_calibration, write_calibration_as
 
 yaml = pytest.importorskip("yaml")
-FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "exchange"
+FIXTURES = Path(__file__).resolve().parents[2] / "fixtures" / "exchange"
 DIST = {"pinhole4": [-0.21, 0.043, 0.0011, -0.0007], "pinhole": [-0.21, 0.043, 0.0011, -0.0007, 0.013],
         "rational": [0.31, -0.12, 0.0011, -0.0007, 0.02, 0.62, -0.08, 0.05],
         "fisheye": [0.021, -0.0043, 0.0011, -0.0002], "omnidir": [1.21, -0.1, 0.02, 0.001, -0.0005]}

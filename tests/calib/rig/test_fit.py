@@ -353,7 +353,7 @@ def _bench():
     import importlib.util
     from pathlib import Path
 
-    path = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_rig.py"
+    path = Path(__file__).resolve().parents[3] / "benchmarks" / "bench_rig.py"
     spec = importlib.util.spec_from_file_location("bench_rig", path)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
