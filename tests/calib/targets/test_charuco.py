@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 from sogdd.calib.cameras import Camera
-from sogdd.calib.targets.charuco import detect_charuco
+from sogdd.calib.targets.charuco import detect_charuco, other_layout
+from sogdd.calib.targets.spec import parse_board, view_boards
 
 DICT = cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_4X4_50)
 BOARD = cv2.aruco.CharucoBoard((7, 5), 0.04, 0.02, DICT)
@@ -52,3 +53,30 @@ def test_float_images_follow_the_cores_contract(render):
         b = detect_charuco(img, BOARD, value_range=rng)
         assert np.array_equal(b.ids, ref.ids)
         assert np.abs(b.image_points - ref.image_points).max() < 1e-3  # rounding, far below the accuracy
+
+
+@pytest.mark.parametrize("squares", [(5, 6), (6, 8)])
+def test_a_board_printed_in_the_layout_before_opencv_4_6_is_found(squares):
+    """An even number of rows: OpenCV 4.6 moved the markers to the other squares. A board printed in the old
+    layout (``setLegacyPattern``) is found by the spec, with the same corners and labels as the new layout's
+    board would give at the same place."""
+    spec = parse_board(f"charuco:{squares[0]}x{squares[1]}:0.7:DICT_5X5_100")
+    old = spec.charuco_board()
+    old.setLegacyPattern(True)
+    size = (squares[0] * 80 + 80, squares[1] * 80 + 80)
+    img = cv2.GaussianBlur(old.generateImage(size, marginSize=40), (0, 0), 1.0)
+    assert detect_charuco(img, spec.charuco_board()) is None  # the new layout's board sees none in it
+    found = view_boards(img, spec).boards
+    n = (squares[0] - 1) * (squares[1] - 1)
+    assert len(found) == 1 and len(found[0]) == n and found[0].size == (squares[0] - 1, squares[1] - 1)
+    new = cv2.GaussianBlur(spec.charuco_board().generateImage(size, marginSize=40), (0, 0), 1.0)
+    ref = view_boards(new, spec).boards[0]
+    assert np.array_equal(found[0].labels, ref.labels)
+    assert np.abs(found[0].image_points - ref.image_points).max() < 0.05
+
+
+def test_an_odd_board_has_one_layout():
+    spec = parse_board("charuco:5x7:0.7:DICT_5X5_100")
+    assert other_layout(spec.charuco_board()) is None
+    twin = other_layout(parse_board("charuco:5x6:0.7:DICT_5X5_100").charuco_board())
+    assert twin is not None and twin.getLegacyPattern()

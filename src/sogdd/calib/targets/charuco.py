@@ -9,6 +9,13 @@ corner along both axes. The window's half-width is therefore ``0.7 m`` of the
 local square (``0.7 < 1 / sqrt 2``: a window turned by 45 degrees stays clear of
 the markers too), at least 2 px.
 
+Two layouts: OpenCV 4.6 moved the markers of a board with an even number of
+rows to the other set of white squares (``CharucoBoard.setLegacyPattern``), and
+boards printed before, or by tools that kept the old layout, are still in use.
+The corners and their IDs are where they were; only the markers moved. A
+board's spec finds both: where its layout finds no corners,
+:func:`view_boards` tries :func:`other_layout` on the markers already found.
+
 Labels: corner ID ``k`` is ``(k % (nx - 1), k // (nx - 1))`` for a board of
 ``nx x ny`` squares (OpenCV's order: along the first row of the generated image,
 then the next), right-handed as :class:`~sogdd.calib.Board` wants.
@@ -23,7 +30,7 @@ from .board import Board, ViewBoards, parse_grid
 from .grey import to_grey
 from .refine import cell_sizes, refine_grey
 
-__all__ = ["charuco_board", "detect_charuco", "parse_spec", "spec_text", "view_boards"]
+__all__ = ["charuco_board", "detect_charuco", "other_layout", "parse_spec", "spec_text", "view_boards"]
 
 
 def charuco_board(squares: tuple[int, int], marker: float, dictionary: str,
@@ -37,6 +44,26 @@ def charuco_board(squares: tuple[int, int], marker: float, dictionary: str,
     """
     d = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, dictionary))
     return cv2.aruco.CharucoBoard(tuple(squares), float(square), float(square) * float(marker), d)
+
+
+def other_layout(board: cv2.aruco.CharucoBoard) -> cv2.aruco.CharucoBoard | None:
+    """The board in OpenCV's other layout (module doc: ``setLegacyPattern`` flipped), or None where the two
+    layouts are one (an odd number of rows).
+
+    Examples
+    --------
+    >>> other_layout(charuco_board((5, 6), 0.7, "DICT_5X5_100")).getLegacyPattern()
+    True
+    >>> other_layout(charuco_board((5, 7), 0.7, "DICT_5X5_100")) is None
+    True
+    """
+    cols, rows = board.getChessboardSize()
+    if rows % 2:
+        return None
+    twin = cv2.aruco.CharucoBoard((cols, rows), board.getSquareLength(), board.getMarkerLength(),
+                                  board.getDictionary())
+    twin.setLegacyPattern(not board.getLegacyPattern())
+    return twin
 
 
 def parse_spec(parts: list[str], spec: str) -> dict | None:
@@ -73,15 +100,21 @@ def spec_text(spec) -> str:
 
 
 def view_boards(image: np.ndarray, spec, view_only: bool = False) -> ViewBoards:
-    """The ChArUco board of ``spec`` in an image (:func:`detect_charuco`), or what was missing;
-    one board per image whatever ``view_only`` says (the grid is one board)."""
-    b = detect_charuco(image, spec.charuco_board())
+    """The ChArUco board of ``spec`` in an image (:func:`detect_charuco`), in either layout (module doc), or
+    what was missing; one board per image whatever ``view_only`` says (the grid is one board)."""
+    board = spec.charuco_board()
+    markers: list = []
+    b = detect_charuco(image, board, markers=markers)
+    twin = other_layout(board)
+    if b is None and twin is not None and markers[0][1] is not None:
+        b = detect_charuco(image, twin, markers=markers)
     seen = "" if b is not None else "no ChArUco markers/corners"
     return ViewBoards((b,) if b is not None and len(b) else (), seen)
 
 
 def detect_charuco(image: np.ndarray, board: cv2.aruco.CharucoBoard, *, refine: bool = True,
-                   min_corners: int = 4, value_range: tuple[float, float] | None = None) -> Board | None:
+                   min_corners: int = 4, value_range: tuple[float, float] | None = None,
+                   markers: list | None = None) -> Board | None:
     """Detect a ChArUco board: OpenCV's markers and corner IDs, corners re-measured by sogdd.
 
     Parameters
@@ -102,6 +135,10 @@ def detect_charuco(image: np.ndarray, board: cv2.aruco.CharucoBoard, *, refine: 
         The image's range, mapped to 0-255 (``(0, 255)`` for a float image of
         grey levels); None: the dtype's, and a float image outside [0, 1] is a
         one-line ``ValueError``.
+    markers : list, optional
+        The markers found, shared between calls on one image: empty, the
+        markers are detected and ``(corners, ids)`` appended; else its first
+        entry is used (the board's other layout reads the same markers).
 
     Returns
     -------
@@ -126,7 +163,13 @@ def detect_charuco(image: np.ndarray, board: cv2.aruco.CharucoBoard, *, refine: 
         raise ValueError(f"min_corners must be a positive integer, got {min_corners!r}")
     grey = to_grey(image, value_range)
     u8 = np.clip(np.rint(grey), 0, 255).astype(np.uint8)
-    corners, ids, _, _ = cv2.aruco.CharucoDetector(board).detectBoard(u8)
+    detector = cv2.aruco.CharucoDetector(board)
+    if markers:
+        corners, ids, _, _ = detector.detectBoard(u8, markerCorners=markers[0][0], markerIds=markers[0][1])
+    else:
+        corners, ids, found, found_ids = detector.detectBoard(u8)
+        if markers is not None:
+            markers.append((found, found_ids))
     if corners is None or ids is None or len(ids) < min_corners:
         return None
     xy = corners.reshape(-1, 2).astype(np.float64)
