@@ -80,3 +80,15 @@ def test_an_odd_board_has_one_layout():
     assert other_layout(spec.charuco_board()) is None
     twin = other_layout(parse_board("charuco:5x6:0.7:DICT_5X5_100").charuco_board())
     assert twin is not None and twin.getLegacyPattern()
+
+
+def test_a_view_without_the_board_says_whether_its_markers_were_there():
+    """Markers of the dictionary but no corners: the board's size is wrong (squares given as inner corners,
+    or turned), and the message says so; no markers at all: the dictionary or the image."""
+    spec = parse_board("charuco:5x7:0.7:DICT_5X5_100")
+    img = cv2.GaussianBlur(spec.charuco_board().generateImage((480, 640), marginSize=40), (0, 0), 1.0)
+    turned = view_boards(img, parse_board("charuco:7x5:0.7:DICT_5X5_100"))
+    assert turned.boards == ()
+    assert "DICT_5X5_100 marker(s) but no corners of a board of 7x5 squares" in turned.seen
+    other = view_boards(img, parse_board("charuco:5x7:0.7:DICT_4X4_50"))
+    assert other.boards == () and other.seen == "no ChArUco markers (DICT_4X4_50)"

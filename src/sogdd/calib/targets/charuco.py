@@ -108,7 +108,11 @@ def view_boards(image: np.ndarray, spec, view_only: bool = False) -> ViewBoards:
     twin = other_layout(board)
     if b is None and twin is not None and markers[0][1] is not None:
         b = detect_charuco(image, twin, markers=markers)
-    seen = "" if b is not None else "no ChArUco markers/corners"
+    found = 0 if markers[0][1] is None else len(markers[0][1])
+    dictionary, (cols, rows) = spec.dictionary, spec.squares
+    seen = ("" if b is not None else f"no ChArUco markers ({dictionary})" if not found else
+            f"{found} {dictionary} marker(s) but no corners of a board of {cols}x{rows} squares: check the "
+            "board's COLSxROWS (squares, not inner corners, in the order of its generator) and its markers")
     return ViewBoards((b,) if b is not None and len(b) else (), seen)
 
 
