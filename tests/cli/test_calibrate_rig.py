@@ -111,7 +111,6 @@ def test_frames_that_do_not_match_are_one_line_and_nothing_is_written(rendered_r
 @pytest.mark.parametrize("argv, message", [
     (("imgs/*.png", "--camera", "left", "l/*.png", "--camera", "right", "r/*.png"), "not both"),
     ((), "no images: give the image files, or --camera NAME PATTERN"),
-    (("--camera", "left", "l/*.png"), "a rig needs two or more cameras"),
     (("--camera", "left", "--camera", "right", "r/*.png"), "--camera left: give the camera's images"),
     (("--camera", "left", "l/*.png", "--camera", "left", "r/*.png"), "--camera left: given twice"),
     (("--camera", "my/cam", "l/*.png", "--camera", "right", "r/*.png"), "camera name 'my/cam'"),
@@ -137,8 +136,6 @@ RIG = ("--camera", "left", "l/*.png", "--camera", "right", "r/*.png")
      "board's size; give --board chessboard:COLSxROWS (inner corners)"),
     ((*RIG, "--board", "chessboard:9x6", "--boards", "all"),
      "--boards all cannot be used with --camera: a rig's frame is one pose of one board"),
-    (("--camera", "left", "l/*.png", "--board", "chessboard:9x6"),
-     "--camera: a rig needs two or more cameras (one camera: give its images without --camera)"),
     (("--camera", "left", "l/*.png", "--camera", "my/cam", "r/*.png", "--board", "chessboard:9x6"),
      "--camera: camera name 'my/cam': use letters, digits, _ and - only (it names FileStorage nodes and a "
      "folder)"),

@@ -43,7 +43,7 @@ frame taken, the most new coverage of the frame first; views.csv names each
 frame (take1.mp4#frame000123) and its reasons. A rig of videos: --camera NAME
 VIDEO once per camera, one video each (below).
 
-A rig of two or more cameras: --camera NAME PATTERN... once per camera instead
+A rig (one or more cameras): --camera NAME PATTERN... once per camera instead
 of the images; how its frames are matched and what it writes is below.
 """
 

@@ -1,4 +1,4 @@
-"""The rig form of sogdd calibrate: two or more cameras calibrated together, each with --camera NAME PATTERN...
+"""The rig form of sogdd calibrate: cameras calibrated together, each with --camera NAME PATTERN...
 
   sogdd calibrate --camera left 'left/*.jpg' --camera right 'right/*.jpg' --board chessboard:9x6 --out rig/
   sogdd calibrate --camera left left.mp4 --camera right right.mp4 --board chessboard:9x6 --out rig/
@@ -24,11 +24,11 @@ __all__ = ["RIG_WORDS", "add_rig_arguments", "run_rig", "run_rig_video"]
 
 #: the rig's words in the library's errors (:class:`sogdd.calib.session.ParameterError`), as this command
 #: says them: its cameras are --camera options
-RIG_WORDS = {"camera": "--camera", "cameras": "--camera",
-             "single": "one camera: give its images without --camera"}
+RIG_WORDS = {"camera": "--camera", "cameras": "--camera"}
 
 #: the --help text of the rig options (sogdd calibrate's module doc says more)
-RIG_HELP = """Rigs (two or more cameras, --camera NAME PATTERN... once per camera, the first the reference):
+RIG_HELP = """Rigs (--camera NAME PATTERN... once per camera, the first the reference; one --camera is a rig
+  of one, written as a rig):
   the images are matched into frames by the number in their file names (the last
   run of digits: left12.jpg with right12.png, cam0_000012.png with cam1_12.png),
   else, when no name has a number, by sorted order. Frames must match: a number one

@@ -26,8 +26,7 @@ from sogdd.calib.session import ParameterError
 
 #: the command's words for the library's parameters (``sogdd calibrate``'s flags), which its errors use
 FLAGS = {"board": "--board", "boards": "--boards", "square": "--square", "jobs": "--jobs",
-         "min_views": "--min-views", "camera": "--camera", "cameras": "--camera",
-         "single": "one camera: give its images without --camera"}
+         "min_views": "--min-views", "camera": "--camera", "cameras": "--camera"}
 
 
 @pytest.fixture(scope="module")
@@ -107,8 +106,8 @@ def test_parameters_fail_before_any_image_is_read(tmp_path):
     cams = {"left": tmp_path / "nothing-here", "right": tmp_path / "nor-here"}
     with pytest.raises(ValueError, match="chessboard:auto cannot calibrate a rig.*give board chessboard:COLS"):
         calibrate_rig_images(cams)
-    with pytest.raises(ValueError, match="two or more cameras"):
-        calibrate_rig_images({"left": tmp_path}, "chessboard:9x6")
+    with pytest.raises(ValueError, match="no camera given"):
+        calibrate_rig_images({}, "chessboard:9x6")
     with pytest.raises(ValueError, match="camera name 'my cam'"):
         calibrate_rig_images({"left": tmp_path, "my cam": tmp_path}, "chessboard:9x6")
     with pytest.raises(ValueError, match="boards all cannot be used with a rig"):
@@ -137,9 +136,7 @@ RULES = [
      "--square must be from 1e-06 to 1e+06 (the board's square in any unit), got 1e-30"),
     ({"jobs": 0}, "jobs must be >= 1, got 0", "--jobs must be >= 1, got 0"),
     ({"min_views": -2}, "min_views must be >= 1, got -2", "--min-views must be >= 1, got -2"),
-    ({"cameras": {"left": "l"}}, "cameras: a rig needs two or more cameras (one camera: "
-     "sogdd.calib.calibrate_images)",
-     "--camera: a rig needs two or more cameras (one camera: give its images without --camera)"),
+    ({"cameras": {}}, "cameras: no camera given", "--camera: no camera given"),
     ({"cameras": {"left": "l", "my/cam": "r"}},
      "cameras: camera name 'my/cam': use letters, digits, _ and - only (it names FileStorage nodes and a "
      "folder)",
@@ -369,3 +366,20 @@ def test_a_folder_holding_other_files_or_an_input_is_refused(rig_result, rendere
     # the images of the result are inputs even when not named: never an output folder
     with pytest.raises(ValueError, match="holds the input"):
         write_rig_outputs(rig_result, folder, report=False)
+
+
+def test_a_rig_of_one_is_its_camera_through_the_joint_solver(rendered_rig, tmp_path):
+    """One camera given as a rig: fitted by the rig's solver, the one-camera calibration's numbers (to the fits'
+    tolerance), and written as a rig: rig.yaml with its one camera and no pair's nodes, NAME/ its files."""
+    from sogdd.calib import calibrate_images
+
+    folder, _, _ = rendered_rig
+    result, files = calibrate_rig_into({"left": folder / "left"}, tmp_path / "one", "chessboard:9x6",
+                                       model="pinhole", report=False)
+    alone = calibrate_images(folder / "left", "chessboard:9x6", model="pinhole").calibration
+    cam = result.rig.cameras[0]
+    assert result.rig.names == ("left",) and cam.calibration.n_used == alone.n_used == 8
+    assert abs(cam.K[0, 0] - alone.K[0, 0]) < 1e-3 * alone.K[0, 0] and abs(cam.K[0, 2] - alone.K[0, 2]) < 0.5
+    assert {"rig.yaml", "rig.json", "left/camera.yaml", "left/views.csv"} <= set(files)
+    stored = read_rig(files["rig.yaml"])
+    assert list(stored["cameras"]) == ["left"] and "E" not in stored

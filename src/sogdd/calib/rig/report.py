@@ -26,7 +26,7 @@ from ..cameras import lens
 from ..detection import Thumbnail, ViewRecord
 from ..figures import COLOURS, PlacedCamera, board_outline, poses_figure, pyplot, save_figure
 from ..report import html_page, selection_table, write_report
-from .result import RigCalibration, RigCamera
+from .result import RigCalibration, RigCamera, cameras_text
 from .stereo import StereoPair, rectify_points, stereo_pair
 from .uncertainty import projection_uncertainty
 from .verdict import rig_verdict
@@ -319,9 +319,9 @@ def write_rig_report(rig: RigCalibration, out_dir: str | os.PathLike, *,
 def _html(rig: RigCalibration, title: str, maps: list[str], pairs: list[tuple[str, float]]) -> str:
     esc = html.escape
     first = rig.cameras[0].name
-    summary = (f"{len(rig.cameras)} cameras, {int(np.sum(rig.frame_used))} of {len(rig.frames)} frames used, "
-               f"RMS {rig.rms:.4f} px over every camera's corners, corner noise {rig.sigma:.4f} px; poses in "
-               f"{first}'s frame (x_cam = R x_{first} + T), translations in the square's unit")
+    summary = (f"{cameras_text(len(rig.cameras))}, {int(np.sum(rig.frame_used))} of {len(rig.frames)} frames "
+               f"used, RMS {rig.rms:.4f} px over every camera's corners, corner noise {rig.sigma:.4f} px; "
+               f"poses in {first}'s frame (x_cam = R x_{first} + T), translations in the square's unit")
     notes = "".join(f"<li>{esc(n)}</li>" for n in rig.notes)
     unc = "".join(f"<img src='report/uncertainty_{esc(n)}.png' alt='uncertainty of {esc(n)}'>" for n in maps)
     rect = "".join(f"<p>{esc(first)} / {esc(n)}: {d:.3f} px RMS vertical disparity</p>"
@@ -334,4 +334,4 @@ def _html(rig: RigCalibration, title: str, maps: list[str], pairs: list[tuple[st
         "<h2>Errors</h2><img src='report/errors.png' alt='RMS per frame and camera'>"
         "<h2>Projection uncertainty</h2><p>1 sigma of where a far point projects (the worst direction), "
         f"from the fit's covariance; the other cameras' include their pose's.</p>{unc}"
-        f"<h2>Rectified pairs</h2>{rect}{_selection_tables(rig)}")
+        + (f"<h2>Rectified pairs</h2>{rect}" if len(rig.cameras) > 1 else "") + _selection_tables(rig))

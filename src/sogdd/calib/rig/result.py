@@ -10,7 +10,18 @@ import numpy as np
 from ..result import Calibration
 from .connectivity import Connectivity
 
-__all__ = ["RigCalibration", "RigCamera"]
+__all__ = ["RigCalibration", "RigCamera", "cameras_text"]
+
+
+def cameras_text(n: int) -> str:
+    """A number of cameras in words, as the pages and titles say it.
+
+    Examples
+    --------
+    >>> cameras_text(1), cameras_text(3)
+    ('1 camera', '3 cameras')
+    """
+    return f"{n} camera{'s' * (n != 1)}"
 
 
 @dataclass(frozen=True)

@@ -15,7 +15,7 @@ or as it was, and only a missing or empty folder or a previous output is replace
 
 A rig's own rules are checked at the door, before any image is read, each a one-line
 :class:`~sogdd.calib.session.ParameterError` naming the parameters (the command line
-names its flags instead): two or more cameras with valid names, a board of known size
+names its flags instead): one or more cameras with valid names, a board of known size
 (``chessboard:auto`` cannot be a rig's: the cameras' corner labels must agree), and
 one board per image (``boards="best"``: a frame is one pose of one board).
 """
@@ -56,7 +56,7 @@ from ..targets.spec import BoardSpec, parse_board
 from .files import check_camera_names, write_rig
 from .fit import calibrate_rig
 from .frames import match_frames
-from .result import RigCalibration
+from .result import RigCalibration, cameras_text
 
 __all__ = ["RigImageCalibration", "calibrate_rig_images", "calibrate_rig_into", "check_rig_output_folder",
            "check_rig_parameters", "fit_rig_boards", "foreign_rig_entry", "write_rig_outputs"]
@@ -130,16 +130,15 @@ def check_rig_parameters(cameras: Mapping[str, Inputs], board: str | BoardSpec,
                          model: ModelChoice | Mapping[str, ModelChoice], boards: str, square: float,
                          jobs: int, min_views: int) -> tuple[tuple[str, ...], BoardSpec, dict[str, str]]:
     """A rig's parameters checked before any input is read (a one-line
-    :class:`~sogdd.calib.session.ParameterError` or ``ValueError``): two or more cameras with valid names,
+    :class:`~sogdd.calib.session.ParameterError` or ``ValueError``): one or more cameras with valid names,
     the board (of known size, one per image), the numbers, each camera's model. Returns the cameras' names,
     the board's specification and each camera's model."""
     try:
         names = check_camera_names(cameras)
     except ValueError as exc:
         raise ParameterError("{cameras}: {why}", cameras="cameras", why=str(exc)) from None
-    if len(names) < 2:
-        raise ParameterError("{cameras}: a rig needs two or more cameras ({single})", cameras="cameras",
-                             single="one camera: sogdd.calib.calibrate_images")
+    if not names:
+        raise ParameterError("{cameras}: no camera given", cameras="cameras")
     spec = _check_spec(board, boards)
     check_run_parameters(square=square, jobs=jobs, min_views=min_views)
     return names, spec, _check_models(model, names)
@@ -180,7 +179,12 @@ def calibrate_rig_images(
     thumbnails: bool = True,
     progress: bool = False,
 ) -> RigImageCalibration:
-    """Calibrate a rig of two or more cameras from each camera's image files of a board.
+    """Calibrate a rig from each camera's image files of a board.
+
+    A rig of one camera is that camera fitted by the rig's joint solver (the same
+    numbers as :func:`sogdd.calib.calibrate` up to the fit's tolerance) and written
+    as a rig (``rig.yaml`` with its one camera, ``NAME/``): scripts that calibrate
+    any number of cameras get one layout.
 
     The board's pose in frame :math:`f` and each camera's pose
     :math:`x_{cam} = R\\,x_{first} + T` are fitted jointly with every camera's
@@ -226,7 +230,7 @@ def calibrate_rig_images(
     ------
     ParameterError
         One line naming the parameter (:class:`sogdd.calib.session.ParameterError`):
-        fewer than two cameras, a bad camera name, ``chessboard:auto``,
+        no camera, a bad camera name, ``chessboard:auto``,
         ``boards="all"``, a camera without input, ``square``, ``jobs`` or
         ``min_views`` out of range.
     ValueError
@@ -400,7 +404,7 @@ def write_rig_outputs(result: RigImageCalibration, out: str | os.PathLike, *, re
             n = int(rig.frame_used.sum())
             files["report.html"] = write_rig_report(
                 rig, new, thumbnails=result.thumbnails or None, views=result.views,
-                title=title or f"Rig calibration: {len(rig.cameras)} cameras, {n} frames, {result.board}")
+                title=title or f"Rig calibration: {cameras_text(len(rig.cameras))}, {n} frames, {result.board}")
             files["report"] = new / "report"
         return files
 

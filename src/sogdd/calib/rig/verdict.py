@@ -13,7 +13,7 @@ import numpy as np
 
 from ..uncertainty import centre_and_worst, uncertainty_finding
 from ..verdict import verdict
-from .result import RigCalibration
+from .result import RigCalibration, cameras_text
 from .uncertainty import projection_uncertainty
 
 __all__ = ["rig_verdict", "shared_frames", "uncertainty_summary"]
@@ -112,6 +112,6 @@ def rig_verdict(rig: RigCalibration) -> list[tuple[str, str]]:
             level, text = uncertainty_finding(centre, worst)
             out.append((level, f"{cam.name}: {text}"))
     if not any(level != "ok" for level, _ in out):
-        out.insert(0, ("ok", f"the rig looks sound: {len(rig.cameras)} cameras, {int(np.sum(rig.frame_used))} "
-                             f"frames, RMS {rig.rms:.3f} px"))
+        out.insert(0, ("ok", f"the rig looks sound: {cameras_text(len(rig.cameras))}, "
+                             f"{int(np.sum(rig.frame_used))} frames, RMS {rig.rms:.3f} px"))
     return out

@@ -48,7 +48,7 @@ from ..video import (
     pick_frames,
     scan_video,
 )
-from .result import RigCalibration
+from .result import RigCalibration, cameras_text
 from .session import (
     RigImageCalibration,
     check_rig_output_folder,
@@ -174,7 +174,7 @@ def calibrate_rig_video(
     thumbnails: bool = True,
     progress: bool = False,
 ) -> RigImageCalibration:
-    """Calibrate a rig of two or more cameras from one video per camera, frame ``k`` of every video one
+    """Calibrate a rig (one or more cameras) from one video per camera, frame ``k`` of every video one
     moment of the rig (module doc).
 
     Parameters
@@ -314,4 +314,4 @@ def calibrate_rig_video_into(
     files = ", ".join(v.name for v in videos.values())
     return result, write_rig_outputs(
         result, out, report=report, inputs=list(videos.values()),
-        title=title or f"Rig calibration: {len(names)} cameras, {n} frames of {files}, {spec}")
+        title=title or f"Rig calibration: {cameras_text(len(names))}, {n} frames of {files}, {spec}")
