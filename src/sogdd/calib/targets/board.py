@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import math
 import re
+import sys
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
@@ -10,7 +12,7 @@ from fractions import Fraction
 import numpy as np
 
 __all__ = ["LABEL_TURNS", "SMALL_CELL", "Board", "ViewBoards", "cell_size", "grid_dims", "label_neighbours",
-           "lattice_cells", "parse_grid", "view_board"]
+           "lattice_cells", "median", "parse_grid", "view_board"]
 
 
 #: a board whose median cell is under this fraction of that of its image's largest board is never a view:
@@ -185,17 +187,18 @@ def cell_size(board: Board) -> float:
     nb = label_neighbours(board.labels)[:, ::2]  # the (+1, 0) and (0, +1) neighbours: each pair once
     k, d = np.nonzero(nb >= 0)
     pts = board.image_points
-    return float(np.median(np.hypot(*(pts[nb[k, d]] - pts[k]).T))) if len(k) else float("nan")
+    return median(np.hypot(*(pts[nb[k, d]] - pts[k]).T)) if len(k) else float("nan")
 
 
-def view_board(boards: Sequence[Board]) -> Board | None:
+def view_board(boards: Sequence[Board], cells: Sequence[float] | None = None) -> Board | None:
     """The image's board, of several: the largest in the image, complete first, then the most corners.
 
     A board whose cells (:func:`cell_size`) are under :data:`SMALL_CELL` of
     the largest board's is a screen, a reflection or a pattern in the
     background: never the view's board, even complete where the view's own is
     cut by an occluder or the frame. Of the others, ``(B.size is not None,
-    len(B), cell_size(B))`` decides: of two complete boards, the one of larger cells.
+    len(B), cell_size(B))`` decides: of two complete boards, the one of larger cells. ``cells``: the
+    boards' :func:`cell_size`, when the caller has them already.
 
     Examples
     --------
@@ -208,13 +211,20 @@ def view_board(boards: Sequence[Board]) -> Board | None:
     >>> view_board([screen, near]) is near
     True
     """
-    cells = [cell_size(b) for b in boards]
+    cells = [cell_size(b) for b in boards] if cells is None else list(cells)
     largest = max((c for c in cells if np.isfinite(c)), default=float("nan"))
     keep = [k for k, c in enumerate(cells) if not c < SMALL_CELL * largest]
     if not keep:
         return None
-    rank = [(b.size is not None, len(b), np.nan_to_num(c)) for b, c in zip(boards, cells)]
+    rank = [(b.size is not None, len(b), _nan_to_num(c)) for b, c in zip(boards, cells)]
     return boards[max(keep, key=rank.__getitem__)]
+
+
+def _nan_to_num(c: float) -> float:
+    """``np.nan_to_num`` of one number, without its overhead: 0 for NaN, the largest float for inf."""
+    if math.isnan(c):
+        return 0.0
+    return max(min(float(c), sys.float_info.max), -sys.float_info.max)
 
 
 def lattice_cells(xy: np.ndarray, labels: np.ndarray) -> np.ndarray:
@@ -250,5 +260,29 @@ def label_neighbours(labels: np.ndarray) -> np.ndarray:
     ij = lab - lab.min(axis=0) + 1  # a border of one empty label each side
     grid = np.full(ij.max(axis=0) + 2, -1, np.int64)
     grid[ij[:, 0], ij[:, 1]] = np.arange(len(lab))
-    steps = ((1, 0), (-1, 0), (0, 1), (0, -1))
-    return np.stack([grid[ij[:, 0] + di, ij[:, 1] + dj] for di, dj in steps], axis=1)
+    return grid[ij[:, :1] + _STEPS[:, 0], ij[:, 1:] + _STEPS[:, 1]]  # one gather: it runs several times a view
+
+
+#: :func:`label_neighbours`' label steps, in its column order
+_STEPS = np.array([(1, 0), (-1, 0), (0, 1), (0, -1)])
+
+
+def median(values: np.ndarray) -> float:
+    """``float(np.median(values))`` of a 1-D array, without its overhead (it runs many times a view).
+
+    The middle value of the sorted values, or the mean ``(a + b) / 2`` of the middle two in the values'
+    own dtype (float32's sum is float32's), as numpy's; NaN when a value is NaN or there is none.
+
+    Examples
+    --------
+    >>> median(np.array([3.0, 1.0, 2.0])), median(np.array([4.0, 1.0, 2.0, 3.0]))
+    (2.0, 2.5)
+    >>> median(np.array([1.0, np.nan]))
+    nan
+    """
+    v = np.sort(np.asarray(values).reshape(-1))
+    n = len(v)
+    if n == 0 or np.isnan(v[-1]):  # NaN sorts last
+        return float("nan")
+    m = n // 2
+    return float(v[m]) if n % 2 else float((v[m - 1] + v[m]) / 2)

@@ -99,16 +99,18 @@ def _bil_grad(img, x, y):  # pragma: no cover - jit
     fy = y - y0
     gx = 1.0 - fx
     gy = 1.0 - fy
-    r0 = img[y0]
-    r1 = img[y0 + 1]
-    a = r0[x0] * gx + r0[x0 + 1] * fx
-    b = r1[x0] * gx + r1[x0 + 1] * fx
-    dx0 = (r0[x0 + 1] - r0[x0 - 1]) * gx + (r0[x0 + 2] - r0[x0]) * fx
-    dx1 = (r1[x0 + 1] - r1[x0 - 1]) * gx + (r1[x0 + 2] - r1[x0]) * fx
-    up = img[y0 - 1]
-    dn = img[y0 + 2]
-    dy0 = (r1[x0] - up[x0]) * gy + (dn[x0] - r0[x0]) * fy
-    dy1 = (r1[x0 + 1] - up[x0 + 1]) * gy + (dn[x0 + 1] - r0[x0 + 1]) * fy
+    # unsigned indices (all >= 0 here): numba tests every signed index for wrapping around
+    cm, c0, c1, c2 = np.uint64(x0 - 1), np.uint64(x0), np.uint64(x0 + 1), np.uint64(x0 + 2)
+    r0 = img[np.uint64(y0)]
+    r1 = img[np.uint64(y0 + 1)]
+    a = r0[c0] * gx + r0[c1] * fx
+    b = r1[c0] * gx + r1[c1] * fx
+    dx0 = (r0[c1] - r0[cm]) * gx + (r0[c2] - r0[c0]) * fx
+    dx1 = (r1[c1] - r1[cm]) * gx + (r1[c2] - r1[c0]) * fx
+    up = img[np.uint64(y0 - 1)]
+    dn = img[np.uint64(y0 + 2)]
+    dy0 = (r1[c0] - up[c0]) * gy + (dn[c0] - r0[c0]) * fy
+    dy1 = (r1[c1] - up[c1]) * gy + (dn[c1] - r0[c1]) * fy
     return a * gy + b * fy, 0.5 * (dx0 * gy + dx1 * fy), 0.5 * (dy0 * gx + dy1 * fx)
 
 
@@ -159,15 +161,17 @@ def _offsets(R, s, inv, reach):  # pragma: no cover - jit
 def _normal(img, px, py, dxs, dys, ws, n, A, b):  # pragma: no cover - jit
     """Normal equations of the symmetric fit at ``(px, py)`` (module doc) over the window of
     :func:`_offsets`; returns ``(E, total)``."""
-    for u in range(2):
-        b[u] = 0.0
-        for v in range(2):
-            A[u, v] = 0.0
+    # the sums in locals, not in ``A`` and ``b``: the compiler keeps them in registers (an array might
+    # alias ``img``), the same additions in the same order
+    a00 = 0.0
+    a01 = 0.0
+    a11 = 0.0
+    b0 = 0.0
+    b1 = 0.0
     e = 0.0
     sw = 0.0
     s1 = 0.0
     s2 = 0.0
-    J = np.empty(2)
     for t in range(n):
         dx = dxs[t]
         dy = dys[t]
@@ -179,17 +183,23 @@ def _normal(img, px, py, dxs, dys, ws, n, A, b):  # pragma: no cover - jit
         va, gxa, gya = _bil_grad(img, xa, ya)
         vb, gxb, gyb = _bil_grad(img, xb, yb)
         r = va - vb
-        J[0] = gxa - gxb
-        J[1] = gya - gyb
-        for u in range(2):
-            b[u] += w * J[u] * r
-            for v in range(u, 2):
-                A[u, v] += w * J[u] * J[v]
+        j0 = gxa - gxb
+        j1 = gya - gyb
+        b0 += w * j0 * r
+        a00 += w * j0 * j0
+        a01 += w * j0 * j1
+        b1 += w * j1 * r
+        a11 += w * j1 * j1
         e += w * r * r
         sw += 2.0 * w
         s1 += w * (va + vb)
         s2 += w * (va * va + vb * vb)
-    A[1, 0] = A[0, 1]
+    A[0, 0] = a00
+    A[0, 1] = a01
+    A[1, 0] = a01
+    A[1, 1] = a11
+    b[0] = b0
+    b[1] = b1
     return e, s2 - s1 * s1 / max(sw, 1e-300)
 
 
@@ -204,8 +214,52 @@ def _solve(A, b, x):  # pragma: no cover - jit
     return True
 
 
+@numba.njit(**EXACT_JIT)
+def _inv(R):  # pragma: no cover - jit
+    """``1 / (2 sigma^2)`` of the Gaussian weight of a window of half-width ``R`` (``sigma = R``, >= 1)."""
+    sig = max(R / 1.0, 1.0)
+    return 1.0 / (2.0 * sig * sig)
+
+
+@numba.njit(**EXACT_JIT)
+def _whole_windows(half, stride, reach):  # pragma: no cover - jit
+    """The whole square windows' offsets and weights (:func:`_offsets`), once per half-width ``R`` (with the
+    stride of the first point of that half-width): ``(slot, dx, dy, w, n, s)``, the table's row ``slot[R]``
+    for half-width ``R`` (-1: no point of a whole window has it). Many corners share a half-width, and the
+    weights' ``exp`` costs as much as a Gauss-Newton step."""
+    top = 0
+    for k in range(half.shape[0]):
+        top = max(top, half[k])
+    slot = np.full(top + 1, -1, np.int64)
+    first = np.empty(half.shape[0], np.int64)
+    rows = 0
+    size = 1
+    for k in range(half.shape[0]):
+        R = half[k]
+        if slot[R] < 0 and not _bounded(reach[k]):
+            slot[R] = rows
+            first[rows] = k
+            rows += 1
+            size = max(size, (R // stride[k] + 1) * (2 * R // stride[k] + 1))
+    tdx = np.empty((rows, size), np.int64)
+    tdy = np.empty((rows, size), np.int64)
+    tw = np.empty((rows, size))
+    tn = np.zeros(rows, np.int64)
+    ts = np.zeros(rows, np.int64)
+    for i in range(rows):
+        k = first[i]
+        dxs, dys, ws, m = _offsets(half[k], stride[k], _inv(half[k]), reach[k])
+        tdx[i, :m] = dxs[:m]
+        tdy[i, :m] = dys[:m]
+        tw[i, :m] = ws[:m]
+        tn[i] = m
+        ts[i] = stride[k]
+    return slot, tdx, tdy, tw, tn, ts
+
+
 @numba.njit(parallel=True, **EXACT_JIT)
 def _refine(img, pts, half, stride, max_shift, iterations, tol, reach, out, quality):  # pragma: no cover - jit
+    slot, tdx, tdy, tw, tn, ts = _whole_windows(half, stride, reach)
     for k in numba.prange(pts.shape[0]):
         px0 = pts[k, 0]
         py0 = pts[k, 1]
@@ -213,14 +267,17 @@ def _refine(img, pts, half, stride, max_shift, iterations, tol, reach, out, qual
         py = py0
         R = half[k]
         s = stride[k]
-        sig = max(R / 1.0, 1.0)
-        inv = 1.0 / (2.0 * sig * sig)
         A = np.empty((2, 2))
         b = np.empty(2)
         step = np.zeros(2)
         ok = False
         q = 0.0
-        dxs, dys, ws, m = _offsets(R, s, inv, reach[k])  # the window, once: its weights do not move
+        # the window, once: its weights do not move (a whole one shared by the points of its half-width)
+        i = slot[R]
+        if i >= 0 and ts[i] == s and not _bounded(reach[k]):
+            dxs, dys, ws, m = tdx[i], tdy[i], tw[i], tn[i]
+        else:
+            dxs, dys, ws, m = _offsets(R, s, _inv(R), reach[k])
         for _ in range(iterations):
             e, tot = _normal(img, px, py, dxs, dys, ws, m, A, b)
             q = 1.0 - e / tot if tot > 0 else 0.0
@@ -539,7 +596,8 @@ def refine_corners(image: np.ndarray, corners: object, winSize: int | tuple[int,
 def _windows(shape: tuple[int, ...], pts: np.ndarray, half: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The half-widths cut to stay inside the image (with the gradient's pixel), and their sampling strides."""
     H, W = shape[:2]
-    room = np.floor(np.min(np.c_[pts, W - 1 - pts[:, 0], H - 1 - pts[:, 1]], axis=1)) - 2  # and the gradient
+    # the room to the edges, less the gradient's pixel (np.column_stack: np.c_'s array, without its overhead)
+    room = np.floor(np.min(np.column_stack([pts, W - 1 - pts[:, 0], H - 1 - pts[:, 1]]), axis=1)) - 2
     half = np.maximum(np.minimum(half, room), 1).astype(np.int64)  # the window stays inside the image
     stride = np.maximum(1, -(-half // MAX_HALF)).astype(np.int64)
     return half, stride

@@ -13,7 +13,7 @@ import cv2
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..board import Board, label_neighbours, lattice_cells
+from ..board import Board, label_neighbours, lattice_cells, median
 from ..refine import half_widths, refine_grey
 from .mapping import predict_labels
 from .windows import ASYMMETRY, MIN_ASYMMETRY, bilinear
@@ -66,7 +66,7 @@ def edge_links(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray) -> tuple[fl
     scale = np.zeros(len(a))
     for axis in (0, 1):
         on = a == axis
-        scale[on] = np.median(np.abs(diff[1, on])) if on.any() else 0.0
+        scale[on] = median(np.abs(diff[1, on])) if on.any() else 0.0
     ok = (np.abs(diff) >= EDGE_CONTRAST * scale).all(axis=0) & (np.sign(diff) == np.sign(diff[1])).all(axis=0)
     ok &= scale > 0
     has = np.zeros(len(xy), dtype=bool)
@@ -109,16 +109,18 @@ def orphans(grey: np.ndarray, xc: XCorners, idx: np.ndarray, xy: np.ndarray, cel
     a code in its squares) says nothing about the lattice's steps.
     """
     hull = cv2.convexHull(xy.astype(np.float32)).reshape(-1, 2)
-    strong = xc.strength >= 0.5 * float(np.median(xc.strength[idx]))
+    strong = xc.strength >= 0.5 * median(xc.strength[idx])
     lo, hi = xy.min(axis=0), xy.max(axis=0)
     cand = np.flatnonzero(strong & np.all((xc.xy >= lo) & (xc.xy <= hi), axis=1))
-    if grown is not None:
-        cand = np.setdiff1d(cand, grown)
-    cell = float(np.median(cells[np.isfinite(cells)])) if np.isfinite(cells).any() else 1.0
+    if grown is not None:  # np.setdiff1d's result (cand is sorted and unique), by a mask
+        out = np.ones(len(xc), dtype=bool)
+        out[grown] = False
+        cand = cand[out[cand]]
+    cell = median(cells[np.isfinite(cells)]) if np.isfinite(cells).any() else 1.0
     d, _ = cKDTree(xy).query(xc.xy[cand])
     cand = cand[d > 0.3 * cell]
     if len(cand):
-        own = float(np.median(ring_contrast(grey, xy, xc.light[idx], cell)))
+        own = median(ring_contrast(grey, xy, xc.light[idx], cell))
         cand = cand[ring_contrast(grey, xc.xy[cand], xc.light[cand], cell) >= 0.5 * max(own, 1e-9)]
     inside = [cv2.pointPolygonTest(hull, (float(x), float(y)), True) > 0.3 * cell for x, y in xc.xy[cand]]
     return float(np.count_nonzero(inside)) / max(len(xy), 1)
@@ -146,11 +148,11 @@ def extends(grey: np.ndarray, board: Board) -> bool:
     sides = [[(lo[0] - 1, j) for j in rows], [(hi[0] + 1, j) for j in rows],
              [(i, lo[1] - 1) for i in cols], [(i, hi[1] + 1) for i in cols]]
     cells = lattice_cells(xy, labels)
-    cell = float(np.median(cells[np.isfinite(cells)])) if np.isfinite(cells).any() else 0.0
+    cell = median(cells[np.isfinite(cells)]) if np.isfinite(cells).any() else 0.0
     own_half = half_widths(xy, None, np.where(np.isfinite(cells), cells, cell))
     _, q_own = refine_grey(grey, xy, own_half, own_half.astype(np.float64), iterations=1)
-    limit = max(ASYMMETRY * float(np.median(1.0 - q_own)), MIN_ASYMMETRY)
-    strong = 0.5 * float(np.median(junction_strength(hessian_at(grey, xy, np.sqrt(SIGMA2)))))
+    limit = max(ASYMMETRY * median(1.0 - q_own), MIN_ASYMMETRY)
+    strong = 0.5 * median(junction_strength(hessian_at(grey, xy, np.sqrt(SIGMA2))))
     H, W = grey.shape
     for side in sides:
         P = predict_labels(xy, labels, np.array(side))[:, 0]

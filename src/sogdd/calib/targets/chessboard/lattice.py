@@ -233,7 +233,7 @@ def seeds(xc: XCorners, nb: np.ndarray, dist: np.ndarray) -> np.ndarray:
         ratio = np.maximum(ratio, np.maximum(dist[:, 1] / dist[:, 3], dist[:, 3] / dist[:, 1]))
     ok = full & mutual & (ratio <= SEED_RATIO)
     cand = np.flatnonzero(ok)
-    weakest = np.min(np.c_[xc.strength[cand], xc.strength[nb[cand]]], axis=1)
+    weakest = np.min(np.concatenate([xc.strength[cand][:, None], xc.strength[nb[cand]]], axis=1), axis=1)
     return cand[np.argsort(-weakest, kind="stable")]
 
 
@@ -408,6 +408,31 @@ def _untried(grid, tried, sup, box, limit):  # pragma: no cover - jit
     return cells[:L], nbr[:L], fit[:L]
 
 
+@numba.njit(**EXACT_JIT)
+def _steps(P):  # pragma: no cover - jit
+    """What :meth:`_Grower.round` reads off its predictions ``P`` (L, 5, 2) (:func:`predict_batch`), each
+    label's as numpy computed it: ``(ok (L,), axes (L, 2, 2), cell (L,), p (L, 2))``, ``ok`` where ``P`` is
+    finite, ``axes`` the lattice steps ``P1 - P2`` and ``P3 - P4``, ``cell`` the shorter one (libm's
+    ``hypot``, as numpy's), ``p = P0`` the position."""
+    L = P.shape[0]
+    ok = np.empty(L, np.bool_)
+    axes = np.empty((L, 2, 2))
+    cell = np.empty(L)
+    p = np.empty((L, 2))
+    for t in range(L):
+        fin = True
+        for a in range(5):
+            for d in range(2):
+                fin &= np.isfinite(P[t, a, d])
+        ok[t] = fin
+        for d in range(2):
+            axes[t, 0, d] = P[t, 1, d] - P[t, 2, d]
+            axes[t, 1, d] = P[t, 3, d] - P[t, 4, d]
+            p[t, d] = P[t, 0, d]
+        cell[t] = min(math.hypot(axes[t, 0, 0], axes[t, 0, 1]), math.hypot(axes[t, 1, 0], axes[t, 1, 1]))
+    return ok, axes, cell, p
+
+
 #: the 3 x 3 label block, row by row (:func:`_accept`'s ``near``)
 _BLOCK = np.array([(a, b) for a in (-1, 0, 1) for b in (-1, 0, 1)])
 #: the grid of labels keeps this many free labels around the board (the frontier, 1 out, reads 2 further)
@@ -486,16 +511,14 @@ class _Grower:
         if not fit.any():
             return 0
         cells, nbr = cells[fit], nbr[fit]
-        P = predict_batch(self.xc.xy, nbr, (nbr >= 0).astype(np.float64), _SUPPORT_F)
-        ok = np.isfinite(P).all(axis=(1, 2))
+        P = predict_batch(self.xy, nbr, (nbr >= 0).astype(np.float64), _SUPPORT_F)
+        ok, axes, cell, p = _steps(P)
         if not ok.all():
             if not ok.any():
                 return 0
-            cells, P = cells[ok], P[ok]
-        axes = np.stack([P[:, 1] - P[:, 2], P[:, 3] - P[:, 4]], axis=1)  # (L, 2 axes, xy)
-        cell = np.minimum(np.hypot(axes[:, 0, 0], axes[:, 0, 1]), np.hypot(axes[:, 1, 0], axes[:, 1, 1]))
-        p = np.ascontiguousarray(P[:, 0])
-        near = self.tree.query_ball_point(p, SEARCH * cell)
+            cells, axes, cell, p = cells[ok], axes[ok], cell[ok], p[ok]
+        # unsorted: :func:`_claims` orders each label's corners itself (by distance, then index)
+        near = self.tree.query_ball_point(p, SEARCH * cell, return_sorted=False)
         ptr = np.zeros(len(near) + 1, dtype=np.int64)
         np.cumsum([len(q) for q in near], out=ptr[1:])
         flat = np.fromiter(itertools.chain.from_iterable(near), dtype=np.int64, count=int(ptr[-1]))

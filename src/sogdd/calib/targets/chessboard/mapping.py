@@ -18,6 +18,8 @@ and the homography of :func:`check`'s second fit stay numpy's.
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
@@ -27,6 +29,7 @@ __all__ = ["SUPPORT", "apply", "check", "homography", "label_grid", "predict_bat
 
 #: the label offsets of the corners a local homography is fitted to: those within two labels
 SUPPORT = np.array([(a, b) for a in range(-2, 3) for b in range(-2, 3) if (a, b) != (0, 0)])
+_SUPPORT_F = SUPPORT.astype(np.float64)
 
 
 _MONOMIALS: dict[tuple, np.ndarray] = {}
@@ -134,15 +137,16 @@ def check(xy: np.ndarray, labels: np.ndarray, *, tol: float = 0.1, reach: int = 
         return ok
     which = np.arange(n) if only is None else np.asarray(only, dtype=np.int64).reshape(-1)
     span = range(-reach, reach + 1)
-    offs = np.array([(a, b) for a in span for b in span if (a, b) != (0, 0)])
+    offs = SUPPORT if reach == 2 else np.array([(a, b) for a in span for b in span if (a, b) != (0, 0)])
+    offs_f = _SUPPORT_F if reach == 2 else offs.astype(float)
     nbr = label_grid(labels, which, offs)
     w = (nbr >= 0).astype(np.float64)
     cnt = w.sum(axis=1)
-    cov = np.einsum("nk,ka,kb->nab", w, offs.astype(float), offs.astype(float))
+    cov = np.einsum("nk,ka,kb->nab", w, offs_f, offs_f)
     fit = (cnt >= 5) & (np.linalg.det(cov) * 1.0 > 1e-9)
     err = np.full(len(which), np.inf)
     if fit.any():
-        err[fit] = _batch_errors(xy, nbr[fit], w[fit], offs.astype(float), which[fit])
+        err[fit] = _batch_errors(xy, nbr[fit], w[fit], offs_f, which[fit])
     okw = err <= tol
     # a neighbour that is itself off spoils the fit: fit again without the worst one
     for m in np.flatnonzero(fit & ~okw & (cnt >= 6)):
@@ -165,15 +169,36 @@ def label_grid(labels: np.ndarray, which: np.ndarray, offs: np.ndarray, *,
 
     With ``at_labels`` (M, 2), at ``at_labels + offs`` instead (labels that need not be corners).
     """
-    pad = int(np.abs(offs).max())
-    at0 = labels[which] if at_labels is None else np.asarray(at_labels, dtype=np.int64).reshape(-1, 2)
-    both = np.r_[labels, at0]
-    lo = both.min(axis=0) - pad
-    ext = both.max(axis=0) - lo + pad + 1
-    grid = np.full(tuple(ext), -1, dtype=np.int64)
-    grid[labels[:, 0] - lo[0], labels[:, 1] - lo[1]] = np.arange(len(labels))
-    at = at0[:, None, :] - lo + offs[None].astype(np.int64)
-    return grid[at[..., 0], at[..., 1]]
+    at0 = labels[which] if at_labels is None else np.asarray(at_labels).reshape(-1, 2)
+    if not len(labels):
+        return np.full((len(at0), len(offs)), -1, dtype=np.int64)
+    return _label_grid(np.ascontiguousarray(labels, dtype=np.int64), np.ascontiguousarray(at0, dtype=np.int64),
+                       np.ascontiguousarray(offs, dtype=np.int64))  # compiled: it runs several times a view
+
+
+@numba.njit(**EXACT_JIT)
+def _label_grid(labels, at, offs):  # pragma: no cover - jit
+    """:func:`label_grid`: the corners' indices on a grid of their labels (a later corner of a label over an
+    earlier one, as numpy's assignment), read at ``at + offs``."""
+    pad = 0
+    for k in range(offs.shape[0]):
+        pad = max(pad, abs(offs[k, 0]), abs(offs[k, 1]))
+    lo0, lo1 = labels[0, 0], labels[0, 1]
+    hi0, hi1 = lo0, lo1
+    for src in (labels, at):
+        for i in range(src.shape[0]):
+            lo0, lo1 = min(lo0, src[i, 0]), min(lo1, src[i, 1])
+            hi0, hi1 = max(hi0, src[i, 0]), max(hi1, src[i, 1])
+    lo0 -= pad
+    lo1 -= pad
+    grid = np.full((hi0 - lo0 + pad + 1, hi1 - lo1 + pad + 1), -1, np.int64)
+    for i in range(labels.shape[0]):
+        grid[labels[i, 0] - lo0, labels[i, 1] - lo1] = i
+    out = np.empty((at.shape[0], offs.shape[0]), np.int64)
+    for m in range(at.shape[0]):
+        for k in range(offs.shape[0]):
+            out[m, k] = grid[at[m, 0] - lo0 + offs[k, 0], at[m, 1] - lo1 + offs[k, 1]]
+    return out
 
 
 def predict_labels(xy: np.ndarray, labels: np.ndarray, targets: np.ndarray) -> np.ndarray:
@@ -275,10 +300,24 @@ def _cells_batch(xy: np.ndarray, nbr: np.ndarray, w: np.ndarray, offs: np.ndarra
 def _batch_errors(xy: np.ndarray, nbr: np.ndarray, w: np.ndarray, offs: np.ndarray,
                   which: np.ndarray) -> np.ndarray:
     """Leave-one-out errors in cells of the corners ``which`` (:func:`predict_batch`)."""
-    P = predict_batch(xy, nbr, w, offs)
-    cell = np.minimum(np.hypot(*(P[:, 1] - P[:, 2]).T), np.hypot(*(P[:, 3] - P[:, 4]).T))
-    err = np.hypot(*(P[:, 0] - xy[which]).T) / np.maximum(cell, 1e-9)
-    return np.where(np.isfinite(err), err, np.inf)
+    return _cell_errors(predict_batch(xy, nbr, w, offs), np.ascontiguousarray(xy[which], dtype=np.float64))
+
+
+@numba.njit(**EXACT_JIT)
+def _cell_errors(P, at):  # pragma: no cover - jit
+    """:func:`_batch_errors` from the predictions ``P`` (n, 5, 2) of the points ``at``, as numpy computed
+    them: ``|P0 - at| / max(min(|P1 - P2|, |P3 - P4|), 1e-9)`` (libm's ``hypot``; NaN kept by the min and
+    max, as numpy's), ``inf`` where not finite."""
+    n = P.shape[0]
+    out = np.empty(n)
+    for t in range(n):
+        a = math.hypot(P[t, 1, 0] - P[t, 2, 0], P[t, 1, 1] - P[t, 2, 1])
+        b = math.hypot(P[t, 3, 0] - P[t, 4, 0], P[t, 3, 1] - P[t, 4, 1])
+        cell = a if (a <= b or a != a) else b
+        cell = cell if (cell >= 1e-9 or cell != cell) else 1e-9
+        e = math.hypot(P[t, 0, 0] - at[t, 0], P[t, 0, 1] - at[t, 1]) / cell
+        out[t] = e if np.isfinite(e) else np.inf
+    return out
 
 
 def predict_batch(xy: np.ndarray, nbr: np.ndarray, w: np.ndarray, offs: np.ndarray, *,
@@ -342,18 +381,50 @@ def _fit_batch(xy: np.ndarray, nbr: np.ndarray, w: np.ndarray, offs: np.ndarray,
 
     Returns ``(h (n, 2 M + 2), mean (n, 2), scale (n,))``.
     """
-    dst = xy[np.maximum(nbr, 0)]  # (n, K, 2)
-    cnt = np.maximum(w.sum(axis=1), 1.0)
-    mean = np.einsum("nk,nkd->nd", w, dst) / cnt[:, None]
-    rel = dst - mean[:, None, :]
-    scale = np.einsum("nk,nk->n", w, np.hypot(rel[..., 0], rel[..., 1])) / cnt
+    w = np.ascontiguousarray(w, dtype=np.float64)
+    cnt, mean, rel, dist = _centred(np.ascontiguousarray(xy, dtype=np.float64), np.ascontiguousarray(nbr), w)
+    scale = np.einsum("nk,nk->n", w, dist) / cnt  # numpy's: its SIMD sums in an order of their own
     scale = np.maximum(scale, 1e-12)
     b = rel / scale[:, None, None]
     m0 = _monomials(offs, order)
-    A, rhs = _normal_equations(np.ascontiguousarray(w, dtype=np.float64), np.ascontiguousarray(b),
+    A, rhs = _normal_equations(w, np.ascontiguousarray(b),
                                np.ascontiguousarray(offs, dtype=np.float64), np.ascontiguousarray(m0))
     h = np.linalg.solve(A, rhs[..., None])[..., 0]
     return h, mean, scale
+
+
+@numba.njit(**EXACT_JIT)
+def _centred(xy, nbr, w):  # pragma: no cover - jit
+    """:func:`_fit_batch`'s neighbours about their mean, as its numpy computed them, bit for bit: ``(cnt (n,),
+    mean (n, 2), rel (n, K, 2), dist (n, K))`` with ``cnt = max(sum_k w, 1)``, ``mean = sum_k w xy / cnt``
+    (``einsum("nk,nkd->nd", ...)``'s sum, in order from ``k = 0``), ``rel = xy - mean`` and ``dist`` the
+    length of ``rel`` (libm's ``hypot``, as numpy's); ``xy`` of ``nbr < 0`` is ``xy[0]`` (weight 0)."""
+    n, K = nbr.shape
+    cnt = np.empty(n)
+    mean = np.empty((n, 2))
+    rel = np.empty((n, K, 2))
+    dist = np.empty((n, K))
+    for t in range(n):
+        c = 0.0
+        m0 = 0.0
+        m1 = 0.0
+        for k in range(K):
+            q = max(nbr[t, k], 0)
+            c += w[t, k]
+            m0 += w[t, k] * xy[q, 0]
+            m1 += w[t, k] * xy[q, 1]
+        c = max(c, 1.0)
+        cnt[t] = c
+        m0 /= c
+        m1 /= c
+        mean[t, 0] = m0
+        mean[t, 1] = m1
+        for k in range(K):
+            q = max(nbr[t, k], 0)
+            rel[t, k, 0] = xy[q, 0] - m0
+            rel[t, k, 1] = xy[q, 1] - m1
+            dist[t, k] = math.hypot(rel[t, k, 0], rel[t, k, 1])
+    return cnt, mean, rel, dist
 
 
 @numba.njit(**EXACT_JIT)

@@ -22,7 +22,7 @@ import numpy as np
 
 from sogdd._jit import EXACT_JIT
 
-from ..board import label_neighbours, lattice_cells
+from ..board import label_neighbours, lattice_cells, median
 from ..refine import MAX_WINDOW, MIN_HALF, REACH_DIRS, half_widths, refine_grey
 
 __all__ = ["ASYMMETRY", "MIN_ASYMMETRY", "bilinear", "border_reach", "deshaded", "edge_halves", "inner_corners",
@@ -43,7 +43,7 @@ def symmetric(quality: np.ndarray) -> np.ndarray:
     asym = 1.0 - quality
     if len(asym) == 0:
         return np.zeros(0, dtype=bool)
-    return (quality > 0) & (asym <= max(ASYMMETRY * float(np.median(asym)), MIN_ASYMMETRY))
+    return (quality > 0) & (asym <= max(ASYMMETRY * median(asym), MIN_ASYMMETRY))
 
 
 def bilinear(grey: np.ndarray, p: np.ndarray) -> np.ndarray:
@@ -62,19 +62,27 @@ def bilinear(grey: np.ndarray, p: np.ndarray) -> np.ndarray:
 
 @numba.njit(**EXACT_JIT)
 def _bilinear(grey, p, out):  # pragma: no cover - jit
-    H, W = grey.shape
     for k in range(p.shape[0]):
-        x = min(max(p[k, 0], 0.0), W - 1.001)
-        y = min(max(p[k, 1], 0.0), H - 1.001)
-        x0, y0 = int(math.floor(x)), int(math.floor(y))
-        fx, fy = x - x0, y - y0
-        out[k] = ((grey[y0, x0] * (1 - fx) + grey[y0, x0 + 1] * fx) * (1 - fy)
-                  + (grey[y0 + 1, x0] * (1 - fx) + grey[y0 + 1, x0 + 1] * fx) * fy)
+        out[k] = _bilinear1(grey, p[k, 0], p[k, 1])
+
+
+@numba.njit(**EXACT_JIT)
+def _bilinear1(grey, x, y):  # pragma: no cover - jit
+    """:func:`bilinear` at one point."""
+    H, W = grey.shape
+    x = min(max(x, 0.0), W - 1.001)
+    y = min(max(y, 0.0), H - 1.001)
+    x0, y0 = int(math.floor(x)), int(math.floor(y))
+    fx, fy = x - x0, y - y0
+    return ((grey[y0, x0] * (1 - fx) + grey[y0, x0 + 1] * fx) * (1 - fy)
+            + (grey[y0 + 1, x0] * (1 - fx) + grey[y0 + 1, x0 + 1] * fx) * fy)
 
 
 #: radii (in cells) and directions at which a border corner's surroundings are compared with their mirror image
 _OUT_STEPS = np.arange(0.1, 0.96, 0.05)
 _OUT_DIRS = np.stack([np.cos(np.arange(16) * np.pi / 16), np.sin(np.arange(16) * np.pi / 16)], axis=1)
+#: the 32 rays of :func:`border_reach`'s ring: the directions and their opposites
+_RING_DIRS = np.r_[_OUT_DIRS, -_OUT_DIRS]
 
 
 def border_reach(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, cells: np.ndarray,
@@ -106,14 +114,35 @@ def border_reach(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, cells: np
     out = np.full((len(xy), REACH_DIRS), np.inf)
     if len(k) == 0:
         return out
-    p, cell = xy[k][:, None, None, :], cells[k][:, None, None, None]
-    d = _OUT_STEPS[None, :, None, None] * cell * _OUT_DIRS[None, None, :, :]  # (n, t, u, 2)
-    ring = bilinear(grey, xy[k][:, None, :] + 0.2 * cells[k][:, None, None] * np.r_[_OUT_DIRS, -_OUT_DIRS])
-    c = np.percentile(ring, 90, axis=1) - np.percentile(ring, 10, axis=1)
-    bad = np.abs(bilinear(grey, p + d) - bilinear(grey, p - d)) > 0.2 * c[:, None, None]  # (n, t, u)
-    r = np.where(bad.any(axis=1), _OUT_STEPS[np.argmax(bad, axis=1)], np.inf) * cells[k][:, None]  # (n, u)
-    out[k] = np.maximum(0.8 * r, MIN_HALF)
+    ring = bilinear(grey, xy[k][:, None, :] + 0.2 * cells[k][:, None, None] * _RING_DIRS)
+    hi, lo = np.percentile(ring, [90, 10], axis=1)  # one call: the same order statistics
+    _reach(np.ascontiguousarray(grey, dtype=np.float64), np.ascontiguousarray(xy, dtype=np.float64),
+           np.ascontiguousarray(cells, dtype=np.float64), k, 0.2 * (hi - lo), _OUT_STEPS, _OUT_DIRS,
+           float(MIN_HALF), out)
     return out
+
+
+@numba.njit(**EXACT_JIT)
+def _reach(grey, xy, cells, k, thr, steps, dirs, least, out):  # pragma: no cover - jit
+    """:func:`border_reach`'s rays for the corners ``k``: along each direction ``u``, the first step ``t``
+    with ``|I(p + d) - I(p - d)| > thr`` (``d = (steps[t] cell) u``, numpy's order of the products), the
+    reach ``max(0.8 steps[t] cell, least)`` (``inf`` where none), into ``out``. Stops at the first such
+    step: the steps beyond it are not measured."""
+    for i in range(k.shape[0]):
+        c = k[i]
+        px = xy[c, 0]
+        py = xy[c, 1]
+        cell = cells[c]
+        for u in range(dirs.shape[0]):
+            r = np.inf
+            for t in range(steps.shape[0]):
+                s = steps[t] * cell
+                dx = s * dirs[u, 0]
+                dy = s * dirs[u, 1]
+                if abs(_bilinear1(grey, px + dx, py + dy) - _bilinear1(grey, px - dx, py - dy)) > thr[i]:
+                    r = steps[t] * cell
+                    break
+            out[c, u] = max(0.8 * r, least)
 
 
 def square_within(reach: np.ndarray, half: np.ndarray) -> np.ndarray:
@@ -178,7 +207,8 @@ def star_refit(grey: np.ndarray, start: np.ndarray, out: np.ndarray, quality: np
         out[star[better]], quality[star[better]] = xy2[better], q2[better]
 
 
-def refine_board(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def refine_board(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, cells: np.ndarray | None = None
+                 ) -> tuple[np.ndarray, np.ndarray]:
     """The corners refined with windows of 0.65 of their local cell, cut to the plain squares where needed.
 
     The symmetric extent of :func:`edge_halves` is measured at the corners
@@ -194,9 +224,10 @@ def refine_board(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray) -> tuple[
     beyond its clear margin only, so a window within that margin fits the
     corner; an occluder over the corner leaves the cut fit asymmetric too.
     Those still asymmetric are refined with the star window of their reach
-    (:func:`star_refit`), and, failing it, on the image unshaded (:func:`deshaded`).
+    (:func:`star_refit`), and, failing it, on the image unshaded (:func:`deshaded`). ``cells``: the
+    corners' :func:`~sogdd.calib.targets.board.lattice_cells`, when the caller has them already.
     """
-    cells = lattice_cells(xy, labels)
+    cells = lattice_cells(xy, labels) if cells is None else cells
     half = half_widths(xy, None, cells)
     out, quality = refine_grey(grey, xy, half, half.astype(np.float64))
     at = np.where(quality[:, None] > 0, out, xy)
@@ -212,7 +243,7 @@ def refine_board(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray) -> tuple[
     if bad.any() and np.isfinite(cells).any():
         inner = inner_corners(labels) & ~bad
         ref = np.flatnonzero(inner if np.count_nonzero(inner) >= 5 else ~bad)
-        cell = float(np.median(cells[np.isfinite(cells)]))
+        cell = median(cells[np.isfinite(cells)])
         r, q = deshaded(grey, xy[bad], half[bad], out[ref], half[ref], cell)
         k = np.flatnonzero(bad)[q > quality[bad]]
         out[k], quality[k] = r[q > quality[bad]], q[q > quality[bad]]
@@ -266,7 +297,7 @@ def deshaded(grey: np.ndarray, start: np.ndarray, half: np.ndarray, ref: np.ndar
     o = np.array([x0, y0], dtype=np.float64)
     _, q_img = refine_grey(grey, ref, ref_half, ref_half.astype(np.float64), iterations=1)
     _, q_flat = refine_grey(flat, ref - o, ref_half, ref_half.astype(np.float64), iterations=1)
-    scale = max(float(np.median(1.0 - q_img)), 1e-6) / max(float(np.median(1.0 - q_flat)), 1e-6)
+    scale = max(median(1.0 - q_img), 1e-6) / max(median(1.0 - q_flat), 1e-6)
     r, q = refine_grey(flat, start - o, half, half.astype(np.float64))
     a = (1.0 - q) * scale
     return r + o, np.where(q > 0, np.clip(1.0 - a, 0.0, 1.0), 0.0)
