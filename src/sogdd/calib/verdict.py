@@ -167,10 +167,13 @@ def verdict(cal: Calibration) -> list[tuple[str, str]]:
     if smeared:
         out.append(("warn", f"{smeared} of {total} views rejected as smeared (views.csv): their corners far "
                             "less precise than the set's, from motion or focus blur; hold the board still"))
-    rejected = total - n - sum(r == "no board" for r in cal.reasons)
+    missing = sum(r == "no board" for r in cal.reasons)
+    unreadable = sum(r.startswith("unreadable") for r in cal.reasons)  # a rig frame whose image failed
+    rejected = total - n - missing - unreadable
     if rejected > 0.2 * total:
         out.append(("warn", f"{rejected} of {total} views rejected (see views.csv): check those images"))
-    missing = sum(r == "no board" for r in cal.reasons)
+    if unreadable:
+        out.append(("warn", f"{unreadable} of {total} views could not be read (views.csv)"))
     if missing:
         out.append(("warn" if missing > 0.2 * total else "ok", f"no board found in {missing} of {total} views"))
     if not any(level != "ok" for level, _ in out):

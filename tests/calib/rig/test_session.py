@@ -383,3 +383,17 @@ def test_a_rig_of_one_is_its_camera_through_the_joint_solver(rendered_rig, tmp_p
     assert {"rig.yaml", "rig.json", "left/camera.yaml", "left/views.csv"} <= set(files)
     stored = read_rig(files["rig.yaml"])
     assert list(stored["cameras"]) == ["left"] and "E" not in stored
+
+
+def test_an_unreadable_image_is_said_so_not_counted_as_no_board(rendered_rig, tmp_path):
+    from sogdd.calib.verdict import verdict
+
+    folder, _, _ = rendered_rig
+    shutil.copytree(folder / "left", tmp_path / "left")
+    (tmp_path / "left" / "left09.png").write_bytes(b"\x89PNG\r\n\x1a\n not a png")
+    cal = calibrate_rig_images({"left": tmp_path / "left"}, "chessboard:9x6", model="pinhole").rig.cameras[0]
+    cal = cal.calibration
+    assert cal.reasons[-1].startswith("unreadable: ") and "left09.png" in cal.reasons[-1]
+    texts = [t for _, t in verdict(cal)]
+    assert "1 of 9 views could not be read (views.csv)" in texts
+    assert not any(t.startswith(("no board found", "1 of 9 views rejected")) for t in texts), texts

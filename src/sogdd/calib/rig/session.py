@@ -276,7 +276,7 @@ one board
     views = {n: [r.boards[0] if r is not None and r.boards else None for r in results[n]] for n in names}
     rig = fit_rig_boards(views, sizes, spec, square=square, models=models, frames=frames, view_names=labels,
                          reject=reject, min_views=min_views)
-    rig = _sensor_grids(rig, grids)
+    rig = _unreadable(_sensor_grids(rig, grids), results)
     records = {n: _records(n, results[n], labels[n], ignored[n], rig, spec) for n in names}
     thumbs = {n: tuple(None if r is None else r.thumbnail for r in results[n]) for n in names}
     return RigImageCalibration(rig, spec, records, tuple(frames), thumbs if thumbnails else {})
@@ -294,6 +294,16 @@ def fit_rig_boards(views: Mapping[str, Sequence], sizes: Mapping[str, tuple[int,
     rig = calibrate_rig(views, sizes, square=unit, models=chosen, frames=frames, view_names=view_names,
                         pattern=spec.pattern, reject=reject, min_views=min_views)
     return replace(rig, model_selection=selection) if selection else rig
+
+
+def _unreadable(rig: RigCalibration, results: Mapping[str, list[ViewResult | None]]) -> RigCalibration:
+    """The rig, each camera's view of a frame whose image could not be read said so in its calibration's
+    reasons (``unreadable: why``), not "no board" as the fit, which saw no board there, says."""
+    def said(cam):
+        reasons = tuple(f"unreadable: {r.error}" if r is not None and r.error else why
+                        for r, why in zip(results[cam.name], cam.calibration.reasons))
+        return replace(cam, calibration=replace(cam.calibration, reasons=reasons))
+    return replace(rig, cameras=tuple(said(c) for c in rig.cameras))
 
 
 def _sensor_grids(rig: RigCalibration, grids: dict[str, str]) -> RigCalibration:
