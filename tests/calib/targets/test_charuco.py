@@ -92,3 +92,14 @@ def test_a_view_without_the_board_says_whether_its_markers_were_there():
     assert "DICT_5X5_100 marker(s) but no corners of a board of 7x5 squares" in turned.seen
     other = view_boards(img, parse_board("charuco:5x7:0.7:DICT_4X4_50"))
     assert other.boards == () and other.seen == "no ChArUco markers (DICT_4X4_50)"
+
+
+def test_a_board_in_negative_is_found_with_the_same_corners():
+    """A heated board in a thermal camera shows its markers in negative: the spec finds it, its corners and IDs
+    those of the positive image."""
+    spec = parse_board("charuco:5x7:0.7:DICT_5X5_100")
+    img = cv2.GaussianBlur(spec.charuco_board().generateImage((480, 640), marginSize=40), (0, 0), 1.0)
+    pos, neg = view_boards(img, spec).boards, view_boards(255 - img, spec).boards
+    assert len(pos) == len(neg) == 1 and len(neg[0]) == 24
+    assert np.array_equal(pos[0].ids, neg[0].ids)
+    assert np.abs(pos[0].image_points - neg[0].image_points).max() < 0.02

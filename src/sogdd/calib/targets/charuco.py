@@ -100,15 +100,21 @@ def spec_text(spec) -> str:
 
 
 def view_boards(image: np.ndarray, spec, view_only: bool = False) -> ViewBoards:
-    """The ChArUco board of ``spec`` in an image (:func:`detect_charuco`), in either layout (module doc), or
-    what was missing; one board per image whatever ``view_only`` says (the grid is one board)."""
+    """The ChArUco board of ``spec`` in an image (:func:`detect_charuco`), in either layout (module doc) and
+    either polarity (where the image shows no marker, its negative is searched: a board printed or seen in
+    negative, as a heated board in a thermal camera; the corners are where they are in either), or what was
+    missing; one board per image whatever ``view_only`` says (the grid is one board)."""
     board = spec.charuco_board()
-    markers: list = []
-    b = detect_charuco(image, board, markers=markers)
     twin = other_layout(board)
-    if b is None and twin is not None and markers[0][1] is not None:
-        b = detect_charuco(image, twin, markers=markers)
-    found = 0 if markers[0][1] is None else len(markers[0][1])
+    grey = to_grey(image)
+    for img in (grey, 255.0 - grey):  # a board in negative (a heated board in a thermal camera): no marker
+        markers: list = []
+        b = detect_charuco(img, board, markers=markers, value_range=(0.0, 255.0))
+        found = 0 if markers[0][1] is None else len(markers[0][1])
+        if b is None and twin is not None and found:
+            b = detect_charuco(img, twin, markers=markers, value_range=(0.0, 255.0))
+        if found:
+            break
     dictionary, (cols, rows) = spec.dictionary, spec.squares
     seen = ("" if b is not None else f"no ChArUco markers ({dictionary})" if not found else
             f"{found} {dictionary} marker(s) but no corners of a board of {cols}x{rows} squares: check the "
