@@ -244,3 +244,20 @@ def test_sogdd_calibrate_recovers_the_camera(render, tmp_path, capsys):
     assert abs(K[0, 0] - cam.K[0, 0]) < 0.005 * cam.K[0, 0], (K[0, 0], cam.K[0, 0])
     # the object points in the tag size's unit without --square: one label step is SIZE / q = 0.088 / 10
     assert abs(json.loads((out / "camera.json").read_text())["square"] - 0.0088) < 1e-12
+
+
+def test_a_grid_in_negative_is_found_with_the_same_corners(render):
+    """A heated grid in a thermal camera shows its tags in negative: the spec finds it, with the positive
+    image's IDs and corners."""
+    from sogdd.calib.targets.spec import view_boards
+
+    cam = render.camera_for(*CAM_SIZE)
+    R = cv2.Rodrigues(np.array([0.1, -0.2, 0.05]))[0]
+    centre = np.array([1, 1, 0.0]) * (3 * 1.3 + 1) * 0.088 / 2
+    t = cam.K[0, 0] * 0.088 / 60 * np.r_[0.0, 0.0, 1.0] - R @ centre
+    v = render.render_aprilgrid(cam, 4, 4, 0.088, 0.3, cv2.Rodrigues(R)[0].ravel(), t, blur=0.8, noise=2.0,
+                                rng=3)
+    spec = parse_board("aprilgrid:4x4:0.088:0.3")
+    pos, neg = view_boards(v.image, spec).boards, view_boards(255 - v.image, spec).boards
+    assert len(pos) == len(neg) == 1 and len(neg[0]) == 64 and np.array_equal(pos[0].ids, neg[0].ids)
+    assert np.hypot(*(neg[0].image_points - v.corners[neg[0].ids]).T).max() < 0.1

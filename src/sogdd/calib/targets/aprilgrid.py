@@ -238,9 +238,13 @@ def spec_text(spec) -> str:
 
 
 def view_boards(image: np.ndarray, spec, view_only: bool = False) -> ViewBoards:
-    """The AprilGrid of ``spec`` in an image (:func:`detect_aprilgrid`), or what was missing;
-    one board per image whatever ``view_only`` says (the grid is one board)."""
-    b = detect_aprilgrid(image, spec.aprilgrid())
+    """The AprilGrid of ``spec`` in an image (:func:`detect_aprilgrid`), in either polarity (where the image
+    shows no grid, its negative is searched: a heated grid in a thermal camera), or what was missing; one
+    board per image whatever ``view_only`` says (the grid is one board)."""
+    grey = to_grey(image)
+    b = detect_aprilgrid(grey, spec.aprilgrid(), value_range=(0.0, 255.0))
+    if b is None:
+        b = detect_aprilgrid(255.0 - grey, spec.aprilgrid(), value_range=(0.0, 255.0))
     seen = "" if b is not None else "no AprilGrid tags (36h11, a border of 2 bits) of the grid"
     return ViewBoards((b,) if b is not None and len(b) else (), seen)
 
