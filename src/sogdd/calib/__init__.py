@@ -15,6 +15,7 @@ A client of the core (:mod:`sogdd.detector` and its stages); the core never impo
 :mod:`.detection`: boards in image files, over many files (each image read once).
 :mod:`.session`: :func:`calibrate_images`, image files to a camera and every view's fate; its output folder.
 :mod:`.video`: a calibration's views chosen from a video (sharp, new poses, new coverage), and its fit.
+:mod:`.inputs`: :func:`~.inputs.calibrate_inputs_into`, any inputs (images, a video, a rig's) to their folder.
 :mod:`.verdict`: what a calibration is worth, in plain words.
 :mod:`.guidance`: what to do next: where the next views should put the board, and how to tilt it.
 :mod:`.drift`: :func:`~.drift.check_calibration`, new views checked against a stored camera or rig.

@@ -55,7 +55,7 @@ from typing import TYPE_CHECKING
 
 from ..calib.cameras import LENSES
 from ._common import print_json, run_calibration, verdict_level
-from .calibrate_rig import RIG_HELP, RIG_WORDS, add_rig_arguments, run_rig, run_rig_video
+from .calibrate_rig import RIG_HELP, RIG_WORDS, add_rig_arguments, camera_inputs, rig_summary
 from .params import add_read_arguments, read_options
 
 if TYPE_CHECKING:  # the command imports the library when it runs (sogdd --help stays fast)
@@ -64,7 +64,8 @@ if TYPE_CHECKING:  # the command imports the library when it runs (sogdd --help 
 #: the library's words for its parameters (:class:`sogdd.calib.session.ParameterError`), as this command
 #: names them: its errors say what the library's say, with the flags
 WORDS = {"board": "--board", "boards": "--boards", "square": "--square", "jobs": "--jobs",
-         "min_views": "--min-views", "max_views": "--max-views", "video_step": "--video-step", **RIG_WORDS}
+         "min_views": "--min-views", "max_views": "--max-views", "video_step": "--video-step",
+         "allow_missing": "--allow-missing-frames", **RIG_WORDS}
 
 
 def configure(p: argparse.ArgumentParser) -> None:
@@ -123,43 +124,26 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from ..calib.session import calibrate_into
-    from ..calib.video import is_video
+    from ..calib.inputs import calibrate_inputs_into
+    from ..calib.rig.session import RigImageCalibration
 
     spec, reading = _board(args.board), read_options(args)
-    if args.cameras:
-        if any(is_video(p) for cam in args.cameras for p in cam[1:]):
-            return run_rig_video(args, spec)
-        return run_rig(args, spec, reading)
-    if not args.images:
+    if args.cameras and args.images:
+        raise ValueError("give the images of one camera, or --camera NAME PATTERN... for each camera of a rig, "
+                         "not both")
+    if not args.cameras and not args.images:
         raise ValueError("no images: give the image files, or --camera NAME PATTERN... per camera of a rig")
-    if args.allow_missing_frames:
-        raise ValueError("--allow-missing-frames is for a rig (--camera NAME PATTERN... per camera)")
-    if any(map(is_video, args.images)):
-        return _run_video(args, spec)
+    inputs = camera_inputs(args.cameras) if args.cameras else args.images
     return run_calibration(
         args.out,
-        lambda: calibrate_into(args.images, args.out, spec, boards=args.boards, square=args.square,
-                               model=args.model, jobs=args.jobs, scheduler=args.scheduler,
-                               min_views=args.min_views, reject=args.reject, recursive=args.recursive,
-                               read_options=reading, report=args.report, progress=not args.quiet),
-        lambda result, written: _summary(args, result, written))
-
-
-def _run_video(args: argparse.Namespace, spec: BoardSpec) -> int:
-    """``sogdd calibrate VIDEO``: the frames chosen (:func:`sogdd.calib.video.calibrate_video_into`)."""
-    from ..calib.video import calibrate_video_into
-
-    if len(args.images) != 1:
-        raise ValueError(f"a video is calibrated alone: give one video file, not {len(args.images)} inputs")
-    if args.boards != "best":
-        raise ValueError("--boards all is for images; a video's frame gives one view")
-    return run_calibration(
-        args.out,
-        lambda: calibrate_video_into(args.images[0], args.out, spec, square=args.square, model=args.model,
-                                     min_views=args.min_views, reject=args.reject, max_views=args.max_views,
-                                     step=args.video_step, report=args.report, progress=not args.quiet),
-        lambda result, written: _summary(args, result, written))
+        lambda: calibrate_inputs_into(inputs, args.out, spec, boards=args.boards, square=args.square,
+                                      model=args.model, jobs=args.jobs, scheduler=args.scheduler,
+                                      min_views=args.min_views, reject=args.reject, recursive=args.recursive,
+                                      allow_missing=args.allow_missing_frames, read_options=reading,
+                                      max_views=args.max_views, video_step=args.video_step, report=args.report,
+                                      progress=not args.quiet),
+        lambda result, written: (rig_summary if isinstance(result, RigImageCalibration) else _summary)(
+            args, result, written))
 
 
 def _summary(args: argparse.Namespace, result, written: dict) -> list[tuple[str, str]]:

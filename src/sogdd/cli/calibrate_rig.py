@@ -3,24 +3,20 @@
   sogdd calibrate --camera left 'left/*.jpg' --camera right 'right/*.jpg' --board chessboard:9x6 --out rig/
   sogdd calibrate --camera left left.mp4 --camera right right.mp4 --board chessboard:9x6 --out rig/
 
-Run by :mod:`sogdd.cli.calibrate` when --camera is given (its options and help are there);
-:func:`sogdd.calib.rig.session.calibrate_rig_into` does the work, the rig's rules included.
+Part of :mod:`sogdd.cli.calibrate` (its options and help are there): --camera's arguments, parsed into
+:func:`sogdd.calib.inputs.calibrate_inputs_into`'s mapping of cameras, and the rig's summary.
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ._common import print_json, run_calibration, verdict_level
+from ._common import print_json, verdict_level
 
-if TYPE_CHECKING:  # the library is imported when the command runs
-    from ..calib import BoardSpec
-
-__all__ = ["RIG_WORDS", "add_rig_arguments", "run_rig", "run_rig_video"]
+__all__ = ["RIG_WORDS", "add_rig_arguments", "camera_inputs", "rig_summary"]
 
 #: the rig's words in the library's errors (:class:`sogdd.calib.session.ParameterError`), as this command
 #: says them: its cameras are --camera options
@@ -59,7 +55,7 @@ def add_rig_arguments(p: argparse.ArgumentParser) -> None:
                         "error naming the frames)")
 
 
-def _cameras(given: list[list[str]]) -> dict[str, list[str]]:
+def camera_inputs(given: list[list[str]]) -> dict[str, list[str]]:
     """``--camera NAME PATTERN...`` options as ``{name: patterns}`` (the names and their number are the
     library's to check)."""
     out: dict[str, list[str]] = {}
@@ -71,49 +67,6 @@ def _cameras(given: list[list[str]]) -> dict[str, list[str]]:
             raise ValueError(f"--camera {name}: given twice; give each camera once, with all its images")
         out[name] = patterns
     return out
-
-
-def run_rig(args: argparse.Namespace, spec: BoardSpec, reading: dict) -> int:
-    """``sogdd calibrate --camera ...``: the rig's calibration, its output folder and its summary."""
-    from ..calib.rig.session import calibrate_rig_into
-
-    if args.images:
-        raise ValueError("give the images of one camera, or --camera NAME PATTERN... for each camera of a rig, "
-                         "not both")
-    cameras = _cameras(args.cameras)
-    return run_calibration(
-        args.out,
-        lambda: calibrate_rig_into(cameras, args.out, spec, square=args.square, model=args.model,
-                                   boards=args.boards, jobs=args.jobs, scheduler=args.scheduler,
-                                   min_views=args.min_views, reject=args.reject, recursive=args.recursive,
-                                   allow_missing=args.allow_missing_frames, read_options=reading,
-                                   report=args.report, progress=not args.quiet),
-        lambda result, written: _summary(args, result, written))
-
-
-def run_rig_video(args: argparse.Namespace, spec: BoardSpec) -> int:
-    """``sogdd calibrate --camera NAME VIDEO ...``: a rig of videos
-    (:func:`sogdd.calib.rig.video.calibrate_rig_video_into`), its output folder and its summary, as a rig of
-    images."""
-    from ..calib.rig.video import calibrate_rig_video_into
-    from ..calib.video import is_video
-
-    if args.images:
-        raise ValueError("give the video of one camera, or --camera NAME VIDEO for each camera of a rig, not "
-                         "both")
-    cameras = _cameras(args.cameras)
-    if not all(is_video(p) for ps in cameras.values() for p in ps):
-        raise ValueError("a rig's cameras are all videos (--camera NAME VIDEO, one each) or all images, not a "
-                         "mix")
-    if args.allow_missing_frames:
-        raise ValueError("--allow-missing-frames is for a rig of images; a rig of videos matches its frames by "
-                         "index")
-    return run_calibration(
-        args.out,
-        lambda: calibrate_rig_video_into(cameras, args.out, spec, square=args.square, model=args.model,
-                                         min_views=args.min_views, reject=args.reject, max_views=args.max_views,
-                                         step=args.video_step, report=args.report, progress=not args.quiet),
-        lambda result, written: _summary(args, result, written))
 
 
 def _camera_summary(c) -> dict:
@@ -130,7 +83,7 @@ def _fmt_std(v) -> str:
     return "" if v is None or not np.isfinite(v) else f" ± {v:.2g}"
 
 
-def _summary(args: argparse.Namespace, result, written: dict) -> list[tuple[str, str]]:
+def rig_summary(args: argparse.Namespace, result, written: dict) -> list[tuple[str, str]]:
     """Print the summary (text, or one JSON object); return the verdict's findings."""
     from ..calib.rig.verdict import rig_verdict
 
