@@ -39,6 +39,19 @@ def test_a_board_smeared_across_one_axis_keeps_its_edge_links(render, angle):
     assert d.max() < 1.0
 
 
+def test_a_board_lit_unevenly_through_a_nonlinear_response_keeps_its_dim_corner(render):
+    """Light falling to a sixth across the board, seen by a camera of response ``I^2.5`` (a linear sensor's
+    output against the sRGB one): the dim corner's edges have under a third of the board's median contrast,
+    and keep their links, each set against the links beside it."""
+    img, v = _smeared(render, 0.0, 0.0)
+    h, w = img.shape
+    y, x = np.mgrid[:h, :w]
+    light = 1.0 - 0.83 * np.clip((x - 200) / 400, 0, 1) * np.clip((y - 150) / 300, 0, 1)
+    dim = 255.0 * (img / 255.0 * light) ** 2.5
+    share, linked = edge_links(dim, v.corners, v.labels)
+    assert share >= EDGE_SHARE and linked.all()
+
+
 def test_links_across_squares_fail_the_edge_test(render):
     # the same corners linked two steps along an axis (a lattice of wrong steps): each link crosses a
     # square of the other colour half-way, so its side differences change sign

@@ -45,9 +45,12 @@ def edge_links(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray) -> tuple[fl
     of a fifth of a cell leaves most of the contrast against the noise, and within
     the 0.2 of a cell a code printed in the squares keeps clear), with one sign and at least
     :data:`EDGE_CONTRAST` of the median difference of the board's links along the
-    same axis (``i`` or ``j``): a motion blur smears the edges across it and a tilt
+    same axis (``i`` or ``j``), or of the strongest link of that axis at either of
+    its ends where that is less: a motion blur smears the edges across it and a tilt
     shortens the links of one axis, which lowers that axis's contrast (by 3.5
-    times under an 18 px smear) and not the other's. A grid that links
+    times under an 18 px smear) and not the other's; light falling unevenly on the
+    board lowers it over a part of the board (a linear camera's dim corner has a
+    third of the median contrast). A grid that links
     corners across squares (a lattice of wrong steps, e.g. a knight's move of a
     board blurred beyond recognition) fails it at ``t = 1/4`` or ``3/4``.
     """
@@ -63,10 +66,17 @@ def edge_links(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray) -> tuple[fl
     d = np.maximum(0.15 * length, 1.0)[:, None] * n
     diff = np.stack([bilinear(grey, p + t * v + d) - bilinear(grey, p + t * v - d)
                      for t in (0.25, 0.5, 0.75)])
+    mid = np.abs(diff[1])
     scale = np.zeros(len(a))
     for axis in (0, 1):
         on = a == axis
-        scale[on] = median(np.abs(diff[1, on])) if on.any() else 0.0
+        scale[on] = median(mid[on]) if on.any() else 0.0
+    # ... and at most the strongest of its axis's links at either end: a board lit unevenly, seen by a camera
+    # whose response is not linear, has its edges' contrast vary over it, and its dim part keeps its links
+    near = np.zeros((len(xy), 2))
+    np.maximum.at(near, (pairs[:, 0], a), mid)
+    np.maximum.at(near, (pairs[:, 1], a), mid)
+    scale = np.minimum(scale, np.maximum(near[pairs[:, 0], a], near[pairs[:, 1], a]))
     ok = (np.abs(diff) >= EDGE_CONTRAST * scale).all(axis=0) & (np.sign(diff) == np.sign(diff[1])).all(axis=0)
     ok &= scale > 0
     has = np.zeros(len(xy), dtype=bool)
