@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
+import functools
 import math
 import re
-import sys
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
@@ -114,6 +114,12 @@ class Board:
                 raise ValueError("precision must be standard deviations >= 0 (px), or NaN where unknown")
             object.__setattr__(self, "precision", sigma)
 
+    @functools.cached_property
+    def cell(self) -> float:
+        """:func:`cell_size`, computed once: a board is ranked against others several times in a search
+        (its fields are fixed, so the cached value stays its)."""
+        return cell_size(self)
+
     def __len__(self) -> int:
         return len(self.image_points)
 
@@ -190,15 +196,14 @@ def cell_size(board: Board) -> float:
     return median(np.hypot(*(pts[nb[k, d]] - pts[k]).T)) if len(k) else float("nan")
 
 
-def view_board(boards: Sequence[Board], cells: Sequence[float] | None = None) -> Board | None:
+def view_board(boards: Sequence[Board]) -> Board | None:
     """The image's board, of several: the largest in the image, complete first, then the most corners.
 
     A board whose cells (:func:`cell_size`) are under :data:`SMALL_CELL` of
     the largest board's is a screen, a reflection or a pattern in the
     background: never the view's board, even complete where the view's own is
     cut by an occluder or the frame. Of the others, ``(B.size is not None,
-    len(B), cell_size(B))`` decides: of two complete boards, the one of larger cells. ``cells``: the
-    boards' :func:`cell_size`, when the caller has them already.
+    len(B), cell_size(B))`` decides: of two complete boards, the one of larger cells.
 
     Examples
     --------
@@ -211,20 +216,13 @@ def view_board(boards: Sequence[Board], cells: Sequence[float] | None = None) ->
     >>> view_board([screen, near]) is near
     True
     """
-    cells = [cell_size(b) for b in boards] if cells is None else list(cells)
+    cells = [b.cell for b in boards]
     largest = max((c for c in cells if np.isfinite(c)), default=float("nan"))
     keep = [k for k, c in enumerate(cells) if not c < SMALL_CELL * largest]
     if not keep:
         return None
-    rank = [(b.size is not None, len(b), _nan_to_num(c)) for b, c in zip(boards, cells)]
+    rank = [(b.size is not None, len(b), 0.0 if math.isnan(c) else c) for b, c in zip(boards, cells)]
     return boards[max(keep, key=rank.__getitem__)]
-
-
-def _nan_to_num(c: float) -> float:
-    """``np.nan_to_num`` of one number, without its overhead: 0 for NaN, the largest float for inf."""
-    if math.isnan(c):
-        return 0.0
-    return max(min(float(c), sys.float_info.max), -sys.float_info.max)
 
 
 def lattice_cells(xy: np.ndarray, labels: np.ndarray) -> np.ndarray:

@@ -36,17 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..board import (
-    SMALL_CELL,
-    Board,
-    ViewBoards,
-    cell_size,
-    grid_dims,
-    lattice_cells,
-    median,
-    parse_grid,
-    view_board,
-)
+from ..board import SMALL_CELL, Board, ViewBoards, grid_dims, lattice_cells, median, parse_grid, view_board
 from .checks import EDGE_SHARE, MAX_ORPHANS, edge_links, extends, has_block, orphans
 from .fill import fill_board
 from .labels import orient
@@ -84,25 +74,6 @@ def _check_pattern(pattern: object) -> tuple[int, int] | None:
     if not ok:
         raise ValueError(f"pattern must be two integers >= 2 (inner corners), got {pattern!r}")
     return int(c), int(r)
-
-
-class _Cells:
-    """The boards' :func:`~sogdd.calib.targets.board.cell_size`, each computed once in a search: the view's
-    board is ranked at every level and again at the end, and its boards do not change meanwhile. The
-    boards are held, so that their ids stay theirs."""
-
-    def __init__(self) -> None:
-        self._seen: dict[int, tuple[Board, float]] = {}
-
-    def __call__(self, board: Board) -> float:
-        hit = self._seen.get(id(board))
-        if hit is None:
-            hit = self._seen[id(board)] = (board, cell_size(board))
-        return hit[1]
-
-    def view(self, boards: Sequence[Board]) -> Board | None:
-        """:func:`~sogdd.calib.targets.board.view_board` of ``boards``."""
-        return view_board(boards, [self(b) for b in boards])
 
 
 def _finish(grey: np.ndarray, xc: XCorners, lat: Lattice, pattern: tuple[int, int] | None,
@@ -164,14 +135,13 @@ def _labelled(xy: np.ndarray, lab: np.ndarray, size: tuple[int, int] | None, qua
 
 def _boards(grey: np.ndarray, xc: XCorners, pattern: tuple[int, int] | None, min_corners: int, refine: bool,
             max_boards: int, others: list[Board] | None = None, done: Sequence[Board] = (),
-            view_only: bool = False, cell: _Cells | None = None) -> list[Board]:
+            view_only: bool = False) -> list[Board]:
     """The boards of one level's X-corners, largest first. A lattice whose corners all lie on a complete
     board of ``done`` (a level searched before) is that board again, and is not refined a second time.
 
     Seeds are grown strongest first (:func:`~sogdd.calib.targets.chessboard.lattice.seeds`), each lattice
     refined and checked as it is grown. With ``view_only`` (one board per image, :func:`find_boards`),
-    :func:`_view_boards` instead. ``cell``: the search's boards' cells (:class:`_Cells`)."""
-    cell = _Cells() if cell is None else cell
+    :func:`_view_boards` instead."""
     if len(xc) < 5:
         return []
     tree = cKDTree(xc.xy)
@@ -179,9 +149,9 @@ def _boards(grey: np.ndarray, xc: XCorners, pattern: tuple[int, int] | None, min
     free = np.ones(len(xc), dtype=bool)
     if view_only:
         return _view_boards(grey, xc, tree, nb, dist, free, pattern, min_corners, refine, max_boards, others,
-                            done, cell)
+                            done)
     out: list[Board] = []
-    for lat in _grown(xc, seeds(xc, nb, dist), tree, nb, free, min_corners, done, cell):
+    for lat in _grown(xc, seeds(xc, nb, dist), tree, nb, free, min_corners, done):
         board = _finish(grey, xc, lat, pattern, min_corners, refine, others=others)
         if board is not None:
             out.append(board)
@@ -192,7 +162,7 @@ def _boards(grey: np.ndarray, xc: XCorners, pattern: tuple[int, int] | None, min
 
 
 def _grown(xc: XCorners, order: np.ndarray, tree: cKDTree, nb: np.ndarray, free: np.ndarray, min_corners: int,
-           done: Sequence[Board], cell: _Cells) -> Iterator[Lattice]:
+           done: Sequence[Board]) -> Iterator[Lattice]:
     """The lattices grown from the seeds ``order`` whose seed and its neighbours are still free (``free``
     updated as they grow), of ``min_corners`` or more and not already a complete board of ``done``."""
     for s in order:
@@ -203,7 +173,7 @@ def _grown(xc: XCorners, order: np.ndarray, tree: cKDTree, nb: np.ndarray, free:
             free[lat.index] = True
             free[s] = False  # not a seed again
             continue
-        if any(_within(xc.xy[lat.index], b, cell(b)) for b in done if b.size is not None):
+        if any(_within(xc.xy[lat.index], b) for b in done if b.size is not None):
             continue
         yield lat
 
@@ -216,22 +186,21 @@ VIEW_SMALL = 0.8 * float(SMALL_CELL)
 
 def _view_boards(grey: np.ndarray, xc: XCorners, tree: cKDTree, nb: np.ndarray, dist: np.ndarray,
                  free: np.ndarray, pattern: tuple[int, int] | None, min_corners: int, refine: bool,
-                 max_boards: int, others: list[Board] | None, done: Sequence[Board], cell: _Cells
-                 ) -> list[Board]:
+                 max_boards: int, others: list[Board] | None, done: Sequence[Board]) -> list[Board]:
     """:func:`_boards` for one board per image: the seeds spaced at least :data:`VIEW_SMALL` of the widest
     seed's first (strongest first among them), then the others; each group's lattices refined largest
     cells first; once a board of the whole pattern is found (here or in ``done``), no seed or lattice
     under :data:`VIEW_SMALL` of its cells is grown or refined. Such a board can be no view
     (:func:`~sogdd.calib.targets.board.view_board`), and refining it costs as much as the view's own."""
     full = math.inf if pattern is None else pattern[0] * pattern[1]
-    settled = max((cell(b) for b in done if len(b) == full), default=0.0)
+    settled = max((b.cell for b in done if len(b) == full), default=0.0)
     order = seeds(xc, nb, dist)
     spacing = np.median(dist[order], axis=1)
     wide = spacing >= VIEW_SMALL * max(spacing.max(initial=0.0), settled)
     out: list[Board] = []
     for part in (wide, ~wide):
         group = order[part & (spacing >= VIEW_SMALL * settled)]
-        grown = list(_grown(xc, group, tree, nb, free, min_corners, done, cell))
+        grown = list(_grown(xc, group, tree, nb, free, min_corners, done))
         local = [lattice_cells(xc.xy[lat.index], lat.labels) for lat in grown]  # the refinement's too
         cells = [median(c) for c in local]
         for k in np.argsort(cells, kind="stable")[::-1]:
@@ -241,7 +210,7 @@ def _view_boards(grey: np.ndarray, xc: XCorners, tree: cKDTree, nb: np.ndarray, 
             if board is not None:
                 out.append(board)
                 if len(board) == full:
-                    settled = max(settled, cell(board))
+                    settled = max(settled, board.cell)
     out.sort(key=lambda b: -len(b))
     return out
 
@@ -401,10 +370,8 @@ def _validated(image, pattern, min_corners, min_strength, scale, max_boards, mas
 
 def _search(grey: np.ndarray, pat: tuple[int, int] | None, min_corners: int, min_strength: float | None,
             scale: float | None, refine: bool, max_boards: int, mask: np.ndarray | None,
-            proposals: bool, view_only: bool = False, cell: _Cells | None = None) -> BoardSearch:
-    """The search of :func:`find_boards` on a validated grey image; ``cell``: its boards' cells
-    (:class:`_Cells`), to rank them again after it."""
-    cell = _Cells() if cell is None else cell
+            proposals: bool, view_only: bool = False) -> BoardSearch:
+    """The search of :func:`find_boards` on a validated grey image."""
     if pat is not None:  # a whole board of the pattern is always a board
         min_corners = max(9, min(min_corners, pat[0] * pat[1]))
     g32 = grey.astype(np.float32)  # the X-corner search's maps are float32
@@ -413,12 +380,12 @@ def _search(grey: np.ndarray, pat: tuple[int, int] | None, min_corners: int, min
         # the coarser levels, coarsest first: a complete board settles the view (module doc)
         coarse = sorted(v for v in levels if v < levels[0])  # not the full scale a large frame ends with
         best, others = _levels(grey, g32, coarse, pat, min_corners, min_strength, refine, max_boards, mask,
-                               view_only=True, settle=True, cell=cell)
-        if _settled(best, pat, cell):
+                               view_only=True, settle=True)
+        if _settled(best, pat):
             return BoardSearch(best, others)
     best, others = _levels(grey, g32, levels, pat, min_corners, min_strength, refine, max_boards, mask,
-                           view_only and pat is not None, cell=cell)
-    view = cell.view(best)
+                           view_only and pat is not None)
+    view = view_board(best)
     if pat is not None and proposals and (view is None or len(view) < pat[0] * pat[1]):
         for prop in propose(grey, pat):
             board = _finish(grey, _proposed(grey, prop.xy), Lattice(np.arange(len(prop.xy)), prop.labels), pat,
@@ -432,12 +399,11 @@ def _search(grey: np.ndarray, pat: tuple[int, int] | None, min_corners: int, min
 
 def _levels(grey: np.ndarray, g32: np.ndarray, levels: Sequence[float], pat: tuple[int, int] | None,
             min_corners: int, min_strength: float | None, refine: bool, max_boards: int,
-            mask: np.ndarray | None, view_only: bool = False, settle: bool = False, cell: _Cells | None = None
+            mask: np.ndarray | None, view_only: bool = False, settle: bool = False
             ) -> tuple[list[Board], list[Board]]:
     """The boards of the pyramid's ``levels``, in that order, and the ``others``: the loop of :func:`_search`,
     stopped where :func:`_room_for_larger` says no larger board can follow, or with ``settle`` (levels
     coarse to fine) at the first that settles the view (``view_only``: :func:`_boards`')."""
-    cell = _Cells() if cell is None else cell
     best: list[Board] = []
     others: list[Board] = []
     cap, finest = math.inf, math.inf  # the noise of the finest level searched so far, and its scale
@@ -445,17 +411,15 @@ def _levels(grey: np.ndarray, g32: np.ndarray, levels: Sequence[float], pat: tup
         xc = search(g32, min_strength, level, mask, cap if level < finest else math.inf)
         if level < finest:
             cap, finest = xc.noise, level
-        best = _merged(best, _boards(grey, xc, pat, min_corners, refine, max_boards, others, best, view_only,
-                                     cell))
-        if pat is not None and (_settled(best, pat, cell) if settle
-                                else not _room_for_larger(best, pat, grey.shape, cell)):
+        best = _merged(best, _boards(grey, xc, pat, min_corners, refine, max_boards, others, best, view_only))
+        if pat is not None and (_settled(best, pat) if settle else not _room_for_larger(best, pat, grey.shape)):
             break
     return best, others
 
 
-def _settled(boards: list[Board], pattern: tuple[int, int], cell: _Cells) -> bool:
+def _settled(boards: list[Board], pattern: tuple[int, int]) -> bool:
     """Whether the view's board (:func:`~sogdd.calib.targets.board.view_board`) is the whole pattern."""
-    view = cell.view(boards)
+    view = view_board(boards)
     return view is not None and len(view) == pattern[0] * pattern[1]
 
 
@@ -473,14 +437,13 @@ def _merged(found: list[Board], new: list[Board]) -> list[Board]:
     return out
 
 
-def _room_for_larger(boards: list[Board], pattern: tuple[int, int], shape: tuple[int, int], cell: _Cells
-                     ) -> bool:
+def _room_for_larger(boards: list[Board], pattern: tuple[int, int], shape: tuple[int, int]) -> bool:
     """Whether the frame could hold a board of ``pattern`` that would make the complete one found so far a
     background board (:func:`sogdd.calib.targets.board.view_board`): cells ``1 / SMALL_CELL`` times as
     large, its shorter side (``min(pattern) + 1`` cells) within the frame's longer side. Until a complete
     board is found, or while such a board fits, the coarser levels are searched too (a screen showing
     the board may be the clearest board at the finest level)."""
-    cells = [cell(b) for b in boards if len(b) == pattern[0] * pattern[1]]
+    cells = [b.cell for b in boards if len(b) == pattern[0] * pattern[1]]
     if not cells:
         return True
     return max(cells) / SMALL_CELL * (min(pattern) + 1) <= max(shape)
@@ -493,11 +456,11 @@ def _proposed(grey: np.ndarray, xy: np.ndarray) -> XCorners:
     return XCorners(xy.copy(), junction_strength(hess), light, phi)
 
 
-def _within(xy: np.ndarray, board: Board, cell: float) -> bool:
-    """Whether every point lies within a quarter of the board's cell (its :func:`cell_size`) of one of its
+def _within(xy: np.ndarray, board: Board) -> bool:
+    """Whether every point lies within a quarter of the board's cell (:attr:`Board.cell`) of one of its
     corners."""
     d, _ = cKDTree(board.image_points).query(xy)
-    return bool(np.all(d < 0.25 * cell))
+    return bool(np.all(d < 0.25 * board.cell))
 
 
 def _overlaps(a: Board, b: Board) -> bool:
@@ -534,12 +497,10 @@ def detect_board(image: np.ndarray, pattern: tuple[int, int] | None = None, *, m
     >>> detect_board(np.zeros((64, 64))) is None
     True
     """
-    # find_boards' search with view_only, its boards' cells kept to rank them
-    grey, pat = _validated(image, pattern, min_corners, min_strength, scale, max_boards, mask, value_range)
-    cell = _Cells()
-    found = _search(grey, pat, int(min_corners), min_strength, scale, refine, int(max_boards), mask,
-                    proposals, True, cell)
-    return cell.view(found.boards)
+    found = find_boards(image, pattern, min_corners=min_corners, min_strength=min_strength, scale=scale,
+                        refine=refine, max_boards=max_boards, mask=mask, value_range=value_range,
+                        proposals=proposals, view_only=True)
+    return view_board(found.boards)
 
 
 def parse_spec(parts: list[str], spec: str) -> dict | None:
