@@ -12,6 +12,9 @@ it). OUT is a file or a folder, as the format wants:
   colmap  a COLMAP text model folder: cameras.txt and rigs.txt (needs pycolmap)
   mrgingham  the corners, not the camera: IN's corners.csv (a rig's NAME/corners.csv, views named
           NAME/VIEW) as mrgingham's corners.vnl, for mrcal-calibrate-cameras --corners-cache
+  kalibr-corners  the corners as Kalibr's target observations: a CSV per camera (OUT.csv, or
+          OUT/observations.csv; a rig's OUT/NAME.csv) of timestamp_ns, view, Kalibr's corner id,
+          pixel x y, Kalibr's target point and used; an AprilGrid needs --board
 
 A model a format cannot hold (mrcal has no OpenCV fisheye, Kalibr no rational model, ...) is
 refused with the reason, and nothing is written; every number goes out and comes back to float
@@ -35,6 +38,13 @@ def run(args: argparse.Namespace) -> int:
         path = write_corners_vnl(args.input, args.output, pattern=args.pattern, used_only=args.used_only)
         print(f"sogdd: wrote the corners as mrgingham's corners.vnl: {path}")
         return 0
+    if args.to == "kalibr-corners":
+        from ..calib.exchange.kalibr_corners import write_kalibr_corners
+
+        files = write_kalibr_corners(args.input, args.output, pattern=args.pattern, grid=args.board,
+                                     used_only=args.used_only, scale=args.scale)
+        print(f"sogdd: wrote the corners as Kalibr's observations: {', '.join(str(f) for f in files)}")
+        return 0
     rig, files = convert(args.input, args.output, args.to, source_format=args.source, scale=args.scale)
     cams = ", ".join(f"{c.name} ({c.model})" for c in rig.cameras)
     print(f"sogdd: wrote {cams} as {args.to}: {', '.join(str(f) for f in files)}")
@@ -49,16 +59,21 @@ def configure(p: argparse.ArgumentParser) -> None:
     p.add_argument("input", metavar="IN", help="a calibration: sogdd's file or output folder, or any format "
                    "below")
     p.add_argument("output", metavar="OUT", help="the file or folder to write")
-    p.add_argument("--to", required=True, choices=(*FORMATS, "mrgingham"),
-                   help="the format to write (mrgingham: the corners, not the camera)")
+    p.add_argument("--to", required=True, choices=(*FORMATS, "mrgingham", "kalibr-corners"),
+                   help="the format to write (mrgingham, kalibr-corners: the corners, not the camera)")
     p.add_argument("--from", dest="source", choices=tuple(FORMATS), default=None,
                    help="IN's format (default: recognised from its content)")
     p.add_argument("--scale", type=float, default=1.0, metavar="S",
-                   help="multiply every translation by S (0.001: millimetres to metres)")
+                   help="multiply every translation (kalibr-corners: every target point) by S (0.001: "
+                   "millimetres to metres)")
     p.add_argument("--pattern", type=_pattern, metavar="WxH", default=None,
-                   help="--to mrgingham: the board's inner corners (default: from the labels)")
+                   help="--to mrgingham, kalibr-corners: the board's inner corners (default: from the labels)")
     p.add_argument("--used-only", action="store_true",
-                   help="--to mrgingham: only the corners the calibration used (the others '-')")
+                   help="--to mrgingham, kalibr-corners: only the corners the calibration used (mrgingham: "
+                   "the others '-')")
+    p.add_argument("--board", metavar="SPEC", default=None,
+                   help="--to kalibr-corners: the AprilGrid, aprilgrid:COLSxROWS:SIZE:SPACING (Kalibr's ids "
+                   "and target points of its corners)")
     p.set_defaults(func=run)
 
 

@@ -16,14 +16,17 @@ read with their standard deviations (the one reader of sogdd's stored files).
 :mod:`.mrcal`: mrcal's ``.cameramodel`` (LENSMODEL_OPENCV4, 5, 8; ``extrinsics``).
 :mod:`.colmap`: COLMAP cameras and rigs through pycolmap (OPENCV, FULL_OPENCV, OPENCV_FISHEYE).
 :mod:`.mrgingham`: a calibration's corners as mrgingham's ``corners.vnl`` (``mrcal-calibrate-cameras``).
+:mod:`.kalibr_corners`: a calibration's corners as Kalibr's target observations (its ids and target points).
 :mod:`.conversion`: :func:`read_calibration`, :func:`write_calibration_as` and :func:`convert` in any format.
 """
 
 from .conversion import convert, read_calibration, write_calibration_as
 from .format import ExchangeFormat
+from .kalibr_corners import read_kalibr_corners, write_kalibr_corners
 from .mrgingham import write_corners_vnl
 from .registry import FORMATS, detect, exchange_format
 from .stored import StoredCamera, StoredRig, stored_rig
 
 __all__ = ["FORMATS", "ExchangeFormat", "StoredCamera", "StoredRig", "convert", "detect", "exchange_format",
-           "read_calibration", "stored_rig", "write_calibration_as", "write_corners_vnl"]
+           "read_calibration", "read_kalibr_corners", "stored_rig", "write_calibration_as", "write_corners_vnl",
+           "write_kalibr_corners"]
