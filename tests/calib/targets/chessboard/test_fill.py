@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from sogdd.calib.cameras import Camera
-from sogdd.calib.targets.chessboard.fill import _fill, _fill_labels, _frame
+from sogdd.calib.targets.chessboard.fill import _fill, _fill_labels, _frame, _on_lattice
 from sogdd.calib.targets.chessboard.windows import refine_board
 
 
@@ -199,3 +199,32 @@ def test_two_candidates_on_one_point_are_neither_filled(render):
     its copy's lattice, both converge on H's true corner; one point cannot take two labels."""
     new = _filled(_view(render), free=(H,), island_free=(H,))
     assert new == {}
+
+
+# --------------------------------------------------------------------------------------------------
+# _on_lattice: the check of a filled corner, within CHECK_TOL, or within FILL_TOL when it is as symmetric as
+# the board's corners (a curved rim moves the map, not the corner's symmetry; an occluder moves both)
+
+
+def _lattice_with_new(off_cells: float):
+    """A 7 x 6 lattice of 20 px cells, bent slightly, and one more corner at label (7, 3) (next to the board's
+    side) ``off_cells`` of a cell along i from where the lattice continues."""
+    lab = np.array([(i, j) for j in range(6) for i in range(7)] + [(7, 3)])
+    xy = 20.0 * lab + 0.02 * (lab[:, :1] - 3.0) ** 2 + 5.0
+    xy[-1, 0] += 20.0 * off_cells
+    return xy, lab
+
+
+@pytest.mark.parametrize("off, asym, board, kept", [
+    (0.05, 0.08, 0.01, True),    # within CHECK_TOL: kept whatever its symmetry (the asymmetry test is another)
+    (0.16, 0.005, 0.01, True),   # beyond CHECK_TOL, within FILL_TOL, as symmetric as the board's: kept
+    (0.16, 0.05, 0.01, False),   # the same point, five times the board's asymmetry: an occluder moved it
+    (0.16, 0.019, 0.001, True),  # 19 times a clean board's, but under FILL_SYMMETRY_FLOOR: kept
+    (0.16, 0.025, 0.001, False),  # ... over it: dropped
+    (0.25, 0.0, 0.01, False),    # beyond FILL_TOL: never
+])
+def test_a_filled_corner_beyond_the_grown_corners_tolerance_must_be_as_symmetric_as_the_board(off, asym, board,
+                                                                                               kept):
+    xy, lab = _lattice_with_new(off)
+    quality = np.r_[np.full(len(xy) - 1, 1 - board), 1 - asym]
+    assert _on_lattice(xy, lab, quality, len(xy) - 1, board).tolist() == [kept]

@@ -17,7 +17,7 @@ from scipy.spatial import cKDTree
 
 from ..board import lattice_cells, median
 from ..refine import MIN_HALF, WINDOW_FRACTION, half_widths, refine_grey
-from .mapping import check, label_grid, predict_labels
+from .mapping import CHECK_TOL, check, label_grid, predict_labels
 from .windows import (
     ASYMMETRY,
     MIN_ASYMMETRY,
@@ -42,6 +42,13 @@ FILL_ITERATIONS = 60
 #: of a cell is left to the check; a corner of the board, extrapolated from one side, the map misses by
 #: up to 0.2 of a cell at a fisheye's rim
 FILL_TOL = 0.2
+#: ... but beyond :data:`~.mapping.CHECK_TOL` (the grown corners' tolerance) only a corner as point symmetric as
+#: the board's: asymmetry within this multiple of their median. A curved rim leaves a corner's symmetry
+#: alone; an occluder or a smear that moved the point breaks it (on rendered views, the moved corners
+#: 5-14 times the board's median, the extrapolated rim corners of a 180-degree lens about 1 time)
+FILL_SYMMETRY = 3.0
+#: ... or under this asymmetry (a board without noise has a median near 0; the moved corners were 0.04 and more)
+FILL_SYMMETRY_FLOOR = 0.02
 #: a filled corner's X-junction contrast (:func:`_ring_contrast`), at least this share of the board's median
 FILL_CONTRAST = 0.5
 
@@ -218,12 +225,15 @@ def _fill(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, quality: np.ndar
     measured along the lattice's local steps, :func:`_frame` and
     :func:`_wedges`: at a fisheye's rim the cells are too sheared and small for
     an X-corner's own light axis), at least half a cell from every other
-    corner, and the check of its neighbours within :data:`FILL_TOL`
+    corner, and the check of its neighbours within :data:`~.mapping.CHECK_TOL`, or within
+    :data:`FILL_TOL` for a corner as symmetric as the board's (:data:`FILL_SYMMETRY`,
+    :data:`FILL_SYMMETRY_FLOOR`)
     (:func:`sogdd.calib.targets.chessboard.mapping.check`). Up to :data:`FILL_ROUNDS`
     rounds; returns ``xy, labels, quality, light`` with the new corners
     appended (``light``: the angle of the light diagonal).
     """
-    thr = max(ASYMMETRY * median(1.0 - quality), MIN_ASYMMETRY)
+    asym = median(1.0 - quality)
+    thr = max(ASYMMETRY * asym, MIN_ASYMMETRY)
     ref: tuple[bool, float] | None = None  # the board's own wedges, measured once a candidate needs them
     for _ in range(FILL_ROUNDS):
         cand, P, cell = _predicted(grey, xy, labels, pattern)
@@ -240,15 +250,26 @@ def _fill(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, quality: np.ndar
         if keep.sum() > 1:  # two labels on one point: neither
             d, _ = cKDTree(r[keep]).query(r[keep], k=2)
             keep[np.flatnonzero(keep)[d[:, 1] < 0.5 * cell[keep]]] = False
-        n0 = len(xy)
-        good = check(np.r_[xy, r[keep]], np.r_[labels, cand[keep]], tol=FILL_TOL,
-                     only=np.arange(n0, n0 + np.count_nonzero(keep)))[n0:]
+        good = _on_lattice(np.r_[xy, r[keep]], np.r_[labels, cand[keep]], np.r_[quality, q[keep]], len(xy),
+                           asym)
         if not good.any():
             break
         sel = np.flatnonzero(keep)[good]
         xy, labels = np.r_[xy, r[sel]], np.r_[labels, cand[sel]]
         quality, light = np.r_[quality, q[sel]], np.r_[light, lt[sel]]
     return xy, labels, quality, light
+
+
+def _on_lattice(xy: np.ndarray, labels: np.ndarray, quality: np.ndarray, n0: int, asym: float) -> np.ndarray:
+    """Whether each corner from ``n0`` on is where its neighbours put it: the check within
+    :data:`~.mapping.CHECK_TOL`, or within :data:`FILL_TOL` for a corner whose asymmetry is within
+    :data:`FILL_SYMMETRY` times the board's median ``asym`` (or :data:`FILL_SYMMETRY_FLOOR`)."""
+    new = np.arange(n0, len(xy))
+    good = check(xy, labels, tol=CHECK_TOL, only=new)[n0:]
+    near = ~good & (1.0 - quality[n0:] <= max(FILL_SYMMETRY * asym, FILL_SYMMETRY_FLOOR))
+    if near.any():
+        good[near] = check(xy, labels, tol=FILL_TOL, only=new[near])[new[near]]
+    return good
 
 
 def fill_board(grey: np.ndarray, xc: XCorners, idx: np.ndarray, xy: np.ndarray, labels: np.ndarray,

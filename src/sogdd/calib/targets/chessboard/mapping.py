@@ -25,7 +25,11 @@ import numpy as np
 
 from sogdd._jit import EXACT_JIT
 
-__all__ = ["SUPPORT", "apply", "check", "homography", "label_grid", "predict_batch", "predict_labels"]
+__all__ = ["CHECK_TOL", "SUPPORT", "apply", "check", "homography", "label_grid", "predict_batch",
+           "predict_labels"]
+
+#: leave-one-out prediction error allowed for a refined corner, in cells (:func:`check`)
+CHECK_TOL = 0.12
 
 #: the label offsets of the corners a local homography is fitted to: those within two labels
 SUPPORT = np.array([(a, b) for a in range(-2, 3) for b in range(-2, 3) if (a, b) != (0, 0)])

@@ -8,7 +8,7 @@ each level the X-corners (:mod:`.xcorners`) are grown into lattices
 each lattice is refined at full resolution (:mod:`.windows`; a corner whose
 window stays far less point-symmetric than the board's others is dropped),
 checked against the lattice's map (:func:`sogdd.calib.targets.chessboard.mapping.check`,
-within :data:`CHECK_TOL` of a cell, twice over), filled at the labels it left
+within :data:`~.mapping.CHECK_TOL` of a cell, twice over), filled at the labels it left
 free (:mod:`.fill`), accepted or not (:mod:`.checks`) and labelled
 (:mod:`.labels`). The boards of all levels are kept, one board found at several
 levels once (with the most corners); the search stops at the first level after
@@ -41,7 +41,7 @@ from .checks import EDGE_SHARE, MAX_ORPHANS, edge_links, extends, has_block, orp
 from .fill import fill_board
 from .labels import orient
 from .lattice import Lattice, grow, ray_neighbours, seeds
-from .mapping import check
+from .mapping import CHECK_TOL, check
 from .proposals import Source, propose
 from .windows import refine_board, symmetric
 from .xcorners import (
@@ -58,10 +58,6 @@ from .xcorners import (
 
 __all__ = ["BoardSearch", "detect_board", "detect_boards", "find_boards", "parse_spec", "spec_text",
            "view_boards"]
-
-#: leave-one-out prediction error allowed for a refined corner, in cells
-CHECK_TOL = 0.12
-
 
 def _check_pattern(pattern: object) -> tuple[int, int] | None:
     if pattern is None:
