@@ -44,8 +44,8 @@ FILL_ITERATIONS = 60
 FILL_TOL = 0.2
 #: ... but beyond :data:`~.mapping.CHECK_TOL` (the grown corners' tolerance) only a corner as point symmetric as
 #: the board's: asymmetry within this multiple of their median. A curved rim leaves a corner's symmetry
-#: alone; an occluder or a smear that moved the point breaks it (on rendered views, the moved corners
-#: 5-14 times the board's median, the extrapolated rim corners of a 180-degree lens about 1 time)
+#: alone; an occluder or a smear that moved the point breaks it (the moved corners of the sweep's rendered
+#: views: 5-14 times the board's median; the extrapolated rim corners of the real 180-degree fisheye set: 1)
 FILL_SYMMETRY = 3.0
 #: ... or under this asymmetry (a board without noise has a median near 0; the moved corners were 0.04 and more)
 FILL_SYMMETRY_FLOOR = 0.02
