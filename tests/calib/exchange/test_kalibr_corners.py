@@ -195,3 +195,15 @@ def test_bad_input_is_one_line(tmp_path, capsys):
     obs.write_text("view,x,y\n")
     with pytest.raises(ValueError, match="not Kalibr-style observations"):
         read_kalibr_corners(obs)
+
+
+@pytest.mark.parametrize("scale", ["nan", "-1", "0", "inf"])
+def test_a_scale_that_is_no_unit_is_refused_before_anything_is_written(tmp_path, capsys, scale):
+    write_calibration(demo_calibration(), tmp_path / "calib")
+    out = tmp_path / "o.csv"
+    assert main(["convert", str(tmp_path / "calib"), str(out), "--to", "kalibr-corners", "--scale", scale]) == 2
+    err = capsys.readouterr().err
+    assert "the scale must be a positive number" in err and len(err.strip().splitlines()) == 1
+    assert not out.exists()
+    with pytest.raises(ValueError, match="the scale must be a positive number"):
+        kalibr_observations(kalibr_cameras(demo_calibration())[0], width=9, scale=float(scale))

@@ -88,6 +88,7 @@ from ..rig.result import RigCalibration
 from ..targets.aprilgrid import AprilGrid
 from .format import write_files
 from .mrgingham import CornerView, corner_views
+from .stored import check_scale
 
 __all__ = ["COLUMNS", "KalibrCamera", "KalibrObservation", "KalibrView", "kalibr_cameras",
            "kalibr_corners_text", "kalibr_observations", "read_kalibr_corners", "write_kalibr_corners"]
@@ -283,6 +284,7 @@ def kalibr_observations(camera: KalibrCamera, *, width: int | None = None, grid:
     >>> o.timestamp_ns, o.ids.tolist(), o.target.tolist()  # (i, j) = (1, 0): id 1, Kalibr's (0, 25)
     (7, [1, 3], [[0.0, 25.0], [25.0, 0.0]])
     """
+    scale = check_scale(scale)
     g = _grid_of(grid)
     W = _width([camera], None) if width is None else int(width)
     sq = camera.square if square is None else float(square)
@@ -355,6 +357,7 @@ def write_kalibr_corners(source: Calibration | RigCalibration | str | os.PathLik
     >>> len(obs), obs[0].view, obs[0].ids[:3].tolist(), obs[0].target[1].tolist()
     (8, 'view0.png', [0, 1, 2], [0.0, 1.0])
     """
+    check_scale(scale)  # before any file is read
     cameras = kalibr_cameras(source)
     W = _width(cameras, pattern)
     p = Path(path)

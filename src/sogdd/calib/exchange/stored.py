@@ -27,7 +27,7 @@ from ..cameras import lens, project
 from ..result import Calibration
 from ..rig.result import RigCalibration
 
-__all__ = ["INTRINSICS", "POSE_STD", "StoredCamera", "StoredRig", "stored_rig"]
+__all__ = ["INTRINSICS", "POSE_STD", "StoredCamera", "StoredRig", "check_scale", "stored_rig"]
 
 #: the intrinsics whose standard deviations a camera carries (``std``), in OpenCV's order
 INTRINSICS = ("fx", "fy", "cx", "cy")
@@ -233,9 +233,7 @@ class StoredRig:
         >>> rig.scaled(0.001).cameras[0].T.tolist()
         [-0.12, 0.0, 0.0]
         """
-        f = float(factor)
-        if not math.isfinite(f) or f <= 0:
-            raise ValueError(f"the scale must be a positive number, got {factor!r}")
+        f = check_scale(factor)
         cams = tuple(replace(c, T=c.T * f, pose_std={**c.pose_std, "baseline": c.pose_std["baseline"] * f})
                      for c in self.cameras)
         return StoredRig(cams, None if self.square is None else self.square * f)
@@ -245,6 +243,28 @@ class StoredRig:
         R0, T0 = self.cameras[0].R, self.cameras[0].T
         return StoredRig(tuple(c.with_pose(c.R @ R0.T, c.T - c.R @ R0.T @ T0) for c in self.cameras),
                          self.square)
+
+
+def check_scale(factor: float) -> float:
+    """``factor`` as a float: a unit of length's multiplier, finite and positive; else a one-line
+    ``ValueError``.
+
+    Examples
+    --------
+    >>> check_scale(0.001)
+    0.001
+    >>> check_scale(float("nan"))
+    Traceback (most recent call last):
+    ...
+    ValueError: the scale must be a positive number, got nan
+    """
+    try:
+        f = float(factor)
+    except (TypeError, ValueError):
+        f = math.nan
+    if not math.isfinite(f) or f <= 0:
+        raise ValueError(f"the scale must be a positive number, got {factor!r}")
+    return f
 
 
 def stored_rig(obj: StoredRig | StoredCamera | Calibration | RigCalibration, name: str = "camera") -> StoredRig:
