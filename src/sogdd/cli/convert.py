@@ -29,9 +29,27 @@ import argparse
 
 __all__ = ["configure"]
 
+#: the options that apply to some formats only: option -> (its argument's name, the --to values it applies to)
+_ONLY = {"--pattern": ("pattern", ("mrgingham", "kalibr-corners")),
+         "--used-only": ("used_only", ("mrgingham", "kalibr-corners")),
+         "--board": ("board", ("kalibr-corners",))}
+
+
+def _check_options(args: argparse.Namespace) -> None:
+    """A one-line ``ValueError`` for an option given that the format of ``--to`` has no use for."""
+    for flag, (name, formats) in _ONLY.items():
+        if getattr(args, name) not in (None, False) and args.to not in formats:
+            raise ValueError(f"{flag} applies to --to {' and '.join(formats)}, not to --to {args.to}")
+    if args.to == "mrgingham" and args.scale != 1.0:
+        raise ValueError("--scale does not apply to --to mrgingham: corners.vnl holds pixels only")
+    if args.source is not None and args.to in ("mrgingham", "kalibr-corners"):
+        raise ValueError(f"--from names a calibration's format; --to {args.to} reads sogdd's corners.csv")
+
+
 def run(args: argparse.Namespace) -> int:
     from ..calib.exchange import convert
 
+    _check_options(args)
     if args.to == "mrgingham":
         from ..calib.exchange.mrgingham import write_corners_vnl
 
