@@ -6,7 +6,6 @@ from __future__ import annotations
 import ast
 import json
 import subprocess
-from functools import cache
 
 import cv2
 import numpy as np
@@ -22,21 +21,12 @@ POSES = [(np.eye(3), np.zeros(3)),
          (cv2.Rodrigues(np.array([0.011, -0.031, 0.0021]))[0], np.array([-120.31, 1.27, 0.73])),
          (cv2.Rodrigues(np.array([-0.021, 0.45, 0.013]))[0], np.array([231.0, -11.7, 40.2]))]
 POINTS = np.array([[x, y, 1000.0] for x in (-400.0, -100.0, 0.0, 250.0, 450.0) for y in (-300.0, 0.0, 350.0)])
-SYSTEM_PYTHON = "/usr/bin/python3"
 
 
 def rig(model: str, n: int = 3) -> StoredRig:
     return StoredRig(tuple(StoredCamera(name, model, K, DIST[model], (640, 480), *POSES[k])
                            for k, name in enumerate(("left", "right", "top")[:n])))
 
-
-@cache
-def mrcal_here() -> bool:
-    try:
-        run = subprocess.run([SYSTEM_PYTHON, "-c", "import mrcal"], capture_output=True, timeout=60)
-        return run.returncode == 0
-    except (OSError, subprocess.TimeoutExpired):
-        return False
 
 
 @pytest.mark.parametrize("model", ["pinhole4", "pinhole", "rational"])
@@ -82,10 +72,8 @@ def test_mrcal_models_sogdd_lacks_are_refused_and_the_pinhole_read(tmp_path):
     assert (cam.name, cam.model, cam.dist.tolist(), cam.K[1, 1]) == ("p", "pinhole4", [0, 0, 0, 0], 501.0)
 
 
-@pytest.mark.skipif(not mrcal_here(), reason="mrcal's Python module is not installed for /usr/bin/python3 "
-                    "(apt-get install python3-mrcal)")
 @pytest.mark.parametrize("model", ["pinhole4", "pinhole", "rational"])
-def test_mrcal_projects_through_our_cameramodel_as_we_do(tmp_path, model):
+def test_mrcal_projects_through_our_cameramodel_as_we_do(tmp_path, mrcal_python, model):
     src = rig(model)
     write_calibration_as(src, tmp_path / "rig", "mrcal")
     script = (
@@ -98,7 +86,7 @@ def test_mrcal_projects_through_our_cameramodel_as_we_do(tmp_path, model):
         "    out.append(mrcal.project(p, *m.intrinsics()).tolist())\n"
         "print(json.dumps(out))\n")
     files = [str(tmp_path / "rig" / f"camera-{k}.cameramodel") for k in range(3)]
-    run = subprocess.run([SYSTEM_PYTHON, "-c", script, json.dumps(POINTS.tolist()), *files],
+    run = subprocess.run([mrcal_python, "-c", script, json.dumps(POINTS.tolist()), *files],
                          capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stderr
     theirs = np.array(json.loads(run.stdout))
@@ -108,14 +96,13 @@ def test_mrcal_projects_through_our_cameramodel_as_we_do(tmp_path, model):
     assert np.ptp(ours[2, :, 0]) > 100  # the points spread over the image
 
 
-@pytest.mark.skipif(not mrcal_here(), reason="mrcal's Python module is not installed for /usr/bin/python3")
-def test_a_cameramodel_mrcal_writes_reads_back(tmp_path):
+def test_a_cameramodel_mrcal_writes_reads_back(tmp_path, mrcal_python):
     script = ("import numpy as np, mrcal, sys\n"
               "m = mrcal.cameramodel(intrinsics=('LENSMODEL_OPENCV5', np.array([600.5, 601.25, 320.75, "
               "240.125, -0.2, 0.05, 0.001, -0.002, 0.01])), imagersize=(640, 480), "
               "extrinsics_rt_fromref=np.array([0.01, -0.02, 0.03, -100.0, 2.0, 3.0]))\n"
               "m.write(sys.argv[1])\n")
-    run = subprocess.run([SYSTEM_PYTHON, "-c", script, str(tmp_path / "m.cameramodel")], capture_output=True,
+    run = subprocess.run([mrcal_python, "-c", script, str(tmp_path / "m.cameramodel")], capture_output=True,
                          text=True, timeout=120)
     assert run.returncode == 0, run.stderr
     cam = read_calibration(tmp_path / "m.cameramodel").cameras[0]

@@ -7,7 +7,6 @@ import json
 import re
 import shutil
 import subprocess
-from functools import cache
 
 import numpy as np
 import pytest
@@ -24,17 +23,6 @@ from sogdd.calib.files import write_calibration
 from sogdd.calib.rig import write_rig
 from sogdd.calib.rig.demo import demo_rig
 from sogdd.cli.main import main
-
-SYSTEM_PYTHON = "/usr/bin/python3"
-
-
-@cache
-def mrcal_here() -> bool:
-    try:
-        run = subprocess.run([SYSTEM_PYTHON, "-c", "import mrcal"], capture_output=True, timeout=60)
-        return run.returncode == 0
-    except (OSError, subprocess.TimeoutExpired):
-        return False
 
 
 def test_the_grid_is_row_by_row_with_dashes_where_no_corner_is():
@@ -94,16 +82,14 @@ def test_the_command_writes_it_and_keeps_its_input(tmp_path, capsys):
     assert "that is the input" in capsys.readouterr().err
 
 
-@pytest.mark.skipif(not mrcal_here(), reason="mrcal's Python module is not installed for /usr/bin/python3 "
-                    "(apt-get install python3-mrcal)")
-def test_mrcals_reader_sees_our_corners(tmp_path):
+def test_mrcals_reader_sees_our_corners(tmp_path, mrcal_python):
     cal = demo_calibration()
     path = write_corners_vnl(cal, tmp_path / "corners.vnl")
     script = ("import json, sys, mrcal\n"
               "obs, idx, files = mrcal.compute_chessboard_corners(9, 6, globs_per_camera=('*.png',), "
               "corners_cache_vnl=sys.argv[1])\n"
               "print(json.dumps({'obs': obs.tolist(), 'files': list(files)}))\n")
-    run = subprocess.run([SYSTEM_PYTHON, "-c", script, str(path)], capture_output=True, text=True, timeout=120,
+    run = subprocess.run([mrcal_python, "-c", script, str(path)], capture_output=True, text=True, timeout=120,
                          cwd=tmp_path)
     assert run.returncode == 0, run.stderr
     out = json.loads(run.stdout)

@@ -186,13 +186,20 @@ def test_one_camera_through_the_joint_solver_is_opencvs_calibration(model, flags
     assert np.allclose(cam.dist, D.ravel()[:len(cam.dist)], atol=1e-8) and abs(rig.rms - rms) < 1e-9
 
 
-def test_a_camera_sharing_no_frame_is_refused_naming_the_groups():
+def _apart():
+    """A two-camera rig's boards with no frame seen by both (each of cam1's frames given to one camera alone),
+    and the frames cam1 saw."""
     d = synthetic_rig(cameras=2, frames=12, noise=0.05, seed=0)
     seen = [f for f in range(12) if d.boards["cam1"][f] is not None]
     for f in seen[:5]:
         d.boards["cam0"][f] = None
     for f in seen[5:]:
         d.boards["cam1"][f] = None
+    return d, seen
+
+
+def test_a_camera_sharing_no_frame_is_refused_naming_the_groups():
+    d, _ = _apart()
     with pytest.raises(ValueError, match=r"^cameras are not connected: \{cam0\} and \{cam1\}: no frame shows"):
         calibrate_rig(d.boards, d.image_sizes, min_views=3)
 
@@ -200,12 +207,7 @@ def test_a_camera_sharing_no_frame_is_refused_naming_the_groups():
 def test_a_camera_whose_shared_views_are_rejected_has_no_pose():
     """The one frame both cameras saw is one the second camera's own calibration rejects: nothing ties it to
     the first in the joint fit, so it keeps its views in frames of its own."""
-    d = synthetic_rig(cameras=2, frames=12, noise=0.05, seed=0)
-    seen = [f for f in range(12) if d.boards["cam1"][f] is not None]
-    for f in seen[:5]:
-        d.boards["cam0"][f] = None
-    for f in seen[5:]:
-        d.boards["cam1"][f] = None
+    d, seen = _apart()
     f = next(f for f in range(12) if d.boards["cam0"][f] is not None)
     b = d.boards["cam1"][seen[0]]
     noisy = b.image_points + np.random.default_rng(0).normal(0, 6.0, b.image_points.shape)
