@@ -74,7 +74,6 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 import os
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
@@ -86,11 +85,12 @@ from ..result import Calibration
 from ..rig.frames import frame_number
 from ..rig.result import RigCalibration
 from ..targets.aprilgrid import AprilGrid
+from .conversion import read_calibration
 from .format import write_files
 from .mrgingham import CornerView, corner_views
 from .stored import check_scale
 
-__all__ = ["COLUMNS", "KalibrCamera", "KalibrObservation", "KalibrView", "kalibr_cameras",
+__all__ = ["COLUMNS", "KalibrCamera", "KalibrObservation", "kalibr_cameras",
            "kalibr_corners_text", "kalibr_observations", "read_kalibr_corners", "write_kalibr_corners"]
 
 #: the file's columns (module doc)
@@ -98,21 +98,11 @@ COLUMNS = ("timestamp_ns", "view", "corner_id", "x", "y", "target_x", "target_y"
 
 
 @dataclass(frozen=True)
-class KalibrView(CornerView):
-    """A :class:`~.mrgingham.CornerView` with what Kalibr's numbering needs besides: the detector of its board
-    (``Board.source``: ``"aprilgrid"`` for an AprilGrid) and the board's Kalibr ids (an AprilGrid's
-    ``Board.ids``; None when unknown)."""
-
-    source: str = ""
-    ids: np.ndarray | None = None
-
-
-@dataclass(frozen=True)
 class KalibrCamera:
     """One camera's views; ``name`` ``""`` for a lone camera, ``square`` its board's square (None: unknown)."""
 
     name: str
-    views: tuple[KalibrView, ...]
+    views: tuple[CornerView, ...]
     square: float | None
 
 
@@ -138,34 +128,12 @@ class KalibrObservation:
         return self.ids, self.xy, self.target, self.used
 
 
-def _of_calibration(cal: Calibration, name: str = "") -> KalibrCamera:
-    views = []
-    for v, b in zip(corner_views(cal), cal.boards):
-        src = "" if b is None else b.source
-        ids = b.ids if b is not None and src == "aprilgrid" else None
-        views.append(KalibrView(v.name, v.labels, v.xy, v.used, source=src, ids=ids))
-    return KalibrCamera(name, tuple(views), float(cal.square))
-
-
 def _of_csv(path: Path, name: str = "") -> KalibrCamera:
-    views = corner_views(path)  # a malformed file: its one-line ValueError
-    sources: dict[str, set[str]] = {}
-    with open(path, newline="", encoding="utf-8") as fh:
-        for r in csv.DictReader(fh):
-            sources.setdefault(r["view"], set()).add(r.get("source") or "")
-    square = None
+    """A camera's ``corners.csv`` (a malformed file: its one-line ``ValueError``), with the square of the
+    ``camera.json`` beside it (None without one)."""
     meta = path.parent / "camera.json"
-    if meta.is_file():
-        try:
-            square = float(json.loads(meta.read_text(encoding="utf-8"))["square"])
-        except (KeyError, TypeError, ValueError) as exc:
-            raise ValueError(f"{meta}: no square in it ({exc})") from None
-    out = []
-    for v in views:
-        src = sorted(sources.get(v.name, {""}))
-        kind = "aprilgrid" if "aprilgrid" in src else src[0]
-        out.append(KalibrView(v.name, v.labels, v.xy, v.used, source=kind))
-    return KalibrCamera(name, tuple(out), square)
+    square = read_calibration(meta).square if meta.is_file() else None
+    return KalibrCamera(name, tuple(corner_views(path)), square)
 
 
 def kalibr_cameras(source: Calibration | RigCalibration | str | os.PathLike) -> list[KalibrCamera]:
@@ -180,9 +148,10 @@ def kalibr_cameras(source: Calibration | RigCalibration | str | os.PathLike) -> 
     ('', 1.0, 'view0.png', 'sogdd')
     """
     if isinstance(source, Calibration):
-        return [_of_calibration(source)]
+        return [KalibrCamera("", tuple(corner_views(source)), float(source.square))]
     if isinstance(source, RigCalibration):
-        return [_of_calibration(c.calibration, c.name) for c in source.cameras]
+        return [KalibrCamera(c.name, tuple(corner_views(c.calibration)), float(c.calibration.square))
+                for c in source.cameras]
     p = Path(source)
     if p.is_file():
         return [_of_csv(p)]
@@ -194,7 +163,7 @@ def kalibr_cameras(source: Calibration | RigCalibration | str | os.PathLike) -> 
     return [_of_csv(c / "corners.csv", c.name) for c in cams]
 
 
-def _timestamps(views: Sequence[KalibrView]) -> list[int]:
+def _timestamps(views: Sequence[CornerView]) -> list[int]:
     numbers = [frame_number(v.name.rsplit("#", 1)[-1]) for v in views]
     if all(n is not None for n in numbers) and len(set(numbers)) == len(numbers):
         return [int(n) for n in numbers]  # type: ignore[arg-type]
@@ -231,7 +200,7 @@ def _width(cameras: Sequence[KalibrCamera], pattern: tuple[int, int] | None) -> 
     return W
 
 
-def _aprilgrid(v: KalibrView, grid: AprilGrid | None) -> tuple[np.ndarray, np.ndarray]:
+def _aprilgrid(v: CornerView, grid: AprilGrid | None) -> tuple[np.ndarray, np.ndarray]:
     if grid is None:
         raise ValueError(f"view {v.name}: an AprilGrid's corners: Kalibr's ids and points need its geometry "
                          "(grid; --board aprilgrid:COLSxROWS:SIZE:SPACING)")
@@ -279,7 +248,7 @@ def kalibr_observations(camera: KalibrCamera, *, width: int | None = None, grid:
 
     Examples
     --------
-    >>> v = KalibrView("f7.png", np.array([[1, 0], [0, 1]]), np.array([[10.5, 20.25], [30.0, 40.0]]), None)
+    >>> v = CornerView("f7.png", np.array([[1, 0], [0, 1]]), np.array([[10.5, 20.25], [30.0, 40.0]]), None)
     >>> o, = kalibr_observations(KalibrCamera("", (v,), 25.0), width=3)
     >>> o.timestamp_ns, o.ids.tolist(), o.target.tolist()  # (i, j) = (1, 0): id 1, Kalibr's (0, 25)
     (7, [1, 3], [[0.0, 25.0], [25.0, 0.0]])

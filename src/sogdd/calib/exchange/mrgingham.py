@@ -37,7 +37,9 @@ _HEADER = "# filename x y level\n"
 
 @dataclass(frozen=True)
 class CornerView:
-    """One view's corners: its name, each corner's label ``(i, j)`` and pixel, and whether the fit used it.
+    """One view's corners: its name, each corner's label ``(i, j)`` and pixel, and whether the fit used it;
+    the board's detector (``Board.source``, ``""`` unknown) and its ids where it has them (``Board.ids``: an
+    AprilGrid's Kalibr point numbers; a ``corners.csv`` holds none).
 
     ``labels`` None: the view has no board.
     """
@@ -46,6 +48,8 @@ class CornerView:
     labels: np.ndarray | None
     xy: np.ndarray | None
     used: np.ndarray | None
+    source: str = ""
+    ids: np.ndarray | None = None
 
 
 def _of_calibration(cal: Calibration, prefix: str = "") -> list[CornerView]:
@@ -57,24 +61,26 @@ def _of_calibration(cal: Calibration, prefix: str = "") -> list[CornerView]:
             continue
         used = None if cal.corner_used[v] is None else np.asarray(cal.corner_used[v], bool)
         xy = np.asarray(b.image_points, np.float64)
-        out.append(CornerView(prefix + name, np.asarray(b.labels, np.int64), xy, used))
+        out.append(CornerView(prefix + name, np.asarray(b.labels, np.int64), xy, used, b.source, b.ids))
     return out
 
 
 def _of_csv(path: Path, prefix: str = "") -> list[CornerView]:
     rows: dict[str, list] = {}
+    sources: dict[str, str] = {}
     try:
         with open(path, newline="", encoding="utf-8") as fh:
             for r in csv.DictReader(fh):
                 rows.setdefault(r["view"], []).append((int(r["i"]), int(r["j"]), float(r["x"]), float(r["y"]),
                                                        r.get("used", "1") == "1"))
+                sources.setdefault(r["view"], r.get("source") or "")  # one board a view: one detector
     except (KeyError, TypeError, ValueError) as exc:
         raise ValueError(f"{path}: not sogdd's corners.csv ({exc})") from None
     out = []
     for name, rs in rows.items():
         a = np.array([r[:4] for r in rs], dtype=np.float64)
         used = np.array([r[4] for r in rs])
-        out.append(CornerView(prefix + name, a[:, :2].astype(np.int64), a[:, 2:4], used))
+        out.append(CornerView(prefix + name, a[:, :2].astype(np.int64), a[:, 2:4], used, sources[name]))
     return out
 
 
