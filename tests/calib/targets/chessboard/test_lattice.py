@@ -171,15 +171,13 @@ def x_corner_grid(cols, rows, cell=14.0, seed=0):
 
 @pytest.mark.parametrize("size", [(6, 4), (45, 40)])  # the second outgrows the label grid several times
 def test_grow_labels_every_corner_of_a_board_from_its_seed(size):
-    from scipy.spatial import cKDTree
-
     from sogdd.calib.targets.chessboard.lattice import grow, seeds
 
     xc, lab = x_corner_grid(*size)
     nb, dist = ray_neighbours(xc)
     s = int(seeds(xc, nb, dist)[0])
     free = np.ones(len(xc), bool)
-    lat = grow(xc, s, nb, free, cKDTree(xc.xy))
+    lat = grow(xc, s, nb, free)
     assert len(lat) == len(xc) and not free.any()
     assert lat.index[0] == s and lat.labels[0].tolist() == [0, 0]
     assert len(np.unique(lat.index)) == len(lat)
@@ -190,13 +188,11 @@ def test_grow_labels_every_corner_of_a_board_from_its_seed(size):
 
 
 def test_grow_keeps_within_a_limit():
-    from scipy.spatial import cKDTree
-
     from sogdd.calib.targets.chessboard.lattice import grow, seeds
 
     xc, _ = x_corner_grid(9, 7)
     nb, dist = ray_neighbours(xc)
     s = int(seeds(xc, nb, dist)[0])
-    lat = grow(xc, s, nb, np.ones(len(xc), bool), cKDTree(xc.xy), limit=4)
+    lat = grow(xc, s, nb, np.ones(len(xc), bool), limit=4)
     ext = lat.labels.max(axis=0) - lat.labels.min(axis=0) + 1
     assert ext.max() <= 4 and len(lat) == 16

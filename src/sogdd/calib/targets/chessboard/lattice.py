@@ -33,7 +33,6 @@ CPU has it, whose last bits differ from libm's).
 
 from __future__ import annotations
 
-import itertools
 import math
 from dataclasses import dataclass
 
@@ -43,7 +42,7 @@ from scipy.spatial import cKDTree
 
 from sogdd._jit import EXACT_JIT
 
-from .mapping import SUPPORT, predict_batch
+from .mapping import SUPPORT, predict_local
 from .xcorners import XCorners
 
 __all__ = ["Lattice", "grow", "ray_neighbours", "seeds"]
@@ -71,6 +70,8 @@ SPREAD_NEIGHBOURS = 4
 _OFFS = np.array([(1, 0), (0, 1), (-1, 0), (0, -1)])
 #: the label offsets whose corners predict a label (a 5 x 5 block without its centre)
 _SUPPORT_F = SUPPORT.astype(np.float64)
+#: their monomials ``(i, j, 1)`` (the local homography's, :func:`~.mapping.predict_local`)
+_SUPPORT_M = np.c_[_SUPPORT_F, np.ones(len(SUPPORT))]
 
 
 @dataclass
@@ -408,139 +409,153 @@ def _untried(grid, tried, sup, box, limit):  # pragma: no cover - jit
     return cells[:L], nbr[:L], fit[:L]
 
 
-@numba.njit(**EXACT_JIT)
-def _steps(P):  # pragma: no cover - jit
-    """What :meth:`_Grower.round` reads off its predictions ``P`` (L, 5, 2) (:func:`predict_batch`), each
-    label's as numpy computed it: ``(ok (L,), axes (L, 2, 2), cell (L,), p (L, 2))``, ``ok`` where ``P`` is
-    finite, ``axes`` the lattice steps ``P1 - P2`` and ``P3 - P4``, ``cell`` the shorter one (libm's
-    ``hypot``, as numpy's), ``p = P0`` the position."""
-    L = P.shape[0]
-    ok = np.empty(L, np.bool_)
-    axes = np.empty((L, 2, 2))
-    cell = np.empty(L)
-    p = np.empty((L, 2))
-    for t in range(L):
-        fin = True
-        for a in range(5):
-            for d in range(2):
-                fin &= np.isfinite(P[t, a, d])
-        ok[t] = fin
-        for d in range(2):
-            axes[t, 0, d] = P[t, 1, d] - P[t, 2, d]
-            axes[t, 1, d] = P[t, 3, d] - P[t, 4, d]
-            p[t, d] = P[t, 0, d]
-        cell[t] = min(math.hypot(axes[t, 0, 0], axes[t, 0, 1]), math.hypot(axes[t, 1, 0], axes[t, 1, 1]))
-    return ok, axes, cell, p
-
-
 #: the 3 x 3 label block, row by row (:func:`_accept`'s ``near``)
 _BLOCK = np.array([(a, b) for a in (-1, 0, 1) for b in (-1, 0, 1)])
 #: the grid of labels keeps this many free labels around the board (the frontier, 1 out, reads 2 further)
 _MARGIN = 4
 
 
-class _Grower:
-    """The state of one board's growth: labels, positions, the free X-corners.
+@numba.njit(**EXACT_JIT)
+def _place(grid, tried, st, index, labels, free, i, j, k):  # pragma: no cover - jit
+    """Label ``(i, j)`` takes corner ``k``: the grid grown first (to twice the span it needs) where
+    ``_MARGIN`` labels around ``(i, j)`` do not fit in it. ``st`` = ``(org0, org1, lo0, lo1, hi0, hi1,
+    count)``; returns ``(grid, tried)``, new arrays when grown."""
+    h, w = grid.shape
+    if not (_MARGIN <= i + st[0] <= h - 1 - _MARGIN and _MARGIN <= j + st[1] <= w - 1 - _MARGIN):
+        lo0 = min(min(st[2], i) - _MARGIN, -st[0])
+        lo1 = min(min(st[3], j) - _MARGIN, -st[1])
+        hi0 = max(max(st[4], i) + _MARGIN, h - 1 - st[0])
+        hi1 = max(max(st[5], j) + _MARGIN, w - 1 - st[1])
+        p0 = (hi0 - lo0 + 1) // 2
+        p1 = (hi1 - lo1 + 1) // 2
+        lo0 -= p0
+        lo1 -= p1
+        hi0 += p0
+        hi1 += p1
+        d0 = -lo0 - st[0]
+        d1 = -lo1 - st[1]
+        g2 = np.full((hi0 - lo0 + 1, hi1 - lo1 + 1), -1, dtype=np.int64)
+        t2 = np.full((hi0 - lo0 + 1, hi1 - lo1 + 1), -1, dtype=np.int64)
+        g2[d0:d0 + h, d1:d1 + w] = grid
+        t2[d0:d0 + h, d1:d1 + w] = tried
+        grid, tried = g2, t2
+        st[0] = -lo0
+        st[1] = -lo1
+    grid[i + st[0], j + st[1]] = k
+    index[st[6]] = k
+    labels[st[6], 0] = i
+    labels[st[6], 1] = j
+    st[6] += 1
+    free[k] = False
+    st[2] = min(st[2], i)
+    st[3] = min(st[3], j)
+    st[4] = max(st[4], i)
+    st[5] = max(st[5], j)
+    return grid, tried
 
-    The labels live on a grid (``grid[i + org[0], j + org[1]]``, the corner's index or -1), with the
-    support each free label had when last tried (``tried``, -1 for never).
+
+@numba.njit(**EXACT_JIT)
+def _predictions(cells, nbr, fit, xy):  # pragma: no cover - jit
+    """Each fitted label's prediction by its local homography (:func:`~.mapping.predict_local`): ``(ok
+    (L,), p (L, 2) the position, ang (L, 2) the lattice axes' angles, rad (L,) the search radius,
+    :data:`SEARCH` of the shorter axis)``."""
+    L = cells.shape[0]
+    ok = np.zeros(L, dtype=np.bool_)
+    p = np.empty((L, 2))
+    ang = np.empty((L, 2))
+    rad = np.empty(L)
+    P = np.empty((5, 2))
+    for t in range(L):
+        if not fit[t] or not predict_local(xy, nbr[t], _SUPPORT_F, _SUPPORT_M, P):
+            continue
+        a0x = P[1, 0] - P[2, 0]
+        a0y = P[1, 1] - P[2, 1]
+        a1x = P[3, 0] - P[4, 0]
+        a1y = P[3, 1] - P[4, 1]
+        ok[t] = True
+        p[t, 0] = P[0, 0]
+        p[t, 1] = P[0, 1]
+        ang[t, 0] = math.atan2(a0y, a0x)
+        ang[t, 1] = math.atan2(a1y, a1x)
+        rad[t] = SEARCH * min(math.hypot(a0x, a0y), math.hypot(a1x, a1y))
+    return ok, p, ang, rad
+
+
+@numba.njit(**EXACT_JIT)
+def _within(p, rad, xy, by_x, xs):  # pragma: no cover - jit
+    """The corners within ``rad[t]`` of ``p[t]`` for each ``t``, as ``(ptr (T + 1,), near)``: those of
+    ``t`` are ``near[ptr[t]:ptr[t + 1]]``. ``by_x``: the corners' indices by ``x``, ``xs`` their ``x``."""
+    T = p.shape[0]
+    lo = np.searchsorted(xs, p[:, 0] - rad, side="left")
+    hi = np.searchsorted(xs, p[:, 0] + rad, side="right")
+    ptr = np.zeros(T + 1, dtype=np.int64)
+    near = np.empty(max(int((hi - lo).sum()), 1), dtype=np.int64)
+    c = 0
+    for t in range(T):
+        r2 = rad[t] * rad[t]
+        for v in range(lo[t], hi[t]):
+            k = by_x[v]
+            dx = xy[k, 0] - p[t, 0]
+            dy = xy[k, 1] - p[t, 1]
+            if dx * dx + dy * dy <= r2:
+                near[c] = k
+                c += 1
+        ptr[t + 1] = c
+    return ptr, near
+
+
+@numba.njit(**EXACT_JIT)
+def _grow(xy, light, spread, strength, free, seed, first, limit, by_x, xs):  # pragma: no cover - jit
+    """:func:`grow`, compiled: the seed and its free ray neighbours ``first`` (4,), then rounds until one
+    adds nothing. Returns ``(index (n,), labels (n, 2))``."""
+    side = 8 * _MARGIN
+    grid = np.full((side, side), -1, dtype=np.int64)
+    tried = np.full((side, side), -1, dtype=np.int64)
+    st = np.array([side // 2, side // 2, 0, 0, 0, 0, 0], dtype=np.int64)
+    index = np.empty(xy.shape[0], dtype=np.int64)
+    labels = np.empty((xy.shape[0], 2), dtype=np.int64)
+    grid, tried = _place(grid, tried, st, index, labels, free, 0, 0, seed)
+    for r in range(4):
+        if first[r] >= 0 and free[first[r]]:
+            grid, tried = _place(grid, tried, st, index, labels, free, _OFFS[r, 0], _OFFS[r, 1], first[r])
+    added = 1
+    while added:
+        box = (st[2] + st[0], st[3] + st[1], st[4] + st[0], st[5] + st[1])
+        cells, nbr, fit = _untried(grid, tried, SUPPORT, box, limit)
+        ok, p, ang, rad = _predictions(cells, nbr, fit, xy)
+        sel = np.flatnonzero(ok)
+        cells = cells[sel]
+        ptr, near = _within(p[sel], rad[sel], xy, by_x, xs)
+        blk = np.empty((sel.shape[0], 9), dtype=np.int64)
+        for u in range(sel.shape[0]):
+            for b in range(9):
+                blk[u, b] = grid[cells[u, 0] + _BLOCK[b, 0], cells[u, 1] + _BLOCK[b, 1]]
+        got, take = _claims(ptr, near, xy, p[sel], free, blk, ang[sel], light, spread, strength)
+        new = np.flatnonzero(take)
+        i, j = cells[new, 0] - st[0], cells[new, 1] - st[1]  # labels first: the grid, and its origin, may grow
+        for u in range(new.shape[0]):
+            grid, tried = _place(grid, tried, st, index, labels, free, i[u], j[u], got[new[u]])
+        added = new.shape[0]
+    return index[:st[6]].copy(), labels[:st[6]].copy()
+
+
+def grow(xc: XCorners, seed: int, nb: np.ndarray, free: np.ndarray, *, limit: int | None = None) -> Lattice:
+    """Grow one board from ``seed`` (module doc); ``free`` (bool, N) marks unused corners and is updated.
+
+    For each free label next to the board with more support than when last
+    tried and a fit (4 corners or more within two labels, not on one line), the
+    local homography predicts the position and the lattice steps
+    (:func:`~sogdd.calib.targets.chessboard.mapping.predict_local`); the
+    nearest free X-corner within :data:`SEARCH` cells that its tests take is
+    its claim. A corner two labels claim is left for a later round; the growth
+    ends with a round that adds nothing. ``limit``: the board stays within
+    this many labels each way.
     """
-
-    def __init__(self, xc: XCorners, tree: cKDTree, free: np.ndarray, limit: int | None) -> None:
-        self.xc, self.tree, self.free, self.limit = xc, tree, free, limit
-        self.index: list[int] = []
-        self.labels: list[tuple[int, int]] = []
-        self.lo = (0, 0)
-        self.hi = (0, 0)
-        side = 8 * _MARGIN
-        self.org = np.array([side // 2, side // 2])
-        self.grid = np.full((side, side), -1, dtype=np.int64)
-        self.tried = np.full((side, side), -1, dtype=np.int64)
-        #: the labels ``(i0, j0, i1, j1)`` that keep ``_MARGIN`` labels of the grid around them
-        self.room = (_MARGIN - side // 2, _MARGIN - side // 2, side // 2 - 1 - _MARGIN, side // 2 - 1 - _MARGIN)
-        self.xy = np.ascontiguousarray(xc.xy, dtype=np.float64)
-        self.light = np.ascontiguousarray(xc.light, dtype=np.float64)
-        self.spread = np.ascontiguousarray(xc.spread, dtype=np.float64)
-        self.strength = np.ascontiguousarray(xc.strength, dtype=np.float64)
-
-    def _room(self, i: int, j: int) -> None:
-        """Grow the grid (to twice the span it needs) so that ``_MARGIN`` labels around the board and
-        ``(i, j)`` fit in it."""
-        lo = np.array([min(self.lo[0], i), min(self.lo[1], j)]) - _MARGIN
-        hi = np.array([max(self.hi[0], i), max(self.hi[1], j)]) + _MARGIN
-        lo = np.minimum(lo, -self.org)  # and the grid as it is
-        hi = np.maximum(hi, np.array(self.grid.shape) - 1 - self.org)
-        pad = (hi - lo + 1) // 2
-        lo, hi = lo - pad, hi + pad
-        org = -lo
-        d0, d1 = org - self.org
-        h, w = self.grid.shape
-        for name in ("grid", "tried"):
-            new = np.full(tuple(hi - lo + 1), -1, dtype=np.int64)
-            new[d0:d0 + h, d1:d1 + w] = getattr(self, name)
-            setattr(self, name, new)
-        self.org = org
-        self.room = (_MARGIN - int(org[0]), _MARGIN - int(org[1]),
-                     int(self.grid.shape[0]) - 1 - _MARGIN - int(org[0]),
-                     int(self.grid.shape[1]) - 1 - _MARGIN - int(org[1]))
-
-    def add(self, lab: tuple[int, int], k: int) -> None:
-        i, j = lab
-        r = self.room
-        if not (r[0] <= i <= r[2] and r[1] <= j <= r[3]):
-            self._room(i, j)
-        self.grid[i + self.org[0], j + self.org[1]] = k
-        self.index.append(k)
-        self.labels.append((i, j))
-        self.free[k] = False
-        self.lo = (min(self.lo[0], i), min(self.lo[1], j))
-        self.hi = (max(self.hi[0], i), max(self.hi[1], j))
-
-    def round(self) -> int:
-        """One round over the free labels next to the board; the number of corners added.
-
-        For each free label next to the board with more support than when last tried (:func:`_untried`)
-        and a fit (4 corners or more within two labels, not on one line), the local homography predicts
-        the position and the lattice steps; the nearest free X-corner within :data:`SEARCH` cells that
-        :func:`_accept` takes is its claim. A corner two labels claim is left for a later round.
-        """
-        o0, o1 = int(self.org[0]), int(self.org[1])
-        box = (self.lo[0] + o0, self.lo[1] + o1, self.hi[0] + o0, self.hi[1] + o1)
-        limit = -1 if self.limit is None else self.limit
-        cells, nbr, fit = _untried(self.grid, self.tried, SUPPORT, box, limit)
-        if not fit.any():
-            return 0
-        cells, nbr = cells[fit], nbr[fit]
-        P = predict_batch(self.xy, nbr, (nbr >= 0).astype(np.float64), _SUPPORT_F)
-        ok, axes, cell, p = _steps(P)
-        if not ok.all():
-            if not ok.any():
-                return 0
-            cells, axes, cell, p = cells[ok], axes[ok], cell[ok], p[ok]
-        # unsorted: :func:`_claims` orders each label's corners itself (by distance, then index)
-        near = self.tree.query_ball_point(p, SEARCH * cell, return_sorted=False)
-        ptr = np.zeros(len(near) + 1, dtype=np.int64)
-        np.cumsum([len(q) for q in near], out=ptr[1:])
-        flat = np.fromiter(itertools.chain.from_iterable(near), dtype=np.int64, count=int(ptr[-1]))
-        blk = self.grid[cells[:, :1] + _BLOCK[:, 0], cells[:, 1:] + _BLOCK[:, 1]]
-        ang = np.arctan2(axes[..., 1], axes[..., 0])  # numpy's arctan2, as _edges_follow's
-        got, take = _claims(ptr, flat, self.xy, p, self.free, blk, ang, self.light, self.spread, self.strength)
-        labs = (cells[take] - self.org).tolist()  # labels first: the grid, and its origin, may grow
-        for (i, j), k in zip(labs, got[take].tolist()):
-            self.add((i, j), k)
-        return len(labs)
-
-
-def grow(xc: XCorners, seed: int, nb: np.ndarray, free: np.ndarray, tree: cKDTree, *,
-         limit: int | None = None) -> Lattice:
-    """Grow one board from ``seed`` (module doc); ``free`` (bool, N) marks unused corners and is updated."""
-    g = _Grower(xc, tree, free, limit)
-    g.add((0, 0), int(seed))
-    for r, (di, dj) in enumerate(_OFFS):
-        k = int(nb[seed, r])
-        if k >= 0 and free[k]:
-            g.add((int(di), int(dj)), k)
-    while g.round():
-        pass
-    labs = np.array(g.labels, dtype=np.int64).reshape(-1, 2)
-    return Lattice(np.array(g.index, dtype=np.int64), labs)
+    xy = np.ascontiguousarray(xc.xy, dtype=np.float64)
+    order = np.argsort(xy[:, 0], kind="stable")
+    index, labels = _grow(xy, np.ascontiguousarray(xc.light, dtype=np.float64),
+                          np.ascontiguousarray(xc.spread, dtype=np.float64),
+                          np.ascontiguousarray(xc.strength, dtype=np.float64), free, int(seed),
+                          np.ascontiguousarray(nb[seed], dtype=np.int64), -1 if limit is None else int(limit),
+                          order, np.ascontiguousarray(xy[order, 0]))
+    return Lattice(index, labels)

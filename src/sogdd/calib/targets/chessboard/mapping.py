@@ -26,7 +26,7 @@ import numpy as np
 from sogdd._jit import EXACT_JIT
 
 __all__ = ["CHECK_TOL", "SUPPORT", "apply", "check", "homography", "label_grid", "predict_batch",
-           "predict_labels"]
+           "predict_labels", "predict_local", "solve_small"]
 
 #: leave-one-out prediction error allowed for a refined corner, in cells (:func:`check`)
 CHECK_TOL = 0.12
@@ -511,6 +511,90 @@ def _eval_batch(fit: tuple[np.ndarray, np.ndarray, np.ndarray], q: np.ndarray, o
     den = 1.0 + q @ h[:, 2 * M:].T  # (Q, n)
     num = np.stack([h[:, :M] @ m.T, h[:, M:2 * M] @ m.T], axis=-1)  # (n, Q, 2)
     return num / den.T[..., None] * scale[:, None, None] + mean[:, None, :]
+
+
+@numba.njit(**EXACT_JIT)
+def predict_local(xy, nbr, offs, m0, P):  # pragma: no cover - jit
+    """One local homography of :func:`predict_batch` (``order=1``), compiled for the lattice's growth.
+
+    ``nbr`` (K,): indices into ``xy`` of the corners at label offsets ``offs``
+    (K, 2) float, -1 for none; ``m0`` (K, 3) their monomials ``(i, j, 1)``.
+    The same map as :func:`_fit_batch`'s, in the same normalisation (positions
+    about the corners' mean, over their mean distance from it), with the 8 x 8
+    normal equations solved by LU with partial pivoting (:func:`solve_small`)
+    instead of numpy's batched solve: the last bits may differ from
+    :func:`predict_batch`'s. Writes into ``P`` (5, 2) the map at the offsets
+    ``0, (+-1/2, 0), (0, +-1/2)`` (the rows of :data:`_HALF`) and returns
+    whether they are all finite.
+    """
+    K = nbr.shape[0]
+    w = np.zeros(K)
+    b = np.zeros((K, 2))
+    cnt = 0.0
+    mx = 0.0
+    my = 0.0
+    for k in range(K):
+        q = nbr[k]
+        if q >= 0:
+            w[k] = 1.0
+            cnt += 1.0
+            mx += xy[q, 0]
+            my += xy[q, 1]
+    cnt = max(cnt, 1.0)
+    mx /= cnt
+    my /= cnt
+    scale = 0.0
+    for k in range(K):
+        q = nbr[k]
+        if q >= 0:
+            b[k, 0] = xy[q, 0] - mx
+            b[k, 1] = xy[q, 1] - my
+            scale += math.hypot(b[k, 0], b[k, 1])
+    scale = max(scale / cnt, 1e-12)
+    for k in range(K):
+        b[k, 0] /= scale
+        b[k, 1] /= scale
+    A = np.zeros((8, 8))
+    h = np.empty(8)
+    _monomial_rows(w, b, offs, m0, A, h)
+    _step_rows(w, b, offs, 3, A, h)
+    if not solve_small(A, h):
+        return False
+    fin = True
+    for t in range(5):
+        i = _HALF[t, 0]
+        j = _HALF[t, 1]
+        den = 1.0 + h[6] * i + h[7] * j
+        P[t, 0] = (h[0] * i + h[1] * j + h[2]) / den * scale + mx
+        P[t, 1] = (h[3] * i + h[4] * j + h[5]) / den * scale + my
+        fin &= np.isfinite(P[t, 0]) and np.isfinite(P[t, 1])
+    return fin
+
+
+@numba.njit(**EXACT_JIT)
+def solve_small(A, b):  # pragma: no cover - jit
+    """``A x = b`` for a small square ``A`` by LU with partial pivoting, in place: ``b`` becomes ``x`` and
+    ``A`` is overwritten; False where a pivot is zero (a singular ``A``)."""
+    n = A.shape[0]
+    for c in range(n):
+        piv = c + np.argmax(np.abs(A[c:, c]))
+        if A[piv, c] == 0.0:
+            return False
+        if piv != c:
+            for u in range(c, n):
+                A[c, u], A[piv, u] = A[piv, u], A[c, u]
+            b[c], b[piv] = b[piv], b[c]
+        for r in range(c + 1, n):
+            f = A[r, c] / A[c, c]
+            for u in range(c + 1, n):
+                A[r, u] -= f * A[c, u]
+            b[r] -= f * b[c]
+    for c in range(n - 1, -1, -1):
+        s = b[c]
+        for u in range(c + 1, n):
+            s -= A[c, u] * b[u]
+        b[c] = s / A[c, c]
+    return True
 
 
 def _loo_error(src: np.ndarray, dst: np.ndarray, q: np.ndarray, p: np.ndarray, tol: float) -> float:

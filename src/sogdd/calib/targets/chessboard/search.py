@@ -140,14 +140,12 @@ def _boards(grey: np.ndarray, xc: XCorners, pattern: tuple[int, int] | None, min
     :func:`_view_boards` instead."""
     if len(xc) < 5:
         return []
-    tree = cKDTree(xc.xy)
-    nb, dist = ray_neighbours(xc, tree)
+    nb, dist = ray_neighbours(xc)
     free = np.ones(len(xc), dtype=bool)
     if view_only:
-        return _view_boards(grey, xc, tree, nb, dist, free, pattern, min_corners, refine, max_boards, others,
-                            done)
+        return _view_boards(grey, xc, nb, dist, free, pattern, min_corners, refine, max_boards, others, done)
     out: list[Board] = []
-    for lat in _grown(xc, seeds(xc, nb, dist), tree, nb, free, min_corners, done):
+    for lat in _grown(xc, seeds(xc, nb, dist), nb, free, min_corners, done):
         board = _finish(grey, xc, lat, pattern, min_corners, refine, others=others)
         if board is not None:
             out.append(board)
@@ -157,14 +155,14 @@ def _boards(grey: np.ndarray, xc: XCorners, pattern: tuple[int, int] | None, min
     return out
 
 
-def _grown(xc: XCorners, order: np.ndarray, tree: cKDTree, nb: np.ndarray, free: np.ndarray, min_corners: int,
+def _grown(xc: XCorners, order: np.ndarray, nb: np.ndarray, free: np.ndarray, min_corners: int,
            done: Sequence[Board]) -> Iterator[Lattice]:
     """The lattices grown from the seeds ``order`` whose seed and its neighbours are still free (``free``
     updated as they grow), of ``min_corners`` or more and not already a complete board of ``done``."""
     for s in order:
         if not free[s] or not free[nb[s]].all():
             continue
-        lat = grow(xc, int(s), nb, free, tree)  # whole: a part of a larger grid is no board of the pattern
+        lat = grow(xc, int(s), nb, free)  # whole: a part of a larger grid is no board of the pattern
         if len(lat) < min_corners:
             free[lat.index] = True
             free[s] = False  # not a seed again
@@ -180,9 +178,9 @@ def _grown(xc: XCorners, order: np.ndarray, tree: cKDTree, nb: np.ndarray, free:
 VIEW_SMALL = 0.8 * float(SMALL_CELL)
 
 
-def _view_boards(grey: np.ndarray, xc: XCorners, tree: cKDTree, nb: np.ndarray, dist: np.ndarray,
-                 free: np.ndarray, pattern: tuple[int, int] | None, min_corners: int, refine: bool,
-                 max_boards: int, others: list[Board] | None, done: Sequence[Board]) -> list[Board]:
+def _view_boards(grey: np.ndarray, xc: XCorners, nb: np.ndarray, dist: np.ndarray, free: np.ndarray,
+                 pattern: tuple[int, int] | None, min_corners: int, refine: bool, max_boards: int,
+                 others: list[Board] | None, done: Sequence[Board]) -> list[Board]:
     """:func:`_boards` for one board per image: the seeds spaced at least :data:`VIEW_SMALL` of the widest
     seed's first (strongest first among them), then the others; each group's lattices refined largest
     cells first; once a board of the whole pattern is found (here or in ``done``), no seed or lattice
@@ -196,7 +194,7 @@ def _view_boards(grey: np.ndarray, xc: XCorners, tree: cKDTree, nb: np.ndarray, 
     out: list[Board] = []
     for part in (wide, ~wide):
         group = order[part & (spacing >= VIEW_SMALL * settled)]
-        grown = list(_grown(xc, group, tree, nb, free, min_corners, done))
+        grown = list(_grown(xc, group, nb, free, min_corners, done))
         local = [lattice_cells(xc.xy[lat.index], lat.labels) for lat in grown]  # the refinement's too
         cells = [median(c) for c in local]
         for k in np.argsort(cells, kind="stable")[::-1]:
