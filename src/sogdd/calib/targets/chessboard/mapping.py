@@ -12,8 +12,11 @@ follow the rows.
 
 The normal equations of the maps (:func:`_normal_equations`) are compiled
 without ``fastmath``: the same floating-point operations, in the same order, as
-the numpy they replace (the boards are the same to the bit); the batched solves
-and the homography of :func:`check`'s second fit stay numpy's.
+the numpy they replace (the boards are the same to the bit). The lattice's
+growth and :func:`check`'s first fit solve one local homography per label in
+compiled code (:func:`predict_local`, a small LU: :func:`solve_small`); the
+batched solves of the curved maps and the homography of :func:`check`'s second
+fit stay numpy's.
 """
 
 from __future__ import annotations
@@ -150,7 +153,7 @@ def check(xy: np.ndarray, labels: np.ndarray, *, tol: float = 0.1, reach: int = 
     fit = (cnt >= 5) & (np.linalg.det(cov) * 1.0 > 1e-9)
     err = np.full(len(which), np.inf)
     if fit.any():
-        err[fit] = _batch_errors(xy, nbr[fit], w[fit], offs_f, which[fit])
+        err[fit] = _local_errors(xy, nbr[fit], offs_f, which[fit])
     okw = err <= tol
     # a neighbour that is itself off spoils the fit: fit again without the worst one
     for m in np.flatnonzero(fit & ~okw & (cnt >= 6)):
@@ -301,26 +304,22 @@ def _cells_batch(xy: np.ndarray, nbr: np.ndarray, w: np.ndarray, offs: np.ndarra
     return np.where(np.isfinite(e), e, np.inf)
 
 
-def _batch_errors(xy: np.ndarray, nbr: np.ndarray, w: np.ndarray, offs: np.ndarray,
-                  which: np.ndarray) -> np.ndarray:
-    """Leave-one-out errors in cells of the corners ``which`` (:func:`predict_batch`)."""
-    return _cell_errors(predict_batch(xy, nbr, w, offs), np.ascontiguousarray(xy[which], dtype=np.float64))
-
-
 @numba.njit(**EXACT_JIT)
-def _cell_errors(P, at):  # pragma: no cover - jit
-    """:func:`_batch_errors` from the predictions ``P`` (n, 5, 2) of the points ``at``, as numpy computed
-    them: ``|P0 - at| / max(min(|P1 - P2|, |P3 - P4|), 1e-9)`` (libm's ``hypot``; NaN kept by the min and
-    max, as numpy's), ``inf`` where not finite."""
-    n = P.shape[0]
-    out = np.empty(n)
+def _local_errors(xy, nbr, offs, at):  # pragma: no cover - jit
+    """Leave-one-out errors in cells of the corners ``at`` (n,) against the local homographies of their
+    neighbours ``nbr`` (n, K) at offsets ``offs`` (:func:`predict_local`):
+    ``|P0 - xy[at]| / max(min(|P1 - P2|, |P3 - P4|), 1e-9)``, ``inf`` where the map is not finite."""
+    n = nbr.shape[0]
+    out = np.full(n, np.inf)
+    P = np.empty((5, 2))
     for t in range(n):
-        a = math.hypot(P[t, 1, 0] - P[t, 2, 0], P[t, 1, 1] - P[t, 2, 1])
-        b = math.hypot(P[t, 3, 0] - P[t, 4, 0], P[t, 3, 1] - P[t, 4, 1])
-        cell = a if (a <= b or a != a) else b
-        cell = cell if (cell >= 1e-9 or cell != cell) else 1e-9
-        e = math.hypot(P[t, 0, 0] - at[t, 0], P[t, 0, 1] - at[t, 1]) / cell
-        out[t] = e if np.isfinite(e) else np.inf
+        if not predict_local(xy, nbr[t], offs, P):
+            continue
+        cell = min(math.hypot(P[1, 0] - P[2, 0], P[1, 1] - P[2, 1]),
+                   math.hypot(P[3, 0] - P[4, 0], P[3, 1] - P[4, 1]))
+        e = math.hypot(P[0, 0] - xy[at[t], 0], P[0, 1] - xy[at[t], 1]) / max(cell, 1e-9)
+        if np.isfinite(e):
+            out[t] = e
     return out
 
 
@@ -514,11 +513,12 @@ def _eval_batch(fit: tuple[np.ndarray, np.ndarray, np.ndarray], q: np.ndarray, o
 
 
 @numba.njit(**EXACT_JIT)
-def predict_local(xy, nbr, offs, m0, P):  # pragma: no cover - jit
-    """One local homography of :func:`predict_batch` (``order=1``), compiled for the lattice's growth.
+def predict_local(xy, nbr, offs, P):  # pragma: no cover - jit
+    """One local homography of :func:`predict_batch` (``order=1``), compiled: the lattice's growth and
+    :func:`check` fit one per label.
 
     ``nbr`` (K,): indices into ``xy`` of the corners at label offsets ``offs``
-    (K, 2) float, -1 for none; ``m0`` (K, 3) their monomials ``(i, j, 1)``.
+    (K, 2) float, -1 for none.
     The same map as :func:`_fit_batch`'s, in the same normalisation (positions
     about the corners' mean, over their mean distance from it), with the 8 x 8
     normal equations solved by LU with partial pivoting (:func:`solve_small`)
@@ -530,6 +530,8 @@ def predict_local(xy, nbr, offs, m0, P):  # pragma: no cover - jit
     K = nbr.shape[0]
     w = np.zeros(K)
     b = np.zeros((K, 2))
+    m0 = np.ones((K, 3))  # the monomials (i, j, 1)
+    m0[:, :2] = offs
     cnt = 0.0
     mx = 0.0
     my = 0.0

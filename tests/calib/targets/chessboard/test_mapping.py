@@ -1,0 +1,42 @@
+"""The lattice's compiled local map: one homography per label, and its small solve."""
+
+import numpy as np
+import pytest
+
+from sogdd.calib.targets.chessboard.mapping import SUPPORT, apply, predict_batch, predict_local, solve_small
+
+
+@pytest.mark.parametrize("n", [2, 8, 14])
+def test_solve_small_is_numpys_solve(n):
+    rng = np.random.default_rng(n)
+    for _ in range(20):
+        A = rng.normal(size=(n, n)) * 10.0 ** rng.uniform(-3, 3, size=(n, 1))  # rows of unequal scale
+        b = rng.normal(size=n)
+        x = b.copy()
+        assert solve_small(A.copy(), x)
+        assert np.allclose(x, np.linalg.solve(A, b), rtol=1e-8, atol=1e-10)
+
+
+def test_solve_small_refuses_a_singular_matrix():
+    A = np.array([[1.0, 2.0, 3.0], [2.0, 4.0, 6.0], [0.0, 0.0, 0.0]])
+    assert not solve_small(A, np.ones(3))
+
+
+def test_predict_local_is_predict_batchs_map():
+    """The compiled map of one label is the batched one: the same fit in the same normalisation."""
+    rng = np.random.default_rng(3)
+    lab = np.array([(i, j) for j in range(-2, 3) for i in range(-2, 3)])
+    H = np.array([[30.0, 4.0, 320.0], [-3.0, 27.0, 240.0], [3e-3, -2e-3, 1.0]])
+    xy = apply(H, lab.astype(float)) + rng.normal(0, 0.3, (len(lab), 2))
+    at = {tuple(v): k for k, v in enumerate(lab.tolist())}
+    offs = SUPPORT.astype(float)
+    for drop in ([], [0, 5, 17], list(range(0, 24, 2))):
+        nbr = np.array([at[tuple(o)] for o in SUPPORT.tolist()])
+        nbr[drop] = -1
+        P = np.empty((5, 2))
+        assert predict_local(xy, nbr, offs, P)
+        want = predict_batch(xy, nbr[None], (nbr >= 0).astype(float)[None], offs)[0]
+        assert np.allclose(P, want, rtol=0, atol=1e-9)
+        # and it is the homography at the centre label, within the noise
+        assert np.hypot(*(P[0] - apply(H, np.zeros((1, 2)))[0])) < 1.0
+
