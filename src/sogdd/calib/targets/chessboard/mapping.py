@@ -13,9 +13,10 @@ follow the rows.
 The normal equations of the maps (:func:`_normal_equations`) are compiled
 without ``fastmath``: the same floating-point operations, in the same order, as
 the numpy they replace (the boards are the same to the bit). The lattice's
-growth and :func:`check`'s homographies solve one local map per label in
+growth and :func:`check`'s first fit solve one local homography per label in
 compiled code (:func:`predict_local`, a small LU: :func:`solve_small`); the
-batched solves of the curved maps stay numpy's.
+batched solves of the curved maps and the homography of :func:`check`'s second
+fit stay numpy's.
 """
 
 from __future__ import annotations
@@ -110,9 +111,6 @@ def check(xy: np.ndarray, labels: np.ndarray, *, tol: float = 0.1, reach: int = 
     labels predicts it; the error is divided by the local cell (the distance the
     same homography puts between labels ``+-0.5`` along each axis, the smaller
     one). A corner with fewer than 5 such neighbours (or all on one line) fails.
-    A neighbour that is itself off spoils the fit: a corner beyond ``tol`` with 6
-    neighbours or more is predicted again without the one the homography misses
-    most, and the smaller error counts (:func:`_local_errors`).
 
     With ``curved`` (the default), a corner the homography misses gets a second
     chance from a second-order map of its neighbours within :data:`CURVE_REACH`
@@ -155,9 +153,14 @@ def check(xy: np.ndarray, labels: np.ndarray, *, tol: float = 0.1, reach: int = 
     fit = (cnt >= 5) & (np.linalg.det(cov) * 1.0 > 1e-9)
     err = np.full(len(which), np.inf)
     if fit.any():
-        # a neighbour that is itself off spoils the fit: fitted again without the worst one
-        err[fit] = _local_errors(xy, nbr[fit], offs_f, which[fit], float(tol))
+        err[fit] = _local_errors(xy, nbr[fit], offs_f, which[fit])
     okw = err <= tol
+    # a neighbour that is itself off spoils the fit: fit again without the worst one
+    for m in np.flatnonzero(fit & ~okw & (cnt >= 6)):
+        idx = nbr[m][nbr[m] >= 0]
+        k = which[m]
+        err_k = _loo_error(labels[idx].astype(np.float64), xy[idx], labels[k].astype(float), xy[k], tol)
+        okw[m] = err_k <= tol
     for order in (2, 3) if curved else ():
         bad = np.flatnonzero(~okw)
         if len(bad) == 0:
@@ -302,63 +305,22 @@ def _cells_batch(xy: np.ndarray, nbr: np.ndarray, w: np.ndarray, offs: np.ndarra
 
 
 @numba.njit(**EXACT_JIT)
-def _local_errors(xy, nbr, offs, at, tol):  # pragma: no cover - jit
+def _local_errors(xy, nbr, offs, at):  # pragma: no cover - jit
     """Leave-one-out errors in cells of the corners ``at`` (n,) against the local homographies of their
-    neighbours ``nbr`` (n, K) at offsets ``offs`` (:func:`_cell_error`). Beyond ``tol``, with 6 neighbours
-    or more, fitted again without the neighbour the first map misses most (that neighbour may be the one
-    that is off), where the others still span both axes (:func:`_spans`); the smaller error is kept."""
-    n, K = nbr.shape
-    out = np.empty(n)
-    h = np.empty(8)
-    norm = np.empty(3)
-    for t in range(n):
-        e = _cell_error(xy, nbr[t], offs, xy[at[t], 0], xy[at[t], 1])
-        if e > tol and np.count_nonzero(nbr[t] >= 0) >= 6 and _fit_local(xy, nbr[t], offs, h, norm):
-            worst = -1
-            far = -1.0
-            for k in range(K):
-                q = nbr[t, k]
-                if q >= 0:
-                    x, y = _map_at(h, norm, offs[k, 0], offs[k, 1])
-                    r = math.hypot(x - xy[q, 0], y - xy[q, 1])
-                    if r > far:
-                        far, worst = r, k
-            fewer = nbr[t].copy()
-            fewer[worst] = -1
-            if _spans(fewer, offs):
-                e = min(e, _cell_error(xy, fewer, offs, xy[at[t], 0], xy[at[t], 1]))
-        out[t] = e
-    return out
-
-
-@numba.njit(**EXACT_JIT)
-def _cell_error(xy, nbr, offs, px, py):  # pragma: no cover - jit
-    """The distance of ``(px, py)`` from the local homography of ``nbr`` (:func:`predict_local`) at offset
-    0, in its local cell ``max(min(|P1 - P2|, |P3 - P4|), 1e-9)``; ``inf`` where the map is not finite."""
+    neighbours ``nbr`` (n, K) at offsets ``offs`` (:func:`predict_local`):
+    ``|P0 - xy[at]| / max(min(|P1 - P2|, |P3 - P4|), 1e-9)``, ``inf`` where the map is not finite."""
+    n = nbr.shape[0]
+    out = np.full(n, np.inf)
     P = np.empty((5, 2))
-    if not predict_local(xy, nbr, offs, P):
-        return np.inf
-    cell = min(math.hypot(P[1, 0] - P[2, 0], P[1, 1] - P[2, 1]),
-               math.hypot(P[3, 0] - P[4, 0], P[3, 1] - P[4, 1]))
-    e = math.hypot(P[0, 0] - px, P[0, 1] - py) / max(cell, 1e-9)
-    return e if np.isfinite(e) else np.inf
-
-
-@numba.njit(**EXACT_JIT)
-def _spans(nbr, offs):  # pragma: no cover - jit
-    """Whether the corners ``nbr >= 0`` are 5 or more and their offsets not all on one line (the moment
-    matrix of the offsets has a determinant over ``1e-9``), as :func:`check` asks of a fit."""
-    c = 0
-    s00 = 0.0
-    s01 = 0.0
-    s11 = 0.0
-    for k in range(nbr.shape[0]):
-        if nbr[k] >= 0:
-            c += 1
-            s00 += offs[k, 0] * offs[k, 0]
-            s01 += offs[k, 0] * offs[k, 1]
-            s11 += offs[k, 1] * offs[k, 1]
-    return c >= 5 and s00 * s11 - s01 * s01 > 1e-9
+    for t in range(n):
+        if not predict_local(xy, nbr[t], offs, P):
+            continue
+        cell = min(math.hypot(P[1, 0] - P[2, 0], P[1, 1] - P[2, 1]),
+                   math.hypot(P[3, 0] - P[4, 0], P[3, 1] - P[4, 1]))
+        e = math.hypot(P[0, 0] - xy[at[t], 0], P[0, 1] - xy[at[t], 1]) / max(cell, 1e-9)
+        if np.isfinite(e):
+            out[t] = e
+    return out
 
 
 def predict_batch(xy: np.ndarray, nbr: np.ndarray, w: np.ndarray, offs: np.ndarray, *,
@@ -556,37 +518,15 @@ def predict_local(xy, nbr, offs, P):  # pragma: no cover - jit
     :func:`check` fit one per label.
 
     ``nbr`` (K,): indices into ``xy`` of the corners at label offsets ``offs``
-    (K, 2) float, -1 for none. The same map as :func:`_fit_batch`'s, in the
-    same normalisation (positions about the corners' mean, over their mean
-    distance from it), with the 8 x 8 normal equations solved by LU with
-    partial pivoting (:func:`solve_small`) instead of numpy's batched solve: the
-    last bits may differ from :func:`predict_batch`'s. Writes into ``P`` (5, 2)
-    the map at the offsets ``0, (+-1/2, 0), (0, +-1/2)`` (the rows of
-    :data:`_HALF`) and returns whether they are all finite.
+    (K, 2) float, -1 for none.
+    The same map as :func:`_fit_batch`'s, in the same normalisation (positions
+    about the corners' mean, over their mean distance from it), with the 8 x 8
+    normal equations solved by LU with partial pivoting (:func:`solve_small`)
+    instead of numpy's batched solve: the last bits may differ from
+    :func:`predict_batch`'s. Writes into ``P`` (5, 2) the map at the offsets
+    ``0, (+-1/2, 0), (0, +-1/2)`` (the rows of :data:`_HALF`) and returns
+    whether they are all finite.
     """
-    h = np.empty(8)
-    norm = np.empty(3)
-    if not _fit_local(xy, nbr, offs, h, norm):
-        return False
-    fin = True
-    for t in range(5):
-        P[t, 0], P[t, 1] = _map_at(h, norm, _HALF[t, 0], _HALF[t, 1])
-        fin &= np.isfinite(P[t, 0]) and np.isfinite(P[t, 1])
-    return fin
-
-
-@numba.njit(**EXACT_JIT)
-def _map_at(h, norm, i, j):  # pragma: no cover - jit
-    """The local homography ``h`` of :func:`_fit_local` at label offset ``(i, j)``: ``(x, y)``."""
-    den = 1.0 + h[6] * i + h[7] * j
-    return ((h[0] * i + h[1] * j + h[2]) / den * norm[0] + norm[1],
-            (h[3] * i + h[4] * j + h[5]) / den * norm[0] + norm[2])
-
-
-@numba.njit(**EXACT_JIT)
-def _fit_local(xy, nbr, offs, h, norm):  # pragma: no cover - jit
-    """:func:`predict_local`'s fit: the homography ``h`` (8,) and its normalisation ``norm = (scale, mean x,
-    mean y)``, written in place; False where the normal equations are singular."""
     K = nbr.shape[0]
     w = np.zeros(K)
     b = np.zeros((K, 2))
@@ -617,12 +557,20 @@ def _fit_local(xy, nbr, offs, h, norm):  # pragma: no cover - jit
         b[k, 0] /= scale
         b[k, 1] /= scale
     A = np.zeros((8, 8))
+    h = np.empty(8)
     _monomial_rows(w, b, offs, m0, A, h)
     _step_rows(w, b, offs, 3, A, h)
-    norm[0] = scale
-    norm[1] = mx
-    norm[2] = my
-    return solve_small(A, h)
+    if not solve_small(A, h):
+        return False
+    fin = True
+    for t in range(5):
+        i = _HALF[t, 0]
+        j = _HALF[t, 1]
+        den = 1.0 + h[6] * i + h[7] * j
+        P[t, 0] = (h[0] * i + h[1] * j + h[2]) / den * scale + mx
+        P[t, 1] = (h[3] * i + h[4] * j + h[5]) / den * scale + my
+        fin &= np.isfinite(P[t, 0]) and np.isfinite(P[t, 1])
+    return fin
 
 
 @numba.njit(**EXACT_JIT)
@@ -649,3 +597,25 @@ def solve_small(A, b):  # pragma: no cover - jit
             s -= A[c, u] * b[u]
         b[c] = s / A[c, c]
     return True
+
+
+def _loo_error(src: np.ndarray, dst: np.ndarray, q: np.ndarray, p: np.ndarray, tol: float) -> float:
+    """The error of ``p`` against the homography of its neighbours, in cells; fitted again without the
+    neighbour that fits worst when the first is beyond ``tol`` (that neighbour may be the one that is off)."""
+    H = homography(src, dst)
+    if H is None:
+        return np.inf
+    err = _cells_off(H, q, p)
+    if err > tol and len(src) >= 6:
+        m = np.ones(len(src), bool)
+        m[np.argmax(np.hypot(*(apply(H, src) - dst).T))] = False
+        H2 = homography(src[m], dst[m])
+        if H2 is not None:
+            err = min(err, _cells_off(H2, q, p))
+    return err
+
+
+def _cells_off(H: np.ndarray, q: np.ndarray, p: np.ndarray) -> float:
+    pts = apply(H, np.array([q, q + (0.5, 0), q - (0.5, 0), q + (0, 0.5), q - (0, 0.5)]))
+    cell = min(np.hypot(*(pts[1] - pts[2])), np.hypot(*(pts[3] - pts[4])))
+    return float(np.hypot(*(pts[0] - p)) / max(cell, 1e-9))
