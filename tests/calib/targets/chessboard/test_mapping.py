@@ -40,3 +40,17 @@ def test_predict_local_is_predict_batchs_map():
         # and it is the homography at the centre label, within the noise
         assert np.hypot(*(P[0] - apply(H, np.zeros((1, 2)))[0])) < 1.0
 
+
+
+def test_check_refits_without_a_neighbour_that_is_off():
+    """A corner far off the lattice spoils its neighbours' homographies (a 4 x 4 board: few neighbours each);
+    each is fitted again without the neighbour its map misses most, and only the corner that is off fails."""
+    from sogdd.calib.targets.chessboard.mapping import check
+
+    lab = np.array([(i, j) for j in range(4) for i in range(4)])
+    H = np.array([[20.0, 1.0, 30.0], [-1.0, 19.0, 40.0], [1e-3, 5e-4, 1.0]])
+    for off, shift in ((5, (6.0, -5.0)), (5, (10.0, -8.0)), (0, (6.0, -5.0))):
+        xy = apply(H, lab.astype(float))
+        xy[off] += shift  # 0.4-0.6 of a cell
+        ok = check(xy, lab, tol=0.05, curved=False)
+        assert np.flatnonzero(~ok).tolist() == [off]
