@@ -11,12 +11,14 @@ import numpy as np
 from sogdd.calib.cameras import Camera
 from sogdd.calib.targets.board import lattice_cells
 from sogdd.calib.targets.chessboard.windows import (
+    asymmetry_limit,
     border_reach,
     edge_halves,
     inner_corners,
     recut,
     square_within,
     star_refit,
+    symmetric,
 )
 from sogdd.calib.targets.refine import MIN_HALF, REACH_DIRS, half_widths, refine_grey
 
@@ -138,3 +140,15 @@ def test_a_star_window_fits_border_corners_of_a_blurred_board_with_cut_outer_squ
             errors.append(np.hypot(*(b.image_points - v.corners[order]).T).mean())
     assert complete >= 6, complete
     assert max(errors) < 0.5, errors
+
+
+def test_a_corner_nearer_no_symmetry_than_its_noisy_board_is_dropped():
+    """On a noisy board (median asymmetry 0.1) ten times the median would keep any fit; a corner whose
+    asymmetry is more than halfway from the median to 1 (no symmetry at all) is dropped, one within it kept."""
+    rng = np.random.default_rng(0)
+    asym = rng.uniform(0.08, 0.12, 40)
+    asym[[3, 17]] = (0.8, 0.5)
+    keep = symmetric(1.0 - asym)
+    assert not keep[3] and keep[17] and keep.sum() == 39
+    # a clean board keeps its rule: ten times the median, at least 0.1
+    assert asymmetry_limit(0.001) == 0.1 and asymmetry_limit(0.02) == 0.2

@@ -16,7 +16,7 @@ from scipy.spatial import cKDTree
 from ..board import Board, label_neighbours, lattice_cells, median
 from ..refine import half_widths, refine_grey
 from .mapping import predict_labels
-from .windows import ASYMMETRY, MIN_ASYMMETRY, bilinear
+from .windows import asymmetry_limit, bilinear
 from .xcorners import SIGMA2, XCorners, hessian_at, junction_strength
 
 __all__ = ["EDGE_CONTRAST", "EDGE_SHARE", "MAX_ORPHANS", "edge_links", "extends", "has_block", "orphans",
@@ -161,7 +161,7 @@ def extends(grey: np.ndarray, board: Board) -> bool:
     cell = median(cells[np.isfinite(cells)]) if np.isfinite(cells).any() else 0.0
     own_half = half_widths(xy, None, np.where(np.isfinite(cells), cells, cell))
     _, q_own = refine_grey(grey, xy, own_half, own_half.astype(np.float64), iterations=1)
-    limit = max(ASYMMETRY * median(1.0 - q_own), MIN_ASYMMETRY)
+    limit = asymmetry_limit(median(1.0 - q_own))
     strong = 0.5 * median(junction_strength(hessian_at(grey, xy, np.sqrt(SIGMA2))))
     H, W = grey.shape
     for side in sides:

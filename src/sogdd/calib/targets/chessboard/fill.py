@@ -19,8 +19,7 @@ from ..board import lattice_cells, median
 from ..refine import MIN_HALF, WINDOW_FRACTION, half_widths, refine_grey
 from .mapping import CHECK_TOL, check, label_grid, predict_labels
 from .windows import (
-    ASYMMETRY,
-    MIN_ASYMMETRY,
+    asymmetry_limit,
     bilinear,
     border_reach,
     deshaded,
@@ -219,7 +218,7 @@ def _fill(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, quality: np.ndar
     border corner, and the image unshaded where a shadow breaks the symmetry),
     and the point is kept when it is a board corner as the others are: its
     window lies inside the frame (:func:`_predicted`), its asymmetry within
-    :data:`sogdd.calib.targets.chessboard.windows.ASYMMETRY` times the board's median, its
+    :func:`sogdd.calib.targets.chessboard.windows.asymmetry_limit` of the board's median, its
     light squares where the label's parity puts them and the contrast of its
     four wedges at least :data:`FILL_CONTRAST` of the board's median (both
     measured along the lattice's local steps, :func:`_frame` and
@@ -233,7 +232,7 @@ def _fill(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, quality: np.ndar
     appended (``light``: the angle of the light diagonal).
     """
     asym = median(1.0 - quality)
-    thr = max(ASYMMETRY * asym, MIN_ASYMMETRY)
+    thr = asymmetry_limit(asym)
     ref: tuple[bool, float] | None = None  # the board's own wedges, measured once a candidate needs them
     for _ in range(FILL_ROUNDS):
         cand, P, cell = _predicted(grey, xy, labels, pattern)
