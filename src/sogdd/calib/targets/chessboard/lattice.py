@@ -18,7 +18,7 @@ image coordinates (``x`` right, ``y`` down; ``i`` left to right and ``j`` top to
 bottom on an upright board). Growth (:func:`grow`) then works by prediction: for
 each free label next to the labelled ones, a homography fitted to the labelled
 corners within two labels (a local homography follows perspective and lens
-distortion, :func:`sogdd.calib.targets.chessboard.mapping.predict_batch`) predicts
+distortion, :func:`sogdd.calib.targets.chessboard.mapping.predict_local`) predicts
 its position; the nearest free X-corner within :data:`SEARCH` cells of it is taken
 if its edge lines follow the local lattice directions (:func:`_edges_follow`), its
 light axis has the label's parity, and its strength is that of its neighbours
@@ -554,7 +554,7 @@ def grow(xc: XCorners, seed: int, nb: np.ndarray, free: np.ndarray, *, limit: in
     this many labels each way.
     """
     xy = np.ascontiguousarray(xc.xy, dtype=np.float64)
-    order = np.argsort(xy[:, 0], kind="stable")
+    order = xc.by_x
     index, labels = _grow(xy, np.ascontiguousarray(xc.light, dtype=np.float64),
                           np.ascontiguousarray(xc.spread, dtype=np.float64),
                           np.ascontiguousarray(xc.strength, dtype=np.float64), free, int(seed),

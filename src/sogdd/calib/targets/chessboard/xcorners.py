@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cached_property, lru_cache
 
 import cv2
 import numba
@@ -99,6 +99,11 @@ class XCorners:
     def edges(self) -> np.ndarray:
         """(N, 2) angles in ``[0, pi)`` of the two edge lines, ``light - spread`` and ``light + spread``."""
         return np.mod(np.stack([self.light - self.spread, self.light + self.spread], axis=1), np.pi)
+
+    @cached_property
+    def by_x(self) -> np.ndarray:
+        """The candidates' indices sorted by ``x`` (the lattice's search for a label's candidates), once."""
+        return np.argsort(self.xy[:, 0], kind="stable")
 
     def subset(self, keep: np.ndarray) -> XCorners:
         """The candidates selected by a mask or index array."""
