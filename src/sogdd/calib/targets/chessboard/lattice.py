@@ -253,7 +253,7 @@ def _edges_follow(light: float, spread: float, axes: np.ndarray) -> bool:
     the light axis, an eigenvector, stays within a few degrees.
     """
     axes = np.asarray(axes, dtype=np.float64)
-    ang = np.arctan2(axes[:, 1], axes[:, 0])  # numpy's arctan2, as the growth's (:meth:`_Grower.round`)
+    ang = np.arctan2(axes[:, 1], axes[:, 0])
     return bool(_edges_follow1(float(light), float(spread), float(ang[0]), float(ang[1])))
 
 
