@@ -24,7 +24,10 @@ front of numba's cache locators copies that, for the files of this package, add
 :func:`sources_key` (a hash of the package version and of every source file of the
 core) to numba's own stamp: any edit of the core, or another version, makes every
 cached entry of the package stale, and numba compiles it again (and overwrites
-it). Other packages' numba caches are untouched.
+it). A client's compiled code may call the compiled code of another module of its
+own folder (the chessboard lattice's growth calls ``mapping.predict_local``), so
+the stamp also holds :func:`folder_key`, a hash of the sources of the function's
+own folder. Other packages' numba caches are untouched.
 """
 
 import functools
@@ -120,8 +123,25 @@ def sources_key() -> str:
     return h.hexdigest()
 
 
+@functools.cache
+def folder_key(folder: str) -> str:
+    """A hash of the ``.py`` files of one folder (the module docstring), computed once per process.
+
+    Examples
+    --------
+    >>> len(folder_key(str(_PACKAGE / "calib" / "targets" / "chessboard")))
+    64
+    """
+    h = hashlib.sha256()
+    for f in sorted(Path(folder).glob("*.py")):
+        h.update(f.name.encode())
+        h.update(f.read_bytes())
+    return h.hexdigest()
+
+
 class _CoreKeyed:
-    """Mix-in for a numba cache locator: this package's files only, stamped with :func:`sources_key`."""
+    """Mix-in for a numba cache locator: this package's files only, stamped with :func:`sources_key` and the
+    :func:`folder_key` of the function's folder."""
 
     @classmethod
     def from_function(cls, py_func, py_file):
@@ -132,7 +152,7 @@ class _CoreKeyed:
         return super().from_function(py_func, py_file)
 
     def get_source_stamp(self):
-        return super().get_source_stamp(), sources_key()
+        return super().get_source_stamp(), sources_key(), folder_key(str(Path(self._py_file).parent))
 
 
 def _key_the_cache() -> None:
