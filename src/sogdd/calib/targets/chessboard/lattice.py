@@ -87,7 +87,7 @@ class Lattice:
         return len(self.index)
 
 
-def ray_neighbours(xc: XCorners, tree: cKDTree | None = None) -> tuple[np.ndarray, np.ndarray]:
+def ray_neighbours(xc: XCorners) -> tuple[np.ndarray, np.ndarray]:
     """The nearest lattice neighbour along each of the four rays of every corner.
 
     The rays point along ``theta1, theta2, theta1 + pi, theta2 + pi`` (the edge
@@ -98,9 +98,8 @@ def ray_neighbours(xc: XCorners, tree: cKDTree | None = None) -> tuple[np.ndarra
     dist = np.full((n, 4), np.inf)
     if n < 2:
         return nb, dist
-    tree = cKDTree(xc.xy) if tree is None else tree
     k = min(KNN, n)
-    d, idx = tree.query(xc.xy, k=k)
+    d, idx = cKDTree(xc.xy).query(xc.xy, k=k)
     d, idx = np.ascontiguousarray(d[:, 1:]), np.ascontiguousarray(idx[:, 1:], dtype=np.int64)  # not itself
     v = xc.xy[idx] - xc.xy[:, None, :]
     ang = np.arctan2(v[..., 1], v[..., 0])  # numpy's arctan2 (its SIMD one where it has it), as before
