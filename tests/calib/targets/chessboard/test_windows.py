@@ -10,12 +10,15 @@ import numpy as np
 
 from sogdd.calib.cameras import Camera
 from sogdd.calib.targets.board import lattice_cells
+from sogdd.calib.targets.chessboard import windows
 from sogdd.calib.targets.chessboard.windows import (
     asymmetry_limit,
     border_reach,
     edge_halves,
     inner_corners,
     recut,
+    refine_board,
+    same_window,
     square_within,
     star_refit,
     symmetric,
@@ -152,3 +155,58 @@ def test_a_corner_nearer_no_symmetry_than_its_noisy_board_is_dropped():
     assert not keep[3] and keep[17] and keep.sum() == 39
     # a clean board keeps its rule: ten times the median, at least 0.1
     assert asymmetry_limit(0.001) == 0.1 and asymmetry_limit(0.02) == 0.2
+
+
+def _steep_view(render, tilt: float, edge: float, noise: float, blur: float = 2.0):
+    """A 9 x 6 board tilted ``tilt`` degrees about its rows (outer squares ``edge`` of a cell), through the
+    480 x 360 pinhole: the grey image, the true corners and labels, and starts 0.3 px off them."""
+    R = cv2.Rodrigues(np.radians([tilt, 0.0, 10.0]))[0]
+    t = np.array([0.0, 0.0, 0.5]) - R @ np.array([4 * 0.03, 2.5 * 0.03, 0.0])
+    v = render.render_view(CAM, render.Board(9, 6, 0.03, edge=edge), cv2.Rodrigues(R)[0].ravel(), t, blur=blur,
+                           noise=noise, rng=1)
+    start = v.corners + np.random.default_rng(0).normal(0, 0.3, v.corners.shape)
+    return v.image.astype(np.float64), v.corners, v.labels, start
+
+
+def test_a_corner_whose_full_window_slides_off_is_refitted_from_the_lattice_point(render, monkeypatch):
+    """Tilted 70 degrees, outer squares of 0.3 cell, noise 10: the full windows of some border corners slide
+    4-5 px off them, onto the background; a cut window started where they slid cannot come back, so the
+    corner is refitted from its lattice point, kept and within 1 px (from the slid fit: 3.4 px off, dropped).
+    The refit's own rule, without the later judgement through the corner's own window (which starts from
+    the lattice point too)."""
+    monkeypatch.setattr(windows, "same_window", lambda *args: None)
+    grey, truth, labels, start = _steep_view(render, 70.0, 0.3, 10.0)
+    half = half_widths(start, None, lattice_cells(start, labels))
+    full, _ = refine_grey(grey, start, half, half.astype(np.float64))
+    slid = np.hypot(*(full - start).T) > 3.0
+    assert slid.sum() >= 2  # the premise
+    out, q = refine_board(grey, start, labels)
+    assert symmetric(q)[slid].all()
+    assert (np.hypot(*(out[slid] - truth[slid]).T) < 1.0).all()
+
+
+def test_a_narrow_outer_row_is_judged_through_its_own_window(render):
+    """Outer squares of 0.2 cell, blur 2 px, noise 10: the border corners' windows are cut to a few px of
+    blurred squares, where the noise alone makes their asymmetry several times the board's median (10 of 54
+    dropped by it). Judged against the board's inner corners seen through the same window
+    (:func:`same_window`), every corner is kept, and every one within 1 px."""
+    grey, truth, labels, start = _steep_view(render, 17.0, 0.2, 10.0)
+    out, q = refine_board(grey, start, labels)
+    assert symmetric(q).all()
+    assert (np.hypot(*(out - truth).T) < 1.0).all()
+
+
+def test_a_corner_an_occluder_moved_stays_dropped_through_its_own_window(render):
+    """The same board with a flat grey patch over half of one border corner's surroundings: through the
+    board's windows or its own, it is far less symmetric than the board's corners and stays dropped."""
+    grey, truth, labels, start = _steep_view(render, 17.0, 0.2, 10.0)
+    k = int(np.flatnonzero((labels[:, 0] == 4) & (labels[:, 1] == 0))[0])
+    x, y = np.rint(truth[k]).astype(int)
+    grey = grey.copy()
+    grey[y - 12 : y + 13, x + 1 : x + 13] = 110.0
+    cells = lattice_cells(start, labels)
+    out, q = refine_board(grey, start, labels, cells)
+    assert not symmetric(q)[k]
+    out2, q2 = out.copy(), q.copy()
+    same_window(grey, start, out2, q2, labels, cells, half_widths(start, None, cells), ~symmetric(q))
+    assert not symmetric(q2)[k]

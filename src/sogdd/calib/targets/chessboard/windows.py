@@ -5,9 +5,11 @@ point symmetry (:func:`sogdd.calib.targets.refine.refine_grey`) with a window of
 0.65 of its local cell (:func:`sogdd.calib.targets.board.lattice_cells`), cut for the corners on the
 border and for those far less point-symmetric than the board's others to where
 the squares around them are point-symmetric (:func:`edge_halves`,
-:func:`recut`), and, for those still far less symmetric, measured again on
-the image divided by its light envelope (:func:`deshaded`: a shadow or a
-reflection over part of a square). :func:`symmetric` then keeps the corners
+:func:`recut`); those still far less symmetric are judged against the board's
+corners seen through the same cut window (:func:`same_window`: noise makes a
+small window's asymmetry large), and measured again on the image divided by
+its light envelope (:func:`deshaded`: a shadow or a reflection over part of a
+square). :func:`symmetric` then keeps the corners
 whose asymmetry ``1 - quality`` is within :func:`asymmetry_limit` of the board's
 median.
 """
@@ -26,7 +28,8 @@ from ..board import label_neighbours, lattice_cells, median
 from ..refine import MAX_WINDOW, MIN_HALF, REACH_DIRS, half_widths, refine_grey
 
 __all__ = ["ASYMMETRY", "MIN_ASYMMETRY", "asymmetry_limit", "bilinear", "border_reach", "deshaded",
-           "edge_halves", "inner_corners", "recut", "refine_board", "square_within", "star_refit", "symmetric"]
+           "edge_halves", "inner_corners", "recut", "refine_board", "same_window", "square_within",
+           "star_refit", "symmetric"]
 
 #: a refined corner is dropped when its asymmetry ``1 - quality`` exceeds this multiple of the board's median
 ASYMMETRY = 10.0
@@ -243,8 +246,12 @@ def refine_board(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, cells: np
     between the two squares mirrored through the corner, breaks the symmetry
     beyond its clear margin only, so a window within that margin fits the
     corner; an occluder over the corner leaves the cut fit asymmetric too.
+    A corner still asymmetric whose full window had moved is refined again with the window cut at its
+    lattice point, from there: a full window that slid off a narrow outer row onto the background (4-5 px
+    on a board tilted 70 degrees) leaves its cut fit where it slid, out of the short window's reach.
     Those still asymmetric are refined with the star window of their reach
-    (:func:`star_refit`), and, failing it, on the image unshaded (:func:`deshaded`). ``cells``: the
+    (:func:`star_refit`), then judged through their own cut window against the board's corners
+    (:func:`same_window`), and, failing both, on the image unshaded (:func:`deshaded`). ``cells``: the
     corners' :func:`~sogdd.calib.targets.board.lattice_cells`, when the caller has them already.
     """
     cells = lattice_cells(xy, labels) if cells is None else cells
@@ -258,8 +265,17 @@ def refine_board(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, cells: np
         # measured on their own: the border corners' windows are cut already
         reach[asym] = border_reach(grey, at[asym], labels[asym], cells[asym], also=asym[asym])
         recut(grey, at, out, quality, half, np.where(asym[:, None], reach, np.inf))
+    slid = ~symmetric(quality) & np.any(at != xy, axis=1)
+    if slid.any():
+        # a full window that slid off a narrow outer row left the cut fit there: refit from the lattice's point
+        reach_xy = np.full_like(reach, np.inf)
+        reach_xy[slid] = border_reach(grey, xy[slid], labels[slid], cells[slid], also=slid[slid])
+        recut(grey, xy, out, quality, half, reach_xy)
     star_refit(grey, at, out, quality, half, reach, ~symmetric(quality))
     bad = ~symmetric(quality)
+    if bad.any():
+        same_window(grey, xy, out, quality, labels, cells, half, bad)
+        bad = ~symmetric(quality)
     if bad.any() and np.isfinite(cells).any():
         inner = inner_corners(labels) & ~bad
         ref = np.flatnonzero(inner if np.count_nonzero(inner) >= 5 else ~bad)
@@ -268,6 +284,56 @@ def refine_board(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, cells: np
         k = np.flatnonzero(bad)[q > quality[bad]]
         out[k], quality[k] = r[q > quality[bad]], q[q > quality[bad]]
     return out, quality
+
+
+#: the most of a board's symmetric inner corners :func:`same_window` measures through each window
+SAME_WINDOW_REFS = 24
+
+
+def same_window(grey: np.ndarray, start: np.ndarray, out: np.ndarray, quality: np.ndarray, labels: np.ndarray,
+                cells: np.ndarray, half: np.ndarray, which: np.ndarray) -> None:
+    """The corners ``which`` (bool) judged against the board's corners seen through the same cut window.
+
+    A window cut to a narrow outer row (a board's rim through a fisheye, or under a steep tilt) holds a
+    few px of a blurred corner: its spread is a few grey levels where the board's full windows span the
+    board's contrast, so the image's noise alone makes its asymmetry ``1 - q`` many times the board's
+    median ``m`` (0.31 against 0.02 at the rim of a rendered 174-degree fisheye under noise of 11 grey
+    levels), and :func:`symmetric` would drop a corner that is where it should be.
+
+    Each such corner is refined again from its lattice point ``start`` (not from a fit that may have
+    slid off it), with the square window of its symmetric extent there (:func:`border_reach`,
+    :func:`square_within`: half-width ``h``, within which it may move), and the board's symmetric inner
+    corners (at most :data:`SAME_WINDOW_REFS`) are measured through the same ``h`` (one step from their
+    fits): their median asymmetry ``m_h`` is what noise and blur give that window on this board. The
+    corner is judged against them, ``1 - q`` within :func:`asymmetry_limit` ``L`` of ``m_h``: its
+    asymmetry on the board's scale is ``a = max((1 - q) L(m) / L(m_h), m)`` (as :func:`deshaded` puts
+    a corner measured on the unshaded image on it; never below the median, so that the limit the board's
+    other corners are held to stays where it was), and its fit is kept where that is more symmetric than
+    its own. A corner that an occluder or a foreign edge moved is as asymmetric against the board's
+    corners through its window as it was through the board's. A corner whose window the squares do not
+    cut, or whose fit failed, and a board with fewer than 5 symmetric inner corners, are left as they
+    are. ``out`` and ``quality`` are updated in place.
+    """
+    ref = np.flatnonzero(inner_corners(labels) & ~which & (quality > 0))
+    if len(ref) < 5:
+        return
+    ref = ref[np.linspace(0, len(ref) - 1, min(len(ref), SAME_WINDOW_REFS)).astype(np.int64)]
+    k = np.flatnonzero(which & np.isfinite(cells) & (quality > 0))
+    if len(k) == 0:
+        return
+    h = square_within(border_reach(grey, start[k], labels[k], cells[k], also=np.ones(len(k), bool)), half[k])
+    k, h = k[h < half[k]], h[h < half[k]]  # a corner with its whole window was measured as the board's are
+    if len(k) == 0:
+        return
+    m = median(1.0 - quality)
+    xy, q = refine_grey(grey, start[k], h, h.astype(np.float64))
+    a = np.full(len(k), np.inf)
+    for hv in np.unique(h):
+        at = h == hv
+        _, qr = refine_grey(grey, out[ref], np.full(len(ref), hv), np.full(len(ref), float(hv)), iterations=1)
+        a[at] = np.maximum((1.0 - q[at]) * asymmetry_limit(m) / asymmetry_limit(median(1.0 - qr)), m)
+    better = (q > 0) & (1.0 - a > quality[k])
+    out[k[better]], quality[k[better]] = xy[better], 1.0 - a[better]
 
 
 def inner_corners(labels: np.ndarray) -> np.ndarray:
