@@ -210,3 +210,47 @@ def test_a_corner_an_occluder_moved_stays_dropped_through_its_own_window(render)
     out2, q2 = out.copy(), q.copy()
     same_window(grey, start, out2, q2, labels, cells, half_widths(start, None, cells), ~symmetric(q))
     assert not symmetric(q2)[k]
+
+
+def _reach_reference(grey, xy, labels, cells, also=None):
+    """:func:`border_reach` as numpy states it: the ring's 10th and 90th percentiles (``np.percentile``),
+    then each ray's first step whose mirrored samples differ by more than a fifth of their spread."""
+    from sogdd.calib.targets.chessboard.windows import bilinear
+
+    dirs = np.stack([np.cos(np.arange(16) * np.pi / 16), np.sin(np.arange(16) * np.pi / 16)], axis=1)
+    ring_dirs = np.r_[dirs, -dirs]
+    steps = np.arange(0.1, 0.96, 0.05)
+    border = ~inner_corners(labels) if also is None else ~inner_corners(labels) | also
+    out = np.full((len(xy), REACH_DIRS), np.inf)
+    for c in np.flatnonzero(border & np.isfinite(cells)):
+        hi, lo = np.percentile(bilinear(grey, xy[c] + 0.2 * cells[c] * ring_dirs), [90, 10])
+        for u in range(len(dirs)):
+            r = np.inf
+            for t in steps:
+                d = (t * cells[c]) * dirs[u]
+                if abs(bilinear(grey, xy[c] + d) - bilinear(grey, xy[c] - d)) > 0.2 * (hi - lo):
+                    r = t * cells[c]
+                    break
+            out[c, u] = max(0.8 * r, MIN_HALF)
+    return out
+
+
+def test_border_reach_is_numpys_percentiles_and_rays_to_the_bit():
+    """The compiled ring spread (sorted samples, numpy's linear interpolation term for term) and rays give
+    exactly what ``np.percentile`` and the rays written in numpy give, on noise, blocks and grey levels."""
+    rng = np.random.default_rng(0)
+    for t in range(30):
+        h, w = rng.integers(40, 120, 2)
+        grey = rng.uniform(0, 255, (h, w))
+        if t % 3 == 1:  # flat blocks: ties among the ring's samples
+            grey = np.kron(rng.integers(0, 4, (h // 8 + 1, w // 8 + 1)) * 60.0, np.ones((8, 8)))[:h, :w]
+        elif t % 3 == 2:
+            grey = np.round(grey)
+        n = int(rng.integers(2, 12))
+        xy = np.c_[rng.uniform(-3, w + 3, n), rng.uniform(-3, h + 3, n)]
+        labels = rng.integers(0, 3, (n, 2))
+        cells = rng.uniform(3.0, 30.0, n)
+        cells[0] = np.inf
+        also = rng.random(n) < 0.5
+        np.testing.assert_array_equal(border_reach(grey, xy, labels, cells, also=also),
+                                      _reach_reference(grey, xy, labels, cells, also))

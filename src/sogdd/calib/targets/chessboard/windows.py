@@ -5,11 +5,11 @@ point symmetry (:func:`sogdd.calib.targets.refine.refine_grey`) with a window of
 0.65 of its local cell (:func:`sogdd.calib.targets.board.lattice_cells`), cut for the corners on the
 border and for those far less point-symmetric than the board's others to where
 the squares around them are point-symmetric (:func:`edge_halves`,
-:func:`recut`); those still far less symmetric are judged against the board's
-corners seen through the same cut window (:func:`same_window`: noise makes a
-small window's asymmetry large), and measured again on the image divided by
-its light envelope (:func:`deshaded`: a shadow or a reflection over part of a
-square). :func:`symmetric` then keeps the corners
+:func:`recut`); those still far less symmetric are measured again on the image
+divided by its light envelope (:func:`deshaded`: a shadow or a reflection over
+part of a square), and, failing that, judged against the board's corners seen
+through the same cut window (:func:`same_window`: noise makes a small window's
+asymmetry large). :func:`symmetric` then keeps the corners
 whose asymmetry ``1 - quality`` is within :func:`asymmetry_limit` of the board's
 median.
 """
@@ -137,35 +137,58 @@ def border_reach(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, cells: np
     out = np.full((len(xy), REACH_DIRS), np.inf)
     if len(k) == 0:
         return out
-    ring = bilinear(grey, xy[k][:, None, :] + 0.2 * cells[k][:, None, None] * _RING_DIRS)
-    hi, lo = np.percentile(ring, [90, 10], axis=1)  # one call: the same order statistics
     _reach(np.ascontiguousarray(grey, dtype=np.float64), np.ascontiguousarray(xy, dtype=np.float64),
-           np.ascontiguousarray(cells, dtype=np.float64), k, 0.2 * (hi - lo), _OUT_STEPS, _OUT_DIRS,
+           np.ascontiguousarray(cells, dtype=np.float64), k, _RING_DIRS, _OUT_STEPS, _OUT_DIRS,
            float(MIN_HALF), out)
     return out
 
 
 @numba.njit(**EXACT_JIT)
-def _reach(grey, xy, cells, k, thr, steps, dirs, least, out):  # pragma: no cover - jit
-    """:func:`border_reach`'s rays for the corners ``k``: along each direction ``u``, the first step ``t``
+def _reach(grey, xy, cells, k, ring, steps, dirs, least, out):  # pragma: no cover - jit
+    """:func:`border_reach`'s rays for the corners ``k``: the threshold ``0.2 (hi - lo)`` from the image
+    on the ``ring`` of radius 0.2 cell (:func:`_spread`); along each direction ``u``, the first step ``t``
     with ``|I(p + d) - I(p - d)| > thr`` (``d = (steps[t] cell) u``, numpy's order of the products), the
     reach ``max(0.8 steps[t] cell, least)`` (``inf`` where none), into ``out``. Stops at the first such
     step: the steps beyond it are not measured."""
+    vals = np.empty(ring.shape[0])
     for i in range(k.shape[0]):
         c = k[i]
         px = xy[c, 0]
         py = xy[c, 1]
         cell = cells[c]
+        thr = 0.2 * _spread(grey, px, py, 0.2 * cell, ring, vals)
         for u in range(dirs.shape[0]):
             r = np.inf
             for t in range(steps.shape[0]):
                 s = steps[t] * cell
                 dx = s * dirs[u, 0]
                 dy = s * dirs[u, 1]
-                if abs(_bilinear1(grey, px + dx, py + dy) - _bilinear1(grey, px - dx, py - dy)) > thr[i]:
+                if abs(_bilinear1(grey, px + dx, py + dy) - _bilinear1(grey, px - dx, py - dy)) > thr:
                     r = steps[t] * cell
                     break
             out[c, u] = max(0.8 * r, least)
+
+
+@numba.njit(**EXACT_JIT)
+def _spread(grey, px, py, radius, ring, vals):  # pragma: no cover - jit
+    """The image's spread on the ``ring`` of ``radius`` around ``(px, py)``: its 90th percentile less its 10th,
+    each as numpy's ``percentile`` interpolates them (linear, from the sorted samples), into ``vals``."""
+    n = ring.shape[0]
+    for j in range(n):
+        vals[j] = _bilinear1(grey, px + radius * ring[j, 0], py + radius * ring[j, 1])
+    vals.sort()
+    return _order(vals, 0.9) - _order(vals, 0.1)
+
+
+@numba.njit(**EXACT_JIT)
+def _order(v, q):  # pragma: no cover - jit
+    """numpy's linear percentile ``q`` (a fraction) of the sorted ``v``: its interpolation, term for term."""
+    at = q * (v.shape[0] - 1)
+    lo = math.floor(at)
+    g = at - lo
+    a, b = v[int(lo)], v[min(int(lo) + 1, v.shape[0] - 1)]
+    d = b - a
+    return b - d * (1.0 - g) if g >= 0.5 else a + d * g
 
 
 def square_within(reach: np.ndarray, half: np.ndarray) -> np.ndarray:
@@ -250,8 +273,8 @@ def refine_board(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, cells: np
     lattice point, from there: a full window that slid off a narrow outer row onto the background (4-5 px
     on a board tilted 70 degrees) leaves its cut fit where it slid, out of the short window's reach.
     Those still asymmetric are refined with the star window of their reach
-    (:func:`star_refit`), then judged through their own cut window against the board's corners
-    (:func:`same_window`), and, failing both, on the image unshaded (:func:`deshaded`). ``cells``: the
+    (:func:`star_refit`), then on the image unshaded (:func:`deshaded`), and, failing both, judged
+    through their own cut window against the board's corners (:func:`same_window`). ``cells``: the
     corners' :func:`~sogdd.calib.targets.board.lattice_cells`, when the caller has them already.
     """
     cells = lattice_cells(xy, labels) if cells is None else cells
@@ -273,9 +296,6 @@ def refine_board(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, cells: np
         recut(grey, xy, out, quality, half, reach_xy)
     star_refit(grey, at, out, quality, half, reach, ~symmetric(quality))
     bad = ~symmetric(quality)
-    if bad.any():
-        same_window(grey, xy, out, quality, labels, cells, half, bad)
-        bad = ~symmetric(quality)
     if bad.any() and np.isfinite(cells).any():
         inner = inner_corners(labels) & ~bad
         ref = np.flatnonzero(inner if np.count_nonzero(inner) >= 5 else ~bad)
@@ -283,6 +303,9 @@ def refine_board(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray, cells: np
         r, q = deshaded(grey, xy[bad], half[bad], out[ref], half[ref], cell)
         k = np.flatnonzero(bad)[q > quality[bad]]
         out[k], quality[k] = r[q > quality[bad]], q[q > quality[bad]]
+        bad = ~symmetric(quality)
+    if bad.any():
+        same_window(grey, xy, out, quality, labels, cells, half, bad)
     return out, quality
 
 
