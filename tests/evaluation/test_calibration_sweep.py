@@ -226,3 +226,24 @@ def test_seed_and_a_zero_sweep_are_refused(capsys):
     assert "--seed needs --sweep" in capsys.readouterr().err
     assert main(["eval", "calibration", "--sweep", "0", "--quiet"]) == 2
     assert ">= 1 view" in capsys.readouterr().err
+
+
+def test_each_method_is_called_once_untimed_before_the_views_it_is_scored_on(monkeypatch):
+    """A first call compiles or imports: each method runs once on a small copy of view 0 before the views,
+    so that the first view's time is a detection's."""
+    from sogdd.evaluation.calibration import sweep_metrics
+    from sogdd.evaluation.calibration.comparators import METHODS
+
+    calls = []
+    real = METHODS["opencv"]
+
+    def spy(image, pattern):
+        calls.append(image.shape)
+        return real.detect(image, pattern)
+
+    monkeypatch.setitem(METHODS, "opencv", dataclasses.replace(real, detect=spy))
+    res = sweep_metrics.run_sweep(2, 1, ["opencv"], max_pixels=SMALL)
+    assert len(calls) == 3 and len(res["views"]) == 2
+    warm = sweep_view(1, 0, max_pixels=sweep_metrics.WARM_PIXELS)
+    assert calls[0] == warm.image.shape
+    assert calls[1:] == [sweep_view(1, k, max_pixels=SMALL).image.shape for k in range(2)]

@@ -92,7 +92,8 @@ find (:func:`~.sweep_metrics.score_detection`):
   position is both correct and off-board;
 - **corner error**: the distance of each correctly labelled corner to its true position, mean and
   95th percentile over all such corners;
-- **time**: the method's call per view.
+- **time**: the method's call per view, after one untimed call on a small view
+  (:data:`~.sweep_metrics.WARM_PIXELS`: a first call compiles or imports).
 
 The tables bin each factor into 2 to 4 bins (:data:`~.sweep_metrics.FACTOR_BINS`) and count, per bin,
 the views and each method's complete boards.

@@ -29,6 +29,8 @@ __all__ = ["FACTOR_BINS", "OFF_BOARD_PX", "FactorBins", "factor_table", "run_swe
 
 #: a returned point farther than this (px) from every inner corner is off the board
 OFF_BOARD_PX = 3.0
+#: each method runs once, untimed, on the sweep's first view at this size before the views it is scored on
+WARM_PIXELS = 320 * 240
 
 
 def score_detection(view: SweepView, det: Detection) -> dict:
@@ -114,6 +116,9 @@ def run_sweep(n: int, seed: int, methods: list[str] | None = None, *, max_pixels
               progress: Callable[[str], None] | None = None) -> dict:
     """Render views ``0 .. n - 1`` of sweep ``seed``, run ``methods`` on each and score them (module doc).
 
+    Each method first runs once, untimed, on view 0 rendered at :data:`WARM_PIXELS`, so that no view's
+    time holds a first call's compiling or importing.
+
     Returns a dict: ``seed``, ``n``, ``max_pixels``, ``methods``, ``seconds`` (wall), ``render_seconds``,
     ``summary`` (per method: views, complete, found, recall, wrong labels, off-board points, corner
     error, ms per view), ``by_factor`` (rows of :data:`FACTOR_BINS`' bins: factor, bin, views and
@@ -129,6 +134,9 @@ def run_sweep(n: int, seed: int, methods: list[str] | None = None, *, max_pixels
         raise ValueError(f"the sweep needs >= 1 view, got {n}")
     methods = sweep_methods(methods)
     t0 = time.perf_counter()
+    warm = sweep_view(seed, 0, max_pixels=WARM_PIXELS)
+    for m in methods:  # untimed: a method's first call compiles or imports (35 s for sogdd's cold cache)
+        METHODS[m].detect(warm.image, warm.pattern)
     views, errors = [], {m: [] for m in methods}
     for k in range(int(n)):
         view = sweep_view(seed, k, max_pixels=max_pixels)
