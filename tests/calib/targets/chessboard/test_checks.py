@@ -76,3 +76,22 @@ def test_the_links_of_a_small_blurred_noisy_board_are_measured_clear_of_the_blur
         b = detect_board(v.image, (4, 3), proposals=False)
         complete += b is not None and len(b) == 12
     assert complete >= 11
+
+
+@pytest.mark.parametrize("tilt", [72.0, 75.0, 78.0])
+def test_a_board_tilted_about_its_diagonal_keeps_its_edge_links(render, tilt):
+    """Tilted 72-78 degrees about the board's diagonal, the lattice's two steps meet at 150-160 degrees: a
+    sample a fixed share of the link's length off its normal, a quarter of the way along, crosses the other
+    edge through the corner into the next square (a share of 0.15-0.9 of the links then passed). Offset
+    along the lattice's step across the link, the samples stay in the two squares beside it: every link
+    runs along an edge, and the whole board is found."""
+    cam = Camera(np.array([[500.0, 0, 239.5], [0, 500.0, 179.5], [0, 0, 1]]), (0.0, 0, 0, 0), (480, 360))
+    R = cv2.Rodrigues(np.radians([tilt, 0.0, 0.0]))[0] @ cv2.Rodrigues(np.radians([0.0, 0.0, 45.0]))[0]
+    t = np.array([0.0, 0.0, 0.35]) - R @ np.array([4 * 0.03, 2.5 * 0.03, 0.0])
+    v = render.render_view(cam, render.Board(9, 6, 0.03), cv2.Rodrigues(R)[0].ravel(), t, blur=0.7, noise=2.0,
+                           rng=1)
+    assert v.inside.all()
+    share, linked = edge_links(v.image.astype(np.float64), v.corners, v.labels)
+    assert share == 1.0 and linked.all()
+    b = detect_board(v.image, (9, 6))
+    assert b is not None and len(b) == 54

@@ -40,10 +40,16 @@ def edge_links(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray) -> tuple[fl
 
     A link between label neighbours ``p, q`` of a true board runs along an edge
     between a dark and a light square: at ``t = 1/4, 1/2, 3/4`` of the way the
-    image differs across the link, ``I(m + d n) - I(m - d n)`` (``n`` the link's
-    normal, ``d = max(0.15 |q - p|, 1)`` px: far enough from the edge that a blur
-    of a fifth of a cell leaves most of the contrast against the noise, and within
-    the 0.2 of a cell a code printed in the squares keeps clear), with one sign and at least
+    image differs across the link, ``I(m + d) - I(m - d)``, with ``d`` 0.15 of the
+    lattice's step across the link (the mean of the steps at its two ends; at
+    least 1 px; far enough from the edge that a blur of a fifth of a cell leaves
+    most of the contrast against the noise, and within the 0.2 of a cell a code
+    printed in the squares keeps clear). Along that step, not the link's normal,
+    the samples stay in the two squares beside the link however skewed the
+    cells: on a board tilted 75 degrees about its diagonal the steps meet at 157
+    degrees, and a sample 0.15 of a link off its normal a quarter of the way
+    along lies across the other edge through the corner. Where neither end has a
+    neighbour across, ``d`` is 0.15 of the link along its normal. The differences have one sign and at least
     :data:`EDGE_CONTRAST` of the median difference of the board's links along the
     same axis (``i`` or ``j``), or of the strongest link of that axis at either of
     its ends where that is less: a motion blur smears the edges across it and a tilt
@@ -54,7 +60,8 @@ def edge_links(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray) -> tuple[fl
     corners across squares (a lattice of wrong steps, e.g. a knight's move of a
     board blurred beyond recognition) fails it at ``t = 1/4`` or ``3/4``.
     """
-    nb = label_neighbours(labels)[:, ::2]  # (+1, 0) and (0, +1): each link once
+    nb4 = label_neighbours(labels)
+    nb = nb4[:, ::2]  # (+1, 0) and (0, +1): each link once
     k, a = np.nonzero(nb >= 0)
     pairs = np.stack([k, nb[k, a]], axis=1)
     if len(pairs) == 0:
@@ -64,6 +71,10 @@ def edge_links(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray) -> tuple[fl
     length = np.hypot(v[:, 0], v[:, 1])
     n = np.stack([-v[:, 1], v[:, 0]], axis=1) / np.maximum(length, 1e-9)[:, None]
     d = np.maximum(0.15 * length, 1.0)[:, None] * n
+    w = _across(xy, nb4, pairs, a)
+    has_w = np.isfinite(w).all(axis=1)
+    wl = np.hypot(w[has_w, 0], w[has_w, 1])
+    d[has_w] = np.maximum(0.15 * wl, 1.0)[:, None] * w[has_w] / np.maximum(wl, 1e-9)[:, None]
     diff = np.stack([bilinear(grey, p + t * v + d) - bilinear(grey, p + t * v - d)
                      for t in (0.25, 0.5, 0.75)])
     mid = np.abs(diff[1])
@@ -82,6 +93,23 @@ def edge_links(grey: np.ndarray, xy: np.ndarray, labels: np.ndarray) -> tuple[fl
     has = np.zeros(len(xy), dtype=bool)
     has[pairs[ok].ravel()] = True
     return float(np.mean(ok)), has
+
+
+def _across(xy: np.ndarray, nb4: np.ndarray, pairs: np.ndarray, axis: np.ndarray) -> np.ndarray:
+    """For each link ``pairs`` along ``axis`` (0: ``i``, 1: ``j``), the lattice's step across it: the mean of
+    the steps along the other axis at its two ends (towards ``+j`` or ``+i``), (n, 2); NaN where neither end
+    has a neighbour across."""
+    plus, minus = np.where(axis == 0, 2, 0), np.where(axis == 0, 3, 1)
+    total, count = np.zeros((len(pairs), 2)), np.zeros(len(pairs))
+    for end in (0, 1):
+        c = pairs[:, end]
+        for col, sign in ((plus, 1.0), (minus, -1.0)):
+            o = nb4[c, col]
+            ok = o >= 0
+            total[ok] += sign * (xy[o[ok]] - xy[c[ok]])
+            count[ok] += 1
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return total / count[:, None]
 
 
 def ring_contrast(grey: np.ndarray, xy: np.ndarray, light: np.ndarray, cell: float) -> np.ndarray:
