@@ -82,7 +82,7 @@ def test_the_links_of_a_small_blurred_noisy_board_are_measured_clear_of_the_blur
 def test_a_board_tilted_about_its_diagonal_keeps_its_edge_links(render, tilt):
     """Tilted 72-78 degrees about the board's diagonal, the lattice's two steps meet at 150-160 degrees: a
     sample a fixed share of the link's length off its normal, a quarter of the way along, crosses the other
-    edge through the corner into the next square (a share of 0.15-0.9 of the links then passed). Offset
+    edge through the corner into the next square (18-91 % of the links then passed). Offset
     along the lattice's step across the link, the samples stay in the two squares beside it: every link
     runs along an edge, and the whole board is found."""
     cam = Camera(np.array([[500.0, 0, 239.5], [0, 500.0, 179.5], [0, 0, 1]]), (0.0, 0, 0, 0), (480, 360))
