@@ -247,3 +247,18 @@ def test_each_method_is_called_once_untimed_before_the_views_it_is_scored_on(mon
     warm = sweep_view(1, 0, max_pixels=sweep_metrics.WARM_PIXELS)
     assert calls[0] == warm.image.shape
     assert calls[1:] == [sweep_view(1, k, max_pixels=SMALL).image.shape for k in range(2)]
+
+
+def test_a_method_that_fails_is_scored_view_by_view_warm_up_included(monkeypatch):
+    """A method that raises, on the untimed first call as on every view, leaves the sweep running: each view
+    records the failure, and the other methods' results stand."""
+    from sogdd.evaluation.calibration import sweep_metrics
+    from sogdd.evaluation.calibration.comparators import METHODS
+
+    def broken(image, pattern):
+        raise RuntimeError("no board today")
+
+    monkeypatch.setitem(METHODS, "opencv-sb", dataclasses.replace(METHODS["opencv-sb"], detect=broken))
+    res = sweep_metrics.run_sweep(2, 1, ["opencv", "opencv-sb"], max_pixels=SMALL)
+    assert [v["results"]["opencv-sb"]["failed"] for v in res["views"]] == ["RuntimeError: no board today"] * 2
+    assert res["summary"]["opencv-sb"]["failed"] == 2 and res["summary"]["opencv"]["failed"] == 0
