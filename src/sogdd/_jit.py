@@ -117,10 +117,15 @@ def sources_key() -> str:
 
     h = hashlib.sha256(__version__.encode())
     for folder in CORE_FOLDERS:
-        for f in sorted((_PACKAGE / folder).glob("*.py")):
-            h.update(f"{folder}/{f.name}".encode())
-            h.update(f.read_bytes())
+        _hash_sources(h, _PACKAGE / folder, f"{folder}/")
     return h.hexdigest()
+
+
+def _hash_sources(h, folder: Path, prefix: str) -> None:
+    """Feed ``h`` each ``.py`` file of ``folder``, sorted: its name after ``prefix``, then its bytes."""
+    for f in sorted(folder.glob("*.py")):
+        h.update(f"{prefix}{f.name}".encode())
+        h.update(f.read_bytes())
 
 
 @functools.cache
@@ -133,9 +138,7 @@ def folder_key(folder: str) -> str:
     64
     """
     h = hashlib.sha256()
-    for f in sorted(Path(folder).glob("*.py")):
-        h.update(f.name.encode())
-        h.update(f.read_bytes())
+    _hash_sources(h, Path(folder), "")
     return h.hexdigest()
 
 
